@@ -1,0 +1,45 @@
+# TRIC for ROS 2 Jazzy. Quick start: `make demo`, then `make test`. Every target sets itself up.
+SHELL := /bin/bash
+.DEFAULT_GOAL := help
+VENV := .venv
+PY := $(VENV)/bin/python
+# Run a command inside the built workspace (venv + ros_ws overlay).
+IN_ENV := source ./env.sh &&
+
+DEPS_STAMP := $(VENV)/.tric-deps
+BUILD_STAMP := ros_ws/install/.tric-built
+BUILD_INPUTS := $(shell find ros_ws/src -type f \( -name package.xml -o -name CMakeLists.txt -o -name setup.py \
+	-o -name setup.cfg -o -name '*.msg' -o -name '*.srv' -o -name '*.action' -o -path '*/resource/*' \))
+
+.PHONY: help setup test bench constraints clean
+
+help:
+	@echo "make setup        create .venv, install pinned ROS 2 Jazzy wheels and libraries, colcon build"
+	@echo "make test         run the test suite (unit + in-process integration tests)"
+	@echo "make bench        run the benchmarks, write results/bench.json"
+	@echo "make constraints  re-pin constraints.txt from the current .venv"
+	@echo "make clean        remove build outputs (keeps .venv)"
+
+setup: $(BUILD_STAMP)
+
+$(DEPS_STAMP): requirements.txt requirements/ros-pypi.txt requirements/libs.txt constraints.txt scripts/create_venv.sh scripts/mend_cmake_exports.py
+	scripts/create_venv.sh $(VENV)
+	$(PY) -m pip install --quiet --disable-pip-version-check -r requirements.txt -c constraints.txt
+	$(PY) scripts/mend_cmake_exports.py $(VENV)
+	touch $@
+
+$(BUILD_STAMP): $(DEPS_STAMP) $(BUILD_INPUTS) scripts/colcon_build.sh
+	scripts/colcon_build.sh
+	touch $@
+
+test: setup
+	$(IN_ENV) python -m pytest
+
+bench: setup
+	$(IN_ENV) python benchmarks/run.py
+
+constraints: $(DEPS_STAMP)
+	scripts/pin_constraints.sh
+
+clean:
+	rm -rf ros_ws/build ros_ws/install ros_ws/log

@@ -1,0 +1,20 @@
+from setuptools import find_packages, setup
+
+PACKAGE = "tric_control"
+
+setup(
+    name=PACKAGE,
+    version="0.1.0",
+    packages=find_packages(exclude=["test"]),
+    data_files=[
+        ("share/ament_index/resource_index/packages", ["resource/" + PACKAGE]),
+        ("share/" + PACKAGE, ["package.xml"]),
+    ],
+    install_requires=["setuptools"],
+    zip_safe=True,
+    maintainer="TRIC maintainers",
+    maintainer_email="maintainers@tric-ros.org",
+    description="TRIC control: the motion-rate QP controller and its node, the DPL controller, evaluation episodes, experiment runners, tables and plots.",
+    license="Apache-2.0",
+    entry_points={"console_scripts": []},
+)
