@@ -11,7 +11,7 @@ setup(
         ("share/" + PACKAGE, ["package.xml"]),
     ],
     install_requires=["setuptools"],
-    zip_safe=True,
+    zip_safe=False,
     maintainer="TRIC maintainers",
     maintainer_email="maintainers@tric-ros.org",
     description="TRIC control: the motion-rate QP controller and its node, the DPL controller, evaluation episodes, experiment runners, tables and plots.",

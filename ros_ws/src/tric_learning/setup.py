@@ -11,7 +11,7 @@ setup(
         ("share/" + PACKAGE, ["package.xml"]),
     ],
     install_requires=["setuptools"],
-    zip_safe=True,
+    zip_safe=False,
     maintainer="TRIC maintainers",
     maintainer_email="maintainers@tric-ros.org",
     description="TRIC learning: task-space features and their Jacobians, MCAP datasets and the recorder node, the value function, its losses and training, the trainer node, the DPL baseline.",

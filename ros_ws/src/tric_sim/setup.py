@@ -9,12 +9,16 @@ setup(
     data_files=[
         ("share/ament_index/resource_index/packages", ["resource/" + PACKAGE]),
         ("share/" + PACKAGE, ["package.xml"]),
+        ("share/" + PACKAGE + "/urdf", ["tric_sim/description/tric_arm_hand.urdf"]),
     ],
     install_requires=["setuptools"],
-    zip_safe=True,
+    zip_safe=False,
     maintainer="TRIC maintainers",
     maintainer_email="maintainers@tric-ros.org",
     description="The world of TRIC: the robot model (URDF, Pinocchio, coal), scenes and situations, the PyBullet simulator node, the teachers and the hidden task metrics.",
     license="Apache-2.0",
-    entry_points={"console_scripts": []},
+    package_data={PACKAGE: ["description/*.urdf"]},
+    entry_points={"console_scripts": [
+        "simulator = tric_sim.simulator_node:main",
+    ]},
 )

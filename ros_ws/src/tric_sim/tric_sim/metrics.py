@@ -1,0 +1,166 @@
+"""The hidden task metrics: the teacher's world knowledge, computed from the simulator's state.
+
+No learner reads these; they judge demonstrations and learned controllers (paper Sec. 5.3).
+
+Grasp cost in [0, 1], lower is better, below 0.25 a good grasp. It is the mean of four terms, each
+the error of a task variable a grasp expert checks, normalized to [0, 1] (1 = as bad as it gets):
+
+- finger_contact: for each finger, |distance between its distal link and the object's surface|
+  divided by FINGER_CONTACT_TOLERANCE (3 cm), clipped to 1; averaged over the three fingers.
+- palm_distance: how far the palm centre is from the surface beyond PALM_DISTANCE_OK (5 cm),
+  divided by PALM_DISTANCE_TOLERANCE (8 cm), clipped to 1.
+- palm_alignment: angle between the palm normal and the direction from the palm centre to the
+  nearest surface point; (1 - cos) / (1 - cos 60 deg), clipped to 1.
+- finger_opposition: do the finger contacts surround the object? The directions of the three contact
+  normals are projected on the plane across the palm normal; the largest angular gap between them
+  must not exceed 180 deg (otherwise the fingers all push from one side). (gap - 180) / 90 deg,
+  clipped to [0, 1].
+
+Lift test (grasps): the object's fixture is removed and the hand raised LIFT_HEIGHT; it passes if the
+object rose by at least LIFT_PASS_FRACTION of that. Box success: lid opened by more than 0.3 rad.
+Units: m, rad.
+"""
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+import pinocchio as pin
+
+from tric_sim import scene
+from tric_sim.robot_model import FINGERTIPS, PALM, RobotModel
+
+FINGER_CONTACT_TOLERANCE = 0.03
+PALM_DISTANCE_OK = 0.05
+PALM_DISTANCE_TOLERANCE = 0.08
+PALM_ALIGNMENT_TOLERANCE = math.radians(60)
+GOOD_GRASP = 0.25
+#: Distal link geometry (see the URDF): a segment from the distal joint to the tip centre, radius.
+DISTAL_LINKS = ("finger_1_distal_link", "finger_2_distal_link", "finger_3_distal_link")
+DISTAL_RADIUS = 0.014
+LIFT_HEIGHT = 0.10
+LIFT_DURATION = 1.0
+LIFT_HOLD = 0.5
+LIFT_PASS_FRACTION = 0.7
+#: A signed distance below this between the robot and an avoided body counts as a collision, m.
+COLLISION_DISTANCE = 0.0
+
+
+@dataclass
+class TaskMetrics:
+    """The metrics of one final state (see tric_msgs/msg/TaskMetrics.msg)."""
+
+    task: str
+    grasp_cost: float = float("nan")
+    cost_terms: dict = field(default_factory=dict)
+    lift_tested: bool = False
+    lift_passed: bool = False
+    lift_height: float = 0.0
+    lid_angle: float = float("nan")
+    success: bool = False
+    min_distance: float = float("nan")
+    collided: bool = False
+
+
+def object_surface(kind: str, dimensions, placement: pin.SE3, points: np.ndarray):
+    """Signed distance (m) of points (k, 3) to a sphere's or a finite cylinder's surface, and the
+    outward unit normals (k, 3) at their nearest surface points."""
+    local = (points - placement.translation) @ placement.rotation
+    if kind == "sphere":
+        norm = np.linalg.norm(local, axis=1)
+        normals = local / np.maximum(norm, 1e-12)[:, None]
+        return norm - dimensions[0], normals @ placement.rotation.T
+    height, radius = dimensions
+    radial = local.copy()
+    radial[:, 2] = 0.0
+    rho = np.linalg.norm(radial, axis=1)
+    d_radial, d_axial = rho - radius, np.abs(local[:, 2]) - height / 2
+    outside = np.hypot(np.maximum(d_radial, 0), np.maximum(d_axial, 0))
+    inside = np.minimum(np.maximum(d_radial, d_axial), 0)
+    radial_dir = radial / np.maximum(rho, 1e-12)[:, None]
+    axial_dir = np.zeros_like(local)
+    axial_dir[:, 2] = np.sign(local[:, 2])
+    normals = np.where((d_radial >= d_axial)[:, None], radial_dir, axial_dir)
+    return outside + inside, normals @ placement.rotation.T
+
+
+def grasp_cost_terms(robot: RobotModel, q, kind: str, dimensions, placement: pin.SE3) -> dict:
+    """The four grasp-cost terms (see the module docstring) of configuration q (n,) around an object
+    of the given kind and dimensions at placement (world)."""
+    robot.forward(q)
+    # finger_contact: distance of each distal link (a capsule) to the surface
+    contact_errors, contact_normals = [], []
+    for link, tip in zip(DISTAL_LINKS, FINGERTIPS):
+        start = robot.frame_placement(link).translation
+        end = robot.frame_placement(tip).translation
+        samples = start + np.linspace(0.0, 1.0, 9)[:, None] * (end - start)
+        distance, normals = object_surface(kind, dimensions, placement, samples)
+        k = int(np.argmin(distance))
+        contact_errors.append(min(abs(distance[k] - DISTAL_RADIUS) / FINGER_CONTACT_TOLERANCE, 1.0))
+        contact_normals.append(normals[k])
+    palm = robot.frame_placement(PALM)
+    palm_position, palm_normal = palm.translation, palm.rotation[:, 2]
+    distance, normal = object_surface(kind, dimensions, placement, palm_position[None, :])
+    palm_error = min(max(distance[0] - PALM_DISTANCE_OK, 0.0) / PALM_DISTANCE_TOLERANCE, 1.0)
+    alignment = (1.0 - float(palm_normal @ -normal[0])) / (1.0 - math.cos(PALM_ALIGNMENT_TOLERANCE))
+    # finger_opposition: the largest angular gap between the contact normals around the palm normal
+    e1 = np.cross(palm_normal, [1.0, 0.0, 0.0])
+    if np.linalg.norm(e1) < 1e-6:
+        e1 = np.cross(palm_normal, [0.0, 1.0, 0.0])
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(palm_normal, e1)
+    angles = np.sort([math.atan2(n @ e2, n @ e1) for n in contact_normals])
+    gaps = np.diff(np.concatenate([angles, [angles[0] + 2 * math.pi]]))
+    opposition = (math.degrees(gaps.max()) - 180.0) / 90.0
+    return {"finger_contact": float(np.mean(contact_errors)),
+            "palm_distance": float(palm_error),
+            "palm_alignment": float(np.clip(alignment, 0.0, 1.0)),
+            "finger_opposition": float(np.clip(opposition, 0.0, 1.0))}
+
+
+def lift_test(world, robot: RobotModel) -> float:
+    """Release the object and raise the hand LIFT_HEIGHT over LIFT_DURATION, then hold LIFT_HOLD;
+    returns how far the object rose, m. Changes the world (reset it afterwards)."""
+    q, _ = world.joint_state()
+    start_height = world.object_poses()["object"][0][2]
+    robot.forward(q)
+    palm = robot.frame_placement(PALM)
+    raised = pin.SE3(palm.rotation, palm.translation + np.array([0.0, 0.0, LIFT_HEIGHT]))
+    q_raised = robot.reach(q, PALM, raised)
+    hand_targets = world.targets.copy()
+    world.release_object()
+    periods = int(round(LIFT_DURATION / world.control_period))
+    for k in range(1, periods + int(round(LIFT_HOLD / world.control_period)) + 1):
+        fraction = min(k / periods, 1.0)
+        target = hand_targets.copy()
+        target[robot.arm_indices] = ((1 - fraction) * q[robot.arm_indices]
+                                     + fraction * q_raised[robot.arm_indices])
+        world.command(target)
+        world.step()
+    return float(world.object_poses()["object"][0][2] - start_height)
+
+
+def evaluate(world, robot: RobotModel, run_lift_test: bool = False) -> TaskMetrics:
+    """The metrics of the world's current state (and of the lift test, if asked and a grasp)."""
+    situation = world.situation
+    if situation is None:
+        raise ValueError("no scene: reset the simulator to a situation first")
+    metrics = TaskMetrics(task=situation.task, min_distance=float(world.min_distance))
+    metrics.collided = metrics.min_distance < COLLISION_DISTANCE
+    if situation.task == "open_box":
+        metrics.lid_angle = world.lid_angle()
+        metrics.success = metrics.lid_angle > scene.LID_OPEN_ANGLE
+        return metrics
+    q, _ = world.joint_state()
+    position, orientation = world.object_poses()["object"]
+    terms = grasp_cost_terms(robot, q, situation.object_kind, situation.object_dimensions,
+                             scene.se3(position, orientation))
+    metrics.cost_terms = terms
+    metrics.grasp_cost = float(np.mean(list(terms.values())))
+    metrics.success = metrics.grasp_cost < GOOD_GRASP
+    if run_lift_test:
+        metrics.lift_tested = True
+        metrics.lift_height = lift_test(world, robot)
+        metrics.lift_passed = metrics.lift_height >= LIFT_PASS_FRACTION * LIFT_HEIGHT
+        metrics.success = metrics.success and metrics.lift_passed
+    return metrics

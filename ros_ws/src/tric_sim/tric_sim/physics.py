@@ -1,0 +1,316 @@
+"""The PyBullet world: the robot (the same URDF as the kinematic model), the table and a situation's
+objects, stepped in control periods with position-controlled joints. ROS-free.
+
+Grasp targets float where the situation puts them, held by a fixture (a fixed constraint) until
+release_object() lets gravity act on them (the lift test). The box body is static; its lid is a link
+on a hinge with friction. Units: m, rad, s, kg, N m.
+"""
+
+import contextlib
+import os
+
+import numpy as np
+
+@contextlib.contextmanager
+def _quiet_stdout():
+    """Silence what PyBullet's C code prints on stdout (build time, URDF link merging)."""
+    try:
+        saved = os.dup(1)
+    except OSError:  # no stdout to silence
+        yield
+        return
+    with open(os.devnull, "wb") as devnull:
+        os.dup2(devnull.fileno(), 1)
+        try:
+            yield
+        finally:
+            os.dup2(saved, 1)
+            os.close(saved)
+
+
+with _quiet_stdout():
+    import pybullet as pb
+
+from tric_sim import scene
+from tric_sim.robot_model import RobotModel
+from tric_sim.situations import Situation
+
+COLORS = {
+    "table": (0.82, 0.72, 0.55, 1.0),
+    "target": (0.85, 0.15, 0.12, 1.0),
+    "box_body": (0.55, 0.38, 0.2, 1.0),
+    "lid": (0.75, 0.55, 0.3, 1.0),
+    "obstacle": (0.45, 0.45, 0.5, 1.0),
+}
+#: Friction coefficients of the fingers and the objects.
+LATERAL_FRICTION = 1.0
+SPINNING_FRICTION = 0.002
+#: Distance beyond which robot-to-scene distances are not resolved (reported as this value), m.
+DISTANCE_CUTOFF = 0.10
+#: Gains of the joint servos (PyBullet's POSITION_CONTROL: position and velocity error weights).
+POSITION_GAIN = 0.3
+VELOCITY_GAIN = 1.0
+
+
+class PhysicsWorld:
+    """A PyBullet DIRECT (or GUI) client holding the robot and one situation's scene.
+
+    Args:
+        robot: the shared kinematic model (its URDF is loaded).
+        physics_rate_hz: physics steps per second (>= 240, a multiple of control_rate_hz).
+        control_rate_hz: control periods per second; step() advances one period.
+        solver_iterations: constraint-solver iterations per physics step.
+        gui: open PyBullet's GUI instead of the headless DIRECT mode.
+    """
+
+    def __init__(self, robot: RobotModel, physics_rate_hz: float = 300.0,
+                 control_rate_hz: float = 100.0, solver_iterations: int = 10, gui: bool = False):
+        substeps = physics_rate_hz / control_rate_hz
+        if physics_rate_hz < 240 or abs(substeps - round(substeps)) > 1e-9 or substeps < 1:
+            raise ValueError(f"physics_rate_hz ({physics_rate_hz}) must be >= 240 and an integer "
+                             f"multiple of control_rate_hz ({control_rate_hz})")
+        self.robot = robot
+        self.control_period = 1.0 / control_rate_hz
+        self.control_period_ns = int(round(1e9 / control_rate_hz))
+        self.substeps = int(round(substeps))
+        self.client = pb.connect(pb.GUI if gui else pb.DIRECT)
+        pb.setGravity(0, 0, -9.81, physicsClientId=self.client)
+        pb.setPhysicsEngineParameter(fixedTimeStep=1.0 / physics_rate_hz,
+                                     numSolverIterations=solver_iterations,
+                                     deterministicOverlappingPairs=1, physicsClientId=self.client)
+        flags = (pb.URDF_MERGE_FIXED_LINKS | pb.URDF_USE_SELF_COLLISION
+                 | pb.URDF_USE_SELF_COLLISION_EXCLUDE_ALL_PARENTS | pb.URDF_USE_MATERIAL_COLORS_FROM_MTL)
+        with _quiet_stdout():
+            self.robot_id = pb.loadURDF(str(robot.urdf_path), useFixedBase=True, flags=flags,
+                                        physicsClientId=self.client)
+        self.link_index = {}
+        joint_index = {}
+        for i in range(pb.getNumJoints(self.robot_id, physicsClientId=self.client)):
+            info = pb.getJointInfo(self.robot_id, i, physicsClientId=self.client)
+            self.link_index[info[12].decode()] = i
+            if info[2] == pb.JOINT_REVOLUTE:
+                joint_index[info[1].decode()] = i
+        self.actuated = [joint_index[name] for name in robot.joint_names]
+        self.mimics = [(joint_index[m.name], robot.joint_names.index(m.source), m.multiplier, m.offset)
+                       for m in robot.mimic_joints]
+        self.all_joints = self.actuated + [m[0] for m in self.mimics]
+        # mimic joint positions = _mimic_matrix @ q + _mimic_offset
+        self._mimic_matrix = np.zeros((len(self.mimics), robot.n_joints))
+        for row, (_, source, multiplier, _) in enumerate(self.mimics):
+            self._mimic_matrix[row, source] = multiplier
+        self._mimic_offset = np.array([m[3] for m in self.mimics])
+        sources = [m[1] for m in self.mimics]
+        self._forces = list(robot.effort_limits) + [robot.effort_limits[k] for k in sources]
+        self._position_gains = [POSITION_GAIN] * len(self.all_joints)
+        self._velocity_gains = [VELOCITY_GAIN] * len(self.all_joints)
+        for link in range(-1, pb.getNumJoints(self.robot_id, physicsClientId=self.client)):
+            pb.changeDynamics(self.robot_id, link, lateralFriction=LATERAL_FRICTION,
+                              spinningFriction=SPINNING_FRICTION, physicsClientId=self.client)
+        self.periods = 0
+        self.situation = None
+        self.bodies = {}
+        self.body_roles = {}
+        self.fixture = None
+        self.targets = robot.home.copy()
+        self.setpoint = robot.home.copy()
+        self.min_distance = DISTANCE_CUTOFF
+
+    def close(self) -> None:
+        if pb.isConnected(self.client):
+            pb.disconnect(self.client)
+
+    # --- scene ---------------------------------------------------------------------------------
+
+    def reset(self, situation: Situation) -> None:
+        """Replace the scene by the situation's and put the robot at its initial configuration."""
+        situation.validate(self.robot.n_joints)
+        q0 = (self.robot.check_configuration(situation.initial_joint_positions, "initial_joint_positions")
+              if situation.initial_joint_positions else self.robot.home.copy())
+        self.release_object()
+        for body in self.bodies.values():
+            pb.removeBody(body, physicsClientId=self.client)
+        self.bodies, self.body_roles = {}, {}
+        for body in scene.scene_bodies(situation):
+            if body.role == "lid":
+                continue  # built as a link of the box body
+            self.body_roles[body.name] = body.role
+            self.bodies[body.name] = self._create_body(body, situation)
+        if situation.object_kind in scene.OBJECT_MASS:
+            position, orientation = situation.object_position, situation.object_orientation
+            self.fixture = pb.createConstraint(self.bodies["object"], -1, -1, -1, pb.JOINT_FIXED,
+                                               [0, 0, 0], [0, 0, 0], position, childFrameOrientation=orientation,
+                                               physicsClientId=self.client)
+            pb.changeConstraint(self.fixture, maxForce=1e4, physicsClientId=self.client)
+        angles = self.robot.urdf_joint_positions(q0)
+        for name, index in zip(self.robot.joint_names, self.actuated):
+            pb.resetJointState(self.robot_id, index, angles[name], 0.0, physicsClientId=self.client)
+        for index, source, multiplier, offset in self.mimics:
+            pb.resetJointState(self.robot_id, index, multiplier * q0[source] + offset, 0.0,
+                               physicsClientId=self.client)
+        self.situation = situation
+        self.setpoint = q0.copy()
+        self.command(q0)
+        self.min_distance = self.closest_distance()
+
+    def _create_body(self, body: scene.Body, situation: Situation) -> int:
+        color = COLORS[body.role]
+        collision, visual = self._shape(body.shape, body.dimensions, color)
+        if body.role == "box_body":
+            return self._create_box_with_lid(body, situation, collision, visual)
+        mass = scene.OBJECT_MASS[situation.object_kind] if body.role == "target" else 0.0
+        uid = pb.createMultiBody(mass, collision, visual, body.position, body.orientation,
+                                 physicsClientId=self.client)
+        pb.changeDynamics(uid, -1, lateralFriction=LATERAL_FRICTION, spinningFriction=SPINNING_FRICTION,
+                          rollingFriction=0.0005, physicsClientId=self.client)
+        return uid
+
+    def _create_box_with_lid(self, body, situation, collision, visual) -> int:
+        side = situation.object_dimensions[0]
+        lid_collision, lid_visual = self._shape("box", scene.lid_extents(side), COLORS["lid"],
+                                                offset=scene.lid_geometry_offset(side).translation)
+        hinge_local = pb.multiplyTransforms(*pb.invertTransform(body.position, body.orientation),
+                                            *scene.pose_tuple(scene.hinge_placement(situation)))
+        lid_com = scene.lid_geometry_offset(side).translation
+        uid = pb.createMultiBody(
+            0.0, collision, visual, body.position, body.orientation,
+            linkMasses=[scene.LID_MASS], linkCollisionShapeIndices=[lid_collision],
+            linkVisualShapeIndices=[lid_visual], linkPositions=[hinge_local[0]],
+            linkOrientations=[hinge_local[1]], linkInertialFramePositions=[lid_com.tolist()],
+            linkInertialFrameOrientations=[[0, 0, 0, 1]], linkParentIndices=[0],
+            linkJointTypes=[pb.JOINT_REVOLUTE], linkJointAxis=[[0, -1, 0]],
+            physicsClientId=self.client)
+        pb.changeDynamics(uid, 0, lateralFriction=LATERAL_FRICTION, jointLowerLimit=0.0,
+                          jointUpperLimit=2.2, physicsClientId=self.client)
+        pb.setJointMotorControl2(uid, 0, pb.VELOCITY_CONTROL, targetVelocity=0.0,
+                                 force=scene.LID_HINGE_FRICTION, physicsClientId=self.client)
+        return uid
+
+    def _shape(self, shape: str, dimensions, color, offset=(0.0, 0.0, 0.0)):
+        kwargs = {"physicsClientId": self.client}
+        if shape == "box":
+            half = [d / 2 for d in dimensions]
+            c = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=half, collisionFramePosition=offset, **kwargs)
+            v = pb.createVisualShape(pb.GEOM_BOX, halfExtents=half, rgbaColor=color,
+                                     visualFramePosition=offset, **kwargs)
+        elif shape == "sphere":
+            c = pb.createCollisionShape(pb.GEOM_SPHERE, radius=dimensions[0], **kwargs)
+            v = pb.createVisualShape(pb.GEOM_SPHERE, radius=dimensions[0], rgbaColor=color, **kwargs)
+        else:
+            height, radius = dimensions
+            c = pb.createCollisionShape(pb.GEOM_CYLINDER, radius=radius, height=height, **kwargs)
+            v = pb.createVisualShape(pb.GEOM_CYLINDER, radius=radius, length=height, rgbaColor=color, **kwargs)
+        return c, v
+
+    def release_object(self) -> None:
+        """Remove the grasp target's fixture, so that gravity and the hand alone hold it."""
+        if self.fixture is not None:
+            pb.removeConstraint(self.fixture, physicsClientId=self.client)
+            self.fixture = None
+
+    # --- control -------------------------------------------------------------------------------
+
+    def command(self, q_target) -> None:
+        """Set the joints' position targets (n,), rad. The joint servos move their setpoints towards
+        the targets no faster than the joints' velocity limits; mimic joints follow their source."""
+        self.targets = np.array(q_target, dtype=float)
+
+    def step(self) -> None:
+        """Advance one control period (self.substeps physics steps)."""
+        max_step = self.robot.velocity_limits * self.control_period
+        delta = np.clip(self.targets - self.setpoint, -max_step, max_step)
+        self.setpoint = self.setpoint + delta
+        positions = np.concatenate([self.setpoint, self._mimic_matrix @ self.setpoint + self._mimic_offset])
+        velocities = np.concatenate([delta, self._mimic_matrix @ delta]) / self.control_period
+        pb.setJointMotorControlArray(self.robot_id, self.all_joints, pb.POSITION_CONTROL,
+                                     targetPositions=positions.tolist(),
+                                     targetVelocities=velocities.tolist(), forces=self._forces,
+                                     positionGains=self._position_gains,
+                                     velocityGains=self._velocity_gains, physicsClientId=self.client)
+        for _ in range(self.substeps):
+            pb.stepSimulation(physicsClientId=self.client)
+        self.periods += 1
+        self.min_distance = min(self.min_distance, self.closest_distance())
+
+    # --- state ---------------------------------------------------------------------------------
+
+    @property
+    def time_ns(self) -> int:
+        """Simulated time since the world was created, ns (monotonic across resets)."""
+        return self.periods * self.control_period_ns
+
+    def joint_state(self):
+        """(positions, velocities) of the actuated joints, (n,) each, rad and rad/s."""
+        states = pb.getJointStates(self.robot_id, self.actuated, physicsClientId=self.client)
+        return np.array([s[0] for s in states]), np.array([s[1] for s in states])
+
+    def object_poses(self) -> dict:
+        """World pose of every object: name -> (position (3,), xyzw quaternion). The lid's pose is
+        its hinge frame (see scene)."""
+        poses = {}
+        for name, uid in self.bodies.items():
+            if self.body_roles[name] == "table":
+                continue
+            position, orientation = pb.getBasePositionAndOrientation(uid, physicsClientId=self.client)
+            poses[name] = (tuple(position), tuple(orientation))
+            if self.body_roles[name] == "box_body":
+                link = pb.getLinkState(uid, 0, computeForwardKinematics=True, physicsClientId=self.client)
+                poses["lid"] = (tuple(link[4]), tuple(link[5]))
+        return poses
+
+    def lid_angle(self) -> float:
+        """Opening angle of the box's lid, rad (NaN when the scene has no box)."""
+        if "object" not in self.bodies or self.body_roles["object"] != "box_body":
+            return float("nan")
+        return float(pb.getJointState(self.bodies["object"], 0, physicsClientId=self.client)[0])
+
+    def link_placements(self) -> dict:
+        """World placement (position, xyzw) of each robot link PyBullet simulates, by link name."""
+        out = {}
+        for name, index in self.link_index.items():
+            state = pb.getLinkState(self.robot_id, index, computeForwardKinematics=True,
+                                    physicsClientId=self.client)
+            out[name] = (np.array(state[4]), np.array(state[5]))
+        return out
+
+    def closest_distance(self) -> float:
+        """Smallest signed distance between the robot and the avoided bodies (table, obstacles, box
+        body), m, capped at DISTANCE_CUTOFF. The robot's base, mounted on the table, is left out."""
+        best = DISTANCE_CUTOFF
+        for name, uid in self.bodies.items():
+            if self.body_roles[name] not in scene.AVOIDED_ROLES:
+                continue
+            points = pb.getClosestPoints(self.robot_id, uid, DISTANCE_CUTOFF, linkIndexB=-1,
+                                         physicsClientId=self.client)
+            for point in points:
+                if point[3] != -1:
+                    best = min(best, point[8])
+        return best
+
+    def contacts_with(self, name: str) -> list:
+        """Robot link names in contact with the named object (for the lid: its link)."""
+        uid = self.bodies.get(name)
+        if uid is None and name == "lid":
+            uid = self.bodies.get("object")
+        if uid is None:
+            return []
+        names = {index: link for link, index in self.link_index.items()}
+        points = pb.getContactPoints(self.robot_id, uid, physicsClientId=self.client)
+        return sorted({names.get(p[3], "base_link") for p in points})
+
+    # --- pictures ------------------------------------------------------------------------------
+
+    def render(self, width: int = 640, height: int = 480, eye=None, target=None,
+               fov_deg: float = 50.0) -> np.ndarray:
+        """An RGB image (height, width, 3) of the scene from eye looking at target (world, m),
+        made by PyBullet's software renderer (no display needed)."""
+        if eye is None or target is None or np.allclose(eye, target):
+            target = np.asarray(self.situation.object_position if self.situation else (0.5, 0, 0.3))
+            target = (0.5 * target + 0.5 * np.array([0.35, 0.0, 0.35])).tolist()
+            eye = [target[0] + 0.55, target[1] - 1.25, target[2] + 0.65]
+        view = pb.computeViewMatrix(list(eye), list(target), [0, 0, 1], physicsClientId=self.client)
+        projection = pb.computeProjectionMatrixFOV(fov_deg, width / height, 0.05, 5.0,
+                                                   physicsClientId=self.client)
+        image = pb.getCameraImage(width, height, view, projection, renderer=pb.ER_TINY_RENDERER,
+                                  lightDirection=[0.6, -0.4, 1.0], shadow=1, physicsClientId=self.client)
+        rgba = np.reshape(np.asarray(image[2], dtype=np.uint8), (height, width, 4))
+        return rgba[:, :, :3].copy()
