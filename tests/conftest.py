@@ -1,9 +1,12 @@
-"""Fixtures for in-process ROS 2 tests: a fresh rclpy context and executor per test."""
+"""Fixtures for in-process ROS 2 tests: a fresh rclpy context and a spinning executor per test."""
+
+import threading
+import time
 
 import pytest
 import rclpy
 from rclpy.context import Context
-from rclpy.executors import MultiThreadedExecutor
+from rclpy.executors import SingleThreadedExecutor
 
 
 @pytest.fixture
@@ -17,10 +20,49 @@ def ros_context():
 
 @pytest.fixture
 def executor(ros_context):
-    """A MultiThreadedExecutor on the test's context; nodes added to it are destroyed afterwards."""
-    exe = MultiThreadedExecutor(num_threads=4, context=ros_context)
+    """A SingleThreadedExecutor (the one `ros2 run` uses) on the test's context; nodes added to it
+    are destroyed afterwards."""
+    exe = SingleThreadedExecutor(context=ros_context)
     yield exe
     for node in list(exe.get_nodes()):
         exe.remove_node(node)
         node.destroy_node()
     exe.shutdown()
+
+
+@pytest.fixture
+def spin(executor):
+    """spin(*nodes): add nodes to the test's executor and spin it in a background thread."""
+    started = []
+
+    def start(*nodes):
+        for node in nodes:
+            executor.add_node(node)
+        if not started:
+            thread = threading.Thread(target=executor.spin, daemon=True)
+            thread.start()
+            started.append(thread)
+        return nodes[0] if len(nodes) == 1 else nodes
+
+    return start
+
+
+def wait_for(predicate, timeout=20.0, what="condition"):
+    """Poll predicate() until it is truthy; its value, or an AssertionError after timeout s."""
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        value = predicate()
+        if value:
+            return value
+        time.sleep(0.01)
+    raise AssertionError(f"timed out after {timeout} s waiting for {what}")
+
+
+def call(node, srv_type, name, request, timeout=30.0):
+    """Call a service from node (spun elsewhere) and return the response."""
+    client = node.create_client(srv_type, name)
+    assert client.wait_for_service(timeout_sec=timeout), f"service {name} not available"
+    response = client.call(request, timeout_sec=timeout)
+    assert response is not None, f"service {name} did not answer in {timeout} s"
+    node.destroy_client(client)
+    return response

@@ -20,5 +20,6 @@ setup(
     package_data={PACKAGE: ["description/*.urdf"]},
     entry_points={"console_scripts": [
         "simulator = tric_sim.simulator_node:main",
+        "tric-snapshot = tric_sim.snapshot:main",
     ]},
 )

@@ -45,10 +45,11 @@ COLORS = {
 #: Friction coefficients of the fingers and the objects.
 LATERAL_FRICTION = 1.0
 SPINNING_FRICTION = 0.002
-#: Distance beyond which robot-to-scene distances are not resolved (reported as this value), m.
-DISTANCE_CUTOFF = 0.10
+#: Distance beyond which robot-to-scene distances are not resolved (reported as this value), m: the
+#: contact-breaking threshold, within which PyBullet reports contact points with their distance.
+DISTANCE_CUTOFF = 0.02
 #: Gains of the joint servos (PyBullet's POSITION_CONTROL: position and velocity error weights).
-POSITION_GAIN = 0.3
+POSITION_GAIN = 0.1
 VELOCITY_GAIN = 1.0
 
 
@@ -75,8 +76,10 @@ class PhysicsWorld:
         self.substeps = int(round(substeps))
         self.client = pb.connect(pb.GUI if gui else pb.DIRECT)
         pb.setGravity(0, 0, -9.81, physicsClientId=self.client)
-        pb.setPhysicsEngineParameter(fixedTimeStep=1.0 / physics_rate_hz,
+        # One stepSimulation call per control period, split by PyBullet into `substeps` steps.
+        pb.setPhysicsEngineParameter(fixedTimeStep=self.control_period, numSubSteps=self.substeps,
                                      numSolverIterations=solver_iterations,
+                                     contactBreakingThreshold=DISTANCE_CUTOFF,
                                      deterministicOverlappingPairs=1, physicsClientId=self.client)
         flags = (pb.URDF_MERGE_FIXED_LINKS | pb.URDF_USE_SELF_COLLISION
                  | pb.URDF_USE_SELF_COLLISION_EXCLUDE_ALL_PARENTS | pb.URDF_USE_MATERIAL_COLORS_FROM_MTL)
@@ -226,8 +229,7 @@ class PhysicsWorld:
                                      targetVelocities=velocities.tolist(), forces=self._forces,
                                      positionGains=self._position_gains,
                                      velocityGains=self._velocity_gains, physicsClientId=self.client)
-        for _ in range(self.substeps):
-            pb.stepSimulation(physicsClientId=self.client)
+        pb.stepSimulation(physicsClientId=self.client)
         self.periods += 1
         self.min_distance = min(self.min_distance, self.closest_distance())
 
@@ -274,14 +276,13 @@ class PhysicsWorld:
 
     def closest_distance(self) -> float:
         """Smallest signed distance between the robot and the avoided bodies (table, obstacles, box
-        body), m, capped at DISTANCE_CUTOFF. The robot's base, mounted on the table, is left out."""
+        body) at the last physics step, m, capped at DISTANCE_CUTOFF. The robot's base, mounted on
+        the table, is left out."""
         best = DISTANCE_CUTOFF
         for name, uid in self.bodies.items():
             if self.body_roles[name] not in scene.AVOIDED_ROLES:
                 continue
-            points = pb.getClosestPoints(self.robot_id, uid, DISTANCE_CUTOFF, linkIndexB=-1,
-                                         physicsClientId=self.client)
-            for point in points:
+            for point in pb.getContactPoints(self.robot_id, uid, linkIndexB=-1, physicsClientId=self.client):
                 if point[3] != -1:
                     best = min(best, point[8])
         return best

@@ -24,9 +24,8 @@ import time
 import numpy as np
 import rclpy
 from rclpy.callback_groups import MutuallyExclusiveCallbackGroup
-from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks
+from rclpy.event_handler import PublisherEventCallbacks
 from rclpy.executors import ExternalShutdownException
-from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rcl_interfaces.msg import ParameterDescriptor
@@ -36,6 +35,7 @@ from tric_msgs.msg import ObjectPoses, Situation as SituationMsg
 from tric_msgs.srv import EvaluateTask, RenderScene, ResetScene
 
 from tric_sim import messages, metrics
+from tric_sim.lockstep import TopicPoller
 from tric_sim.physics import PhysicsWorld
 from tric_sim.robot_model import RobotModel
 from tric_sim.situations import find_situation
@@ -82,13 +82,9 @@ class SimulatorNode(Node):
         self._stop = threading.Event()
         if self.mode == "lockstep":
             # Lockstep's hot path (command in, step, state out) runs in a thread of its own that
-            # waits on /joint_command directly, through a subscription on a helper node that no
-            # executor spins: this keeps the executor's per-message overhead out of every period.
-            self._command_node = Node("simulator_lockstep", context=self.context,
-                                      start_parameter_services=False, enable_rosout=False)
-            self._command_sub = self._command_node.create_subscription(
-                JointState, "/joint_command", lambda _: None, STATE_QOS,
-                event_callbacks=SubscriptionEventCallbacks(use_default_callbacks=False))
+            # waits on /joint_command directly (see tric_sim.lockstep).
+            self._commands = TopicPoller(self.context, "simulator_lockstep",
+                                         {"command": (JointState, "/joint_command", STATE_QOS)})
         else:
             self.create_subscription(JointState, "/joint_command", self._on_command, STATE_QOS,
                                      callback_group=group)
@@ -129,7 +125,7 @@ class SimulatorNode(Node):
         self._stop.set()
         if self.mode == "lockstep":
             self._lockstep_thread.join()
-            self._command_node.destroy_node()
+            self._commands.destroy()
         with self._lock:
             self.world.close()
         return super().destroy_node()
@@ -171,19 +167,8 @@ class SimulatorNode(Node):
 
     def _lockstep_loop(self):
         """Lockstep mode: step when the command for the current state arrives, or on timeout."""
-        wait_set = _rclpy.WaitSet(1, 0, 0, 0, 0, 0, self.context.handle)
-        sub = self._command_sub
-        poll_ns = 50_000_000
         while not self._stop.is_set() and self.context.ok():
-            wait_set.clear_entities()
-            wait_set.add_subscription(sub.handle)
-            wait_set.wait(poll_ns)
-            commands = []
-            while True:
-                taken = sub.handle.take_message(sub.msg_type, sub.raw)
-                if taken is None:
-                    break
-                commands.append(taken[0])
+            commands = self._commands.poll(0.05)["command"]
             with self._lock:
                 current = self.world.time_ns
                 answered = False

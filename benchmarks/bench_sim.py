@@ -1,0 +1,87 @@
+"""Simulator benchmarks.
+
+sim_lockstep_rtf: real-time factor of the simulator node in lockstep mode, through ROS: the node
+  (spun by a SingleThreadedExecutor, as `ros2 run` does) and a trivial commander, which answers each
+  /joint_states with the same positions as its /joint_command, in one process. The commander waits on
+  /joint_states with tric_sim.lockstep.TopicPoller, as the teacher and controller nodes do. Median of
+  three runs of 4 s of wall time each.
+sim_lockstep_period_us: the median wall time of one lockstep period (state -> command -> step).
+sim_physics_period_us: one control period of raw stepping (3 physics steps + distance check), no ROS.
+"""
+
+import statistics
+import threading
+import time
+
+import rclpy
+from rclpy.context import Context
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+from sensor_msgs.msg import JointState
+
+from tric_sim import situations
+from tric_sim.lockstep import TopicPoller
+from tric_sim.physics import PhysicsWorld
+from tric_sim.robot_model import RobotModel
+from tric_sim.simulator_node import SimulatorNode
+
+RUN_S = 4.0
+
+
+def lockstep_rtf() -> float:
+    context = Context()
+    rclpy.init(context=context)
+    simulator = SimulatorNode(context=context, parameter_overrides=[Parameter("mode", value="lockstep")])
+    executor = SingleThreadedExecutor(context=context)
+    executor.add_node(simulator)
+    threading.Thread(target=executor.spin, daemon=True).start()
+    commander = Node("trivial_commander", context=context)
+    publisher = commander.create_publisher(JointState, "/joint_command", 10)
+    states = TopicPoller(context, "trivial_commander_poller", {"state": (JointState, "/joint_states", 10)})
+    stop = threading.Event()
+
+    def answer():
+        while not stop.is_set():
+            for state in states.poll(0.05)["state"]:
+                command = JointState(name=state.name, position=state.position)
+                command.header.stamp = state.header.stamp
+                publisher.publish(command)
+
+    thread = threading.Thread(target=answer, daemon=True)
+    thread.start()
+    time.sleep(1.0)  # discovery and warm-up
+    start_periods, start = simulator.world.periods, time.perf_counter()
+    time.sleep(RUN_S)
+    periods, wall = simulator.world.periods - start_periods, time.perf_counter() - start
+    stop.set()
+    thread.join()
+    states.destroy()
+    executor.shutdown()
+    simulator.destroy_node()
+    commander.destroy_node()
+    context.try_shutdown()
+    return periods * simulator.world.control_period / wall
+
+
+def physics_period_us() -> float:
+    robot = RobotModel()
+    world = PhysicsWorld(robot)
+    world.reset(situations.dataset("sphere_test")[0])
+    for _ in range(50):
+        world.step()
+    start = time.perf_counter()
+    for _ in range(1000):
+        world.step()
+    elapsed = time.perf_counter() - start
+    world.close()
+    return elapsed / 1000 * 1e6
+
+
+def run() -> dict:
+    rtfs = [lockstep_rtf() for _ in range(3)]
+    rtf = statistics.median(rtfs)
+    return {"sim_lockstep_rtf": round(rtf, 1),
+            "sim_lockstep_rtf_runs": [round(r, 1) for r in rtfs],
+            "sim_lockstep_period_us": round(10_000 / rtf),
+            "sim_physics_period_us": round(physics_period_us())}

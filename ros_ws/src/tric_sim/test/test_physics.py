@@ -1,0 +1,104 @@
+"""The PyBullet world: fixtures, the hinged lid, velocity-limited servos, pictures, metrics."""
+
+import math
+
+import numpy as np
+import pytest
+
+from tric_sim import metrics, scene, situations as S
+from tric_sim.physics import DISTANCE_CUTOFF, PhysicsWorld, pb
+from tric_sim.robot_model import RobotModel
+
+
+@pytest.fixture(scope="module")
+def robot():
+    return RobotModel()
+
+
+@pytest.fixture
+def world(robot):
+    w = PhysicsWorld(robot)
+    yield w
+    w.close()
+
+
+def test_rate_must_be_a_multiple_of_the_control_rate(robot):
+    with pytest.raises(ValueError, match="integer multiple"):
+        PhysicsWorld(robot, physics_rate_hz=250.0)
+
+
+def test_object_held_by_its_fixture_falls_when_released(world):
+    world.reset(S.sphere("s", (0.6, 0.0, 0.35)))
+    for _ in range(50):
+        world.step()
+    assert np.allclose(world.object_poses()["object"][0], (0.6, 0.0, 0.35), atol=1e-4)
+    world.release_object()
+    for _ in range(30):
+        world.step()
+    assert world.object_poses()["object"][0][2] < 0.30
+
+
+def test_lid_rests_closed_and_opens_when_pushed_up(world):
+    situation = S.box("b", 0.2, 0.6, 0.0, 0.3)
+    world.reset(situation)
+    assert "lid" in world.object_poses()
+    for _ in range(50):
+        world.step()
+    assert abs(world.lid_angle()) < 0.01
+    lid = world.bodies["object"]
+    hinge = scene.hinge_placement(situation)
+    free_edge = hinge.act(np.array([0.2 + scene.LID_OVERHANG, 0.0, 0.0]))
+    for _ in range(40):  # push the lip up with 8 N for 0.4 s
+        pb.applyExternalForce(lid, 0, [0, 0, 8.0], free_edge.tolist(), pb.WORLD_FRAME,
+                              physicsClientId=world.client)
+        world.step()
+    assert world.lid_angle() > scene.LID_OPEN_ANGLE
+    position, _ = world.object_poses()["lid"]
+    assert np.allclose(position, hinge.translation, atol=1e-3)  # the hinge does not move
+
+
+def test_servos_respect_velocity_limits(world, robot):
+    world.reset(S.sphere("s", (0.6, 0.0, 0.35)))
+    target = robot.home.copy()
+    target[[0, 3, 8]] += [1.0, -0.5, 0.8]
+    world.command(target)
+    trajectory = [world.joint_state()[0]]
+    for _ in range(170):
+        world.step()
+        trajectory.append(world.joint_state()[0])
+    trajectory = np.array(trajectory)
+    limit = robot.velocity_limits * world.control_period
+    per_period = np.abs(np.diff(trajectory, axis=0))
+    travelled = np.abs(trajectory - trajectory[0])
+    periods = np.arange(len(trajectory))[:, None]
+    assert np.all(per_period <= 1.4 * limit)  # transients when a joint starts moving
+    assert np.all(travelled <= limit * (periods + 1.5))  # never ahead of a limit-speed setpoint
+    assert np.abs(trajectory[-1] - target).max() < 0.01
+
+
+def test_render_shows_the_scene(world):
+    world.reset(S.dataset("box_test")[0])
+    image = world.render(160, 120)
+    assert image.shape == (120, 160, 3) and image.dtype == np.uint8
+    assert len(np.unique(image.reshape(-1, 3), axis=0)) > 20  # not a blank frame
+
+
+def test_box_metrics_follow_the_lid_angle(world, robot):
+    world.reset(S.box("b", 0.15, 0.6, 0.0, 0.0))
+    result = metrics.evaluate(world, robot)
+    assert result.task == "open_box" and not result.success and math.isnan(result.grasp_cost)
+    pb.resetJointState(world.bodies["object"], 0, 0.5, physicsClientId=world.client)
+    assert metrics.evaluate(world, robot).success
+
+
+def test_min_distance_tracks_contact_with_the_table(world, robot):
+    world.reset(S.sphere("s", (0.4, 0.5, 0.6)))  # out of the arm's way
+    assert world.min_distance == DISTANCE_CUTOFF  # nothing near
+    q = robot.home.copy()
+    q[1] = 1.9  # swing the arm down onto the table
+    q[3] = 0.3
+    world.command(q)
+    for _ in range(200):
+        world.step()
+    assert world.min_distance < 0.0
+    assert metrics.evaluate(world, robot).collided

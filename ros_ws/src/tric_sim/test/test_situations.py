@@ -1,0 +1,100 @@
+"""Situations: validation, files, and the paper's data sets."""
+
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+
+from tric_sim import situations as S
+
+
+def test_data_set_sizes_and_grid():
+    assert len(S.sphere_grid()) == 27
+    assert len(S.dataset("sphere_test")) == 15
+    assert len(S.dataset("cylinder_train")) == 10
+    assert len(S.dataset("box_test")) == 25
+    positions = np.array([s.object_position for s in S.sphere_grid()])
+    assert np.allclose(positions.min(0), S.GRID_LOW) and np.allclose(positions.max(0), S.GRID_HIGH)
+    assert len({tuple(p) for p in positions}) == 27
+    for s in S.dataset("sphere_test"):
+        assert np.all(np.asarray(s.object_position) >= S.GRID_LOW)
+        assert np.all(np.asarray(s.object_position) <= S.GRID_HIGH)
+
+
+def test_generators_are_reproducible_and_seeded():
+    assert S.sphere_test_set(5, seed=9) == S.sphere_test_set(5, seed=9)
+    assert S.sphere_test_set(5, seed=9) != S.sphere_test_set(5, seed=10)
+    assert S.box_set(4, seed=1) == S.box_set(4, seed=1)
+
+
+def test_cylinders_turn_about_y_within_a_quarter_turn():
+    for s in S.dataset("cylinder_train"):
+        x, y, z, w = s.object_orientation
+        assert x == 0 and z == 0
+        assert 0 <= 2 * math.atan2(y, w) <= math.pi / 2
+
+
+def test_boxes_are_cubes_on_the_table():
+    for s in S.dataset("box_test"):
+        side = s.object_dimensions[0]
+        assert S.BOX_SIDE_RANGE[0] <= side <= S.BOX_SIDE_RANGE[1]
+        assert math.isclose(s.object_position[2], side / 2)
+
+
+def test_shift_moves_objects_by_about_the_standard_deviation():
+    base = S.sphere_grid()
+    moved = S.shifted(base, 0.04, seed=1)
+    offsets = np.array([np.subtract(m.object_position, b.object_position) for m, b in zip(base, moved)])
+    assert 0.02 < offsets.std() < 0.06
+    assert S.shifted(base, 0.0) [0].object_position == base[0].object_position
+
+
+def test_obstacle_stands_between_robot_and_object():
+    s = S.with_obstacle(S.sphere("s", (0.6, 0.2, 0.3)))
+    (obstacle,) = s.obstacles
+    assert np.linalg.norm(obstacle.position[:2]) < np.linalg.norm(s.object_position[:2])
+
+
+@pytest.mark.parametrize("suffix", [".yaml", ".json"])
+def test_file_round_trip(tmp_path, suffix):
+    original = S.dataset("obstacle_test")[:2] + S.dataset("box_test")[:2]
+    path = tmp_path / ("situations" + suffix)
+    S.save_situations(path, original)
+    assert S.load_situations(path) == original
+
+
+@pytest.mark.parametrize("change, message", [
+    ({"task": "juggle"}, "unknown task"),
+    ({"object_kind": "box"}, "does not fit task"),
+    ({"object_dimensions": (0.04, 0.1)}, "must have 1 value"),
+    ({"object_dimensions": (-0.04,)}, "positive"),
+    ({"object_position": (math.nan, 0.0, 0.3)}, "non-finite"),
+    ({"object_position": (5.0, 0.0, 0.3)}, "outside the workspace"),
+    ({"object_orientation": (0.0, 0.0, 0.0, 2.0)}, "unit quaternion"),
+    ({"initial_joint_positions": (0.0,) * 3}, "must have 14"),
+    ({"name": ""}, "non-empty name"),
+])
+def test_bad_situations_are_refused(change, message):
+    good = S.sphere("s", (0.6, 0.0, 0.3))
+    with pytest.raises(ValueError, match=message):
+        dataclasses.replace(good, **change).validate()
+
+
+def test_bad_files_are_refused_with_the_reason(tmp_path):
+    missing = tmp_path / "nope.yaml"
+    with pytest.raises(ValueError, match="cannot read"):
+        S.load_situations(missing)
+    garbage = tmp_path / "garbage.json"
+    garbage.write_text("{not json")
+    with pytest.raises(ValueError, match="not valid JSON"):
+        S.load_situations(garbage)
+    unknown = tmp_path / "unknown.yaml"
+    data = S.sphere("s", (0.6, 0.0, 0.3)).to_dict()
+    data["colour"] = "red"
+    import yaml
+    unknown.write_text(yaml.safe_dump([data]))
+    with pytest.raises(ValueError, match="unknown field"):
+        S.load_situations(unknown)
+    with pytest.raises(ValueError, match="unknown data set"):
+        S.dataset("nonsense")
