@@ -21,7 +21,7 @@ OBSTACLE_DIMENSIONS = {"box": 3, "sphere": 1, "cylinder": 2}
 
 SPHERE_RADIUS = 0.04
 CYLINDER_HEIGHT, CYLINDER_RADIUS = 0.30, 0.05
-CYLINDER_POSITION = (0.60, 0.0, 0.32)
+CYLINDER_POSITION = (0.65, 0.0, 0.25)
 #: The sphere grid of Sec. 5.3: 3 x 3 x 3 positions over 40 (x) x 50 (y) x 40 (z) cm in front of the robot.
 GRID_LOW = np.array([0.40, -0.25, 0.15])
 GRID_HIGH = np.array([0.80, 0.25, 0.55])
