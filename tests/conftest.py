@@ -66,3 +66,22 @@ def call(node, srv_type, name, request, timeout=30.0):
     assert response is not None, f"service {name} did not answer in {timeout} s"
     node.destroy_client(client)
     return response
+
+
+def run_action(node, action_type, name, goal, timeout=120.0):
+    """Send a goal from node (spun elsewhere); returns (status, result, feedback messages)."""
+    from rclpy.action import ActionClient
+
+    client = ActionClient(node, action_type, name)
+    assert client.wait_for_server(timeout_sec=30.0), f"action server {name} not available"
+    feedback = []
+    goal_future = client.send_goal_async(goal, feedback_callback=lambda msg: feedback.append(msg.feedback))
+    handle = wait_for(lambda: goal_future.result() if goal_future.done() else None, 30.0, "goal response")
+    if not handle.accepted:
+        client.destroy()
+        return None, None, feedback
+    result_future = handle.get_result_async()
+    wrapped = wait_for(lambda: result_future.result() if result_future.done() else None, timeout,
+                       f"the result of {name}")
+    client.destroy()
+    return wrapped.status, wrapped.result, feedback

@@ -20,6 +20,7 @@ setup(
     package_data={PACKAGE: ["description/*.urdf"]},
     entry_points={"console_scripts": [
         "simulator = tric_sim.simulator_node:main",
+        "teacher = tric_sim.teacher_node:main",
         "tric-snapshot = tric_sim.snapshot:main",
     ]},
 )

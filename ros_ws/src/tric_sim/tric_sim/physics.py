@@ -186,6 +186,9 @@ class PhysicsWorld:
                           jointUpperLimit=2.2, physicsClientId=self.client)
         pb.setJointMotorControl2(uid, 0, pb.VELOCITY_CONTROL, targetVelocity=0.0,
                                  force=scene.LID_HINGE_FRICTION, physicsClientId=self.client)
+        # A multibody's links do not collide with their parent by default: the lid must rest on,
+        # not sink into, the box.
+        pb.setCollisionFilterPair(uid, uid, -1, 0, enableCollision=1, physicsClientId=self.client)
         return uid
 
     def _shape(self, shape: str, dimensions, color, offset=(0.0, 0.0, 0.0)):

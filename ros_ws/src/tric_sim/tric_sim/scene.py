@@ -20,7 +20,7 @@ TABLE_POSITION = (0.4, 0.0, -0.025)
 #: Lid: a plate LID_THICKNESS thick, overhanging the box's front wall by LID_OVERHANG (the lip a
 #: finger reaches under) and its side walls by LID_SIDE_MARGIN each; it rests LID_GAP above the body.
 LID_THICKNESS = 0.012
-LID_OVERHANG = 0.025
+LID_OVERHANG = 0.05
 LID_SIDE_MARGIN = 0.005
 LID_GAP = 0.001
 LID_MASS = 0.25

@@ -11,7 +11,7 @@ a table-clearance constraint):
 3. close: flex the fingers until each touches the object, then squeeze.
 
 BoxTeacher (see box_teacher.py) plans the box opening. Teachers are ROS-free: each control period
-they map the measured joint positions and the object's pose to joint position targets.
+they map the time, the measured joint positions and the objects' poses to joint position targets.
 Units: m, rad, s.
 """
 
@@ -22,6 +22,7 @@ import pinocchio as pin
 import proxsuite
 
 from tric_sim import metrics, scene
+from tric_sim.box_teacher import BoxTeacher
 from tric_sim.robot_model import FINGERTIPS, PALM, RobotModel
 from tric_sim.situations import Situation
 
@@ -189,9 +190,12 @@ class PoseServo:
 class GraspTeacher:
     """The phased grasp teacher for a sphere or cylinder situation (see the module docstring).
 
-    command(q, object_pose) is called once per control period with the measured joint positions (n,)
-    and the object's world pose (position, xyzw); it returns the joint position targets (n,).
+    command(elapsed_s, q, poses) is called once per control period with the time since the start,
+    the measured joint positions (n,) and the objects' world poses ({name: (position, xyzw)}); it
+    returns the joint position targets (n,).
     """
+
+    planning_time_s = 0.0
 
     def __init__(self, robot: RobotModel, situation: Situation, period: float = 0.01):
         if situation.task != "grasp":
@@ -244,7 +248,8 @@ class GraspTeacher:
 
     # --- control -------------------------------------------------------------------------------
 
-    def command(self, q: np.ndarray, object_pose) -> np.ndarray:
+    def command(self, elapsed_s: float, q: np.ndarray, poses: dict) -> np.ndarray:
+        object_pose = poses["object"]
         q = np.asarray(q, dtype=float)
         if self.reference is None:
             self.reference = q.copy()
@@ -316,3 +321,25 @@ class GraspTeacher:
         samples = start + np.linspace(0.0, 1.0, 9)[:, None] * (end - start)
         distance, _ = metrics.object_surface(self.kind, dims, placement, samples)
         return float(distance.min() - radius)
+
+
+def make_teacher(robot: RobotModel, situation: Situation, q_start, period: float = 0.01):
+    """The teacher of the situation's task (a box teacher plans here, which takes seconds)."""
+    if situation.task == "open_box":
+        return BoxTeacher(robot, situation, q_start, period)
+    return GraspTeacher(robot, situation, period)
+
+
+def demonstrate(world, robot: RobotModel, situation: Situation, duration: float, on_period=None):
+    """Run the situation's teacher on a PhysicsWorld directly (no ROS) for duration simulated
+    seconds; on_period(world, teacher, k) is called after each control period. Returns the teacher."""
+    world.reset(situation)
+    q, _ = world.joint_state()
+    teacher = make_teacher(robot, situation, q, world.control_period)
+    for k in range(int(round(duration / world.control_period))):
+        q, _ = world.joint_state()
+        world.command(teacher.command(k * world.control_period, q, world.object_poses()))
+        world.step()
+        if on_period is not None:
+            on_period(world, teacher, k)
+    return teacher
