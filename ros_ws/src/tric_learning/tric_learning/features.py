@@ -1,0 +1,223 @@
+"""Task-space features y = phi(q) and their Jacobian dphi/dq (paper Sec. 5.2.1, Eq. 18).
+
+Landmarks are frames: robot frames of the shared Pinocchio model ("robot/<frame>") and objects of
+/object_poses ("object/<name>"). For every ordered pair (i, j) of distinct landmarks the features are
+the position of j in i's frame (3 numbers) and the distance between them (1 number), all in m:
+
+    p_ij = R_i^T (x_j - x_i),    d_ij = |x_j - x_i|
+
+Grasping uses 8 landmarks (object centre, three fingertips, three finger bases, palm centre): 56 pairs,
+224 features. Box opening uses 5 (box, lid, fingertips of fingers 2 and 3, robot base): 80 features.
+The Jacobian is analytic, from the frames' Jacobians (objects do not move with q):
+
+    dp_ij/dq = R_i^T (Jv_j - Jv_i) + R_i^T [x_j - x_i]_x Jw_i,    dd_ij/dq = (x_j - x_i)^T (Jv_j - Jv_i) / d_ij
+
+where Jv, Jw are the world-aligned linear and angular frame Jacobians.
+"""
+
+import hashlib
+import json
+from dataclasses import dataclass
+
+import numpy as np
+import pinocchio as pin
+
+from tric_sim.robot_model import RobotModel
+
+#: Landmarks of each task: (name, source).
+TASK_LANDMARKS = {
+    "grasp": (("object", "object/object"),
+              ("fingertip_1", "robot/finger_1_tip"), ("fingertip_2", "robot/finger_2_tip"),
+              ("fingertip_3", "robot/finger_3_tip"),
+              ("finger_base_1", "robot/finger_1_base"), ("finger_base_2", "robot/finger_2_base"),
+              ("finger_base_3", "robot/finger_3_base"),
+              ("palm", "robot/palm_center")),
+    "open_box": (("box", "object/object"), ("lid", "object/lid"),
+                 ("fingertip_2", "robot/finger_2_tip"), ("fingertip_3", "robot/finger_3_tip"),
+                 ("robot_base", "robot/base_link")),
+}
+AXES = ("x", "y", "z")
+
+
+@dataclass(frozen=True)
+class FeatureDefinition:
+    """What a feature vector means: the task, the landmarks and where they live, the ordered pairs,
+    the joints of the Jacobian's columns, and the robot description (see tric_msgs/FeatureDefinition)."""
+
+    task: str
+    landmark_names: tuple
+    landmark_sources: tuple
+    pairs: tuple
+    joint_names: tuple
+    robot_model: str
+
+    @classmethod
+    def for_task(cls, task: str, robot: RobotModel) -> "FeatureDefinition":
+        """The paper's definition for task ("grasp" or "open_box"): all ordered landmark pairs."""
+        if task not in TASK_LANDMARKS:
+            raise ValueError(f"no feature definition for task '{task}' (known: {', '.join(TASK_LANDMARKS)})")
+        names, sources = zip(*TASK_LANDMARKS[task])
+        pairs = tuple((i, j) for i in range(len(names)) for j in range(len(names)) if i != j)
+        return cls(task, names, sources, pairs, tuple(robot.joint_names), robot_description(robot))
+
+    @property
+    def feature_names(self) -> tuple:
+        names = []
+        for i, j in self.pairs:
+            a, b = self.landmark_names[i], self.landmark_names[j]
+            names += [f"p[{a}->{b}].{axis}" for axis in AXES] + [f"d[{a},{b}]"]
+        return tuple(names)
+
+    @property
+    def size(self) -> int:
+        return 4 * len(self.pairs)
+
+    @property
+    def fingerprint(self) -> str:
+        """Hex SHA-256 of the canonical JSON of the definition."""
+        return hashlib.sha256(json.dumps(self.to_dict(), sort_keys=True).encode()).hexdigest()
+
+    def to_dict(self) -> dict:
+        return {"task": self.task, "landmark_names": list(self.landmark_names),
+                "landmark_sources": list(self.landmark_sources),
+                "pairs": [list(p) for p in self.pairs], "joint_names": list(self.joint_names),
+                "robot_model": self.robot_model}
+
+    @classmethod
+    def from_dict(cls, data: dict) -> "FeatureDefinition":
+        """The definition from to_dict()'s data, or ValueError if it is malformed."""
+        try:
+            definition = cls(str(data["task"]), tuple(data["landmark_names"]),
+                             tuple(data["landmark_sources"]),
+                             tuple((int(i), int(j)) for i, j in data["pairs"]),
+                             tuple(data["joint_names"]), str(data["robot_model"]))
+        except (KeyError, TypeError, ValueError) as error:
+            raise ValueError(f"malformed feature definition: {error!r}") from None
+        count = len(definition.landmark_names)
+        if len(definition.landmark_sources) != count:
+            raise ValueError("malformed feature definition: one source per landmark needed")
+        if any(not (0 <= i < count and 0 <= j < count and i != j) for i, j in definition.pairs):
+            raise ValueError("malformed feature definition: a pair refers to no landmark or twice to one")
+        return definition
+
+    def check_same(self, other: "FeatureDefinition", what: str) -> None:
+        """ValueError naming what differs, unless other is the same definition."""
+        if other.fingerprint == self.fingerprint:
+            return
+        for field in ("task", "landmark_names", "landmark_sources", "pairs", "joint_names", "robot_model"):
+            if getattr(self, field) != getattr(other, field):
+                raise ValueError(f"{what} has another feature definition: its {field} differs "
+                                 f"({getattr(other, field)!r} instead of {getattr(self, field)!r})")
+
+
+def robot_description(robot: RobotModel) -> str:
+    """'<robot name>:<SHA-256 of the URDF>': identifies the robot the landmarks refer to."""
+    digest = hashlib.sha256(robot.urdf_path.read_bytes()).hexdigest()
+    return f"{robot.model.name}:{digest}"
+
+
+class FeatureMap:
+    """y = phi(q; object poses) and its Jacobian for a feature definition on the shared robot model."""
+
+    def __init__(self, definition: FeatureDefinition, robot: RobotModel):
+        if definition.robot_model != robot_description(robot):
+            raise ValueError("the feature definition was made for another robot description "
+                             f"({definition.robot_model.split(':')[0]} with a different URDF)")
+        if tuple(definition.joint_names) != tuple(robot.joint_names):
+            raise ValueError("the feature definition's joints differ from the robot's")
+        self.definition, self.robot = definition, robot
+        self.robot_landmarks = []   # (landmark index, frame id)
+        self.object_landmarks = []  # (landmark index, object name)
+        for k, source in enumerate(definition.landmark_sources):
+            kind, _, name = source.partition("/")
+            if kind == "robot":
+                self.robot_landmarks.append((k, robot.frame_id(name)))
+            elif kind == "object":
+                self.object_landmarks.append((k, name))
+            else:
+                raise ValueError(f"landmark source '{source}' is neither robot/<frame> nor object/<name>")
+        self.object_names = tuple(name for _, name in self.object_landmarks)
+        pairs = np.array(definition.pairs)
+        self._first, self._second = pairs[:, 0], pairs[:, 1]
+        self._count = len(definition.landmark_names)
+        n = robot.n_joints
+        self._positions = np.zeros((self._count, 3))
+        self._rotations = np.zeros((self._count, 3, 3))
+        self._linear = np.zeros((self._count, 3, n))
+        self._angular = np.zeros((self._count, 3, n))
+        self._skew = np.zeros((len(pairs), 3, 3))
+
+    @property
+    def size(self) -> int:
+        return self.definition.size
+
+    def _landmarks(self, q, object_poses: dict, jacobians: bool):
+        """Landmark positions (L, 3), rotations (L, 3, 3) and, if asked, world-aligned linear and
+        angular Jacobians (L, 3, n) (zero for objects). The arrays are buffers reused by the next call."""
+        positions, rotations = self._positions, self._rotations
+        linear, angular = self._linear, self._angular
+        model, data = self.robot.model, self.robot.data
+        if jacobians:
+            pin.computeJointJacobians(model, data, q)
+            pin.updateFramePlacements(model, data)
+        else:
+            pin.framesForwardKinematics(model, data, q)
+        for k, fid in self.robot_landmarks:
+            placement = data.oMf[fid]
+            positions[k] = placement.translation
+            rotations[k] = placement.rotation
+            if jacobians:
+                jac = pin.getFrameJacobian(model, data, fid, pin.LOCAL_WORLD_ALIGNED)
+                linear[k] = jac[:3]
+                angular[k] = jac[3:]
+        for k, name in self.object_landmarks:
+            pose = object_poses.get(name)
+            if pose is None:
+                raise ValueError(f"object '{name}' is missing from the object poses "
+                                 f"(have: {', '.join(sorted(object_poses)) or 'none'})")
+            positions[k] = pose[0]
+            rotations[k] = _rotation(pose[1])
+        return positions, rotations, linear, angular
+
+    def __call__(self, q, object_poses: dict) -> np.ndarray:
+        """Features y (d,) at joint positions q (n,) with objects at object_poses {name: (p, xyzw)}."""
+        positions, rotations, _, _ = self._landmarks(np.asarray(q, dtype=float), object_poses, False)
+        return self._features(positions, rotations)[0]
+
+    def with_jacobian(self, q, object_poses: dict):
+        """(y (d,), dy/dq (d, n)) at q (n,)."""
+        positions, rotations, linear, angular = self._landmarks(np.asarray(q, dtype=float), object_poses, True)
+        y, local, rotations_i, offsets, distances = self._features(positions, rotations)
+        i, j = self._first, self._second
+        d_linear = linear[j] - linear[i]                                  # (P, 3, n), world
+        rotated = np.matmul(rotations_i.transpose(0, 2, 1), d_linear)    # R_i^T (Jv_j - Jv_i)
+        # R_i^T [x_j - x_i]_x Jw_i = p_ij x (R_i^T Jw_i): the cross product, column by column
+        w = np.matmul(rotations.transpose(0, 2, 1), angular)[i]           # (P, 3, n), frame i
+        skew = self._skew
+        skew[:, 0, 1], skew[:, 0, 2], skew[:, 1, 2] = -local[:, 2], local[:, 1], -local[:, 0]
+        skew[:, 1, 0], skew[:, 2, 0], skew[:, 2, 1] = local[:, 2], -local[:, 1], local[:, 0]
+        jp = rotated + np.matmul(skew, w)
+        jd = np.matmul(offsets[:, None, :], d_linear)[:, 0] / np.maximum(distances, 1e-12)[:, None]
+        jacobian = np.concatenate([jp, jd[:, None, :]], axis=1).reshape(-1, self.robot.n_joints)
+        return y, jacobian
+
+    def _features(self, positions, rotations):
+        i, j = self._first, self._second
+        offsets = positions[j] - positions[i]                                # (P, 3) world
+        rotations_i = rotations[i]
+        local = np.matmul(rotations_i.transpose(0, 2, 1), offsets[:, :, None])[:, :, 0]  # R_i^T (x_j - x_i)
+        distances = np.sqrt(np.sum(offsets * offsets, axis=1))
+        y = np.concatenate([local, distances[:, None]], axis=1).reshape(-1)
+        return y, local, rotations_i, offsets, distances
+
+
+def _rotation(quaternion) -> np.ndarray:
+    """Rotation matrix of an xyzw quaternion (normalized here)."""
+    x, y, z, w = quaternion
+    norm = (x * x + y * y + z * z + w * w) ** 0.5
+    if not norm > 0:
+        raise ValueError(f"object orientation {tuple(quaternion)} is not a valid quaternion")
+    x, y, z, w = x / norm, y / norm, z / norm, w / norm
+    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+                     [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+                     [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
