@@ -184,6 +184,34 @@ class FeatureMap:
         positions, rotations, _, _ = self._landmarks(np.asarray(q, dtype=float), object_poses, False)
         return self._features(positions, rotations)[0]
 
+    def batch(self, configurations: np.ndarray, object_poses) -> np.ndarray:
+        """Features (B, d) of configurations (B, n) (vectorized); object_poses is one dict
+        {name: (position, xyzw)} for all, or a list of B such dicts."""
+        qs = np.atleast_2d(np.asarray(configurations, dtype=float))
+        batch = len(qs)
+        positions = np.empty((batch, self._count, 3))
+        rotations = np.empty((batch, self._count, 3, 3))
+        if self.robot_landmarks:
+            indices, frames = zip(*self.robot_landmarks)
+            frame_names = [self.robot.model.frames[f].name for f in frames]
+            p, r = self.robot.batch_frame_placements(qs, frame_names)
+            positions[:, list(indices)], rotations[:, list(indices)] = p, r
+        per_configuration = isinstance(object_poses, (list, tuple))
+        for k, name in self.object_landmarks:
+            poses = object_poses if per_configuration else [object_poses]
+            if any(name not in p for p in poses):
+                raise ValueError(f"object '{name}' is missing from the object poses")
+            positions[:, k] = [p[name][0] for p in poses]
+            rotations[:, k] = np.array([_rotation(p[name][1]) for p in poses]) if per_configuration \
+                else _rotation(object_poses[name][1])
+        out = np.empty((batch, len(self._first), 4))
+        for i in np.unique(self._first):
+            pairs = np.flatnonzero(self._first == i)
+            offsets = positions[:, self._second[pairs]] - positions[:, i, None]    # (B, k, 3) world
+            out[:, pairs, :3] = offsets @ rotations[:, i]                          # rows: R_i^T offset
+            out[:, pairs, 3] = np.sqrt(np.sum(offsets * offsets, axis=2))
+        return out.reshape(batch, -1)
+
     def with_jacobian(self, q, object_poses: dict):
         """(y (d,), dy/dq (d, n)) at q (n,)."""
         positions, rotations, linear, angular = self._landmarks(np.asarray(q, dtype=float), object_poses, True)

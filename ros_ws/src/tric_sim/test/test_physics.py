@@ -1,4 +1,4 @@
-"""The PyBullet world: fixtures, the hinged lid, velocity-limited servos, pictures, metrics."""
+"""The PyBullet world: held objects, the hinged lid, velocity-limited servos, pictures, metrics."""
 
 import math
 
@@ -27,7 +27,7 @@ def test_rate_must_be_a_multiple_of_the_control_rate(robot):
         PhysicsWorld(robot, physics_rate_hz=250.0)
 
 
-def test_object_held_by_its_fixture_falls_when_released(world):
+def test_held_object_falls_when_released(world):
     world.reset(S.sphere("s", (0.6, 0.0, 0.35)))
     for _ in range(50):
         world.step()

@@ -16,7 +16,7 @@ the error of a task variable a grasp expert checks, normalized to [0, 1] (1 = as
   must not exceed 180 deg (otherwise the fingers all push from one side). (gap - 180) / 90 deg,
   clipped to [0, 1].
 
-Lift test (grasps): the object's fixture is removed and the hand raised LIFT_HEIGHT; it passes if the
+Lift test (grasps): the object is released (given its mass) and the hand raised LIFT_HEIGHT; it passes if the
 object rose by at least LIFT_PASS_FRACTION of that. Box success: lid opened by more than 0.3 rad.
 Units: m, rad.
 """

@@ -5,6 +5,8 @@ configuration q has the robot's 14 actuated degrees of freedom (7 arm + 7 hand) 
 knuckle of finger 3 follows finger 2's knuckle. Units: m, rad, s.
 """
 
+import copy
+import hashlib
 import pathlib
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass
@@ -13,6 +15,13 @@ import numpy as np
 import pinocchio as pin
 
 URDF_PATH = pathlib.Path(__file__).resolve().parent / "description" / "tric_arm_hand.urdf"
+#: The robot's semantic description: the link pairs whose collisions are never checked (adjacent,
+#: or never in collision over random configurations). Regenerate after changing the URDF:
+#:     python -m tric_sim.robot_model
+SRDF_PATH = URDF_PATH.with_suffix(".srdf")
+#: Self-collision pairs whose distance stays above this over all sampled configurations are
+#: disabled as "Never" in the SRDF, m.
+NEVER_MARGIN = 0.005
 
 #: Landmark frames on the robot (paper Fig. 7): palm centre, fingertips, finger bases.
 PALM = "palm_center"
@@ -42,6 +51,17 @@ class MimicJoint:
     offset: float
 
 
+def _parse_axes(urdf_path: pathlib.Path) -> dict:
+    """Joint name -> unit rotation axis (3,) of every revolute joint in the URDF."""
+    axes = {}
+    for joint in ET.parse(urdf_path).getroot().iter("joint"):
+        if joint.get("type") == "revolute":
+            tag = joint.find("axis")
+            axis = np.array([float(v) for v in tag.get("xyz").split()]) if tag is not None else np.array([1.0, 0, 0])
+            axes[joint.get("name")] = axis / np.linalg.norm(axis)
+    return axes
+
+
 def _parse_mimics(urdf_path: pathlib.Path) -> tuple:
     root = ET.parse(urdf_path).getroot()
     mimics = []
@@ -56,6 +76,9 @@ def _parse_mimics(urdf_path: pathlib.Path) -> tuple:
 class RobotModel:
     """Pinocchio model, data and collision model of the arm + hand.
 
+    Self-collision pairs: every pair of geometries on non-adjacent links, less those the SRDF
+    disables (srdf_path=None keeps them all).
+
     Attributes:
         joint_names: the n = 14 actuated joints, in the order of q.
         lower, upper: joint limits (n,), rad.
@@ -63,13 +86,15 @@ class RobotModel:
         mimic_joints: URDF joints driven by another joint (not part of q).
     """
 
-    def __init__(self, urdf_path: pathlib.Path = URDF_PATH):
+    def __init__(self, urdf_path: pathlib.Path = URDF_PATH, srdf_path=SRDF_PATH):
         self.urdf_path = pathlib.Path(urdf_path)
         self.model = pin.buildModelFromUrdf(str(self.urdf_path), mimic=True)
         self.data = self.model.createData()
         self.collision_model = pin.buildGeomFromUrdf(self.model, str(self.urdf_path),
                                                      pin.GeometryType.COLLISION)
         self._add_self_collision_pairs()
+        if srdf_path is not None:
+            pin.removeCollisionPairs(self.model, self.collision_model, str(srdf_path))
         self.collision_data = pin.GeometryData(self.collision_model)
         self.joint_names = tuple(name for name, joint in zip(self.model.names[1:], self.model.joints[1:])
                                  if joint.nq == 1)
@@ -82,6 +107,14 @@ class RobotModel:
         self.home = HOME.copy()
         self.arm_indices = np.array([self.joint_names.index(j) for j in ARM_JOINTS])
         self.hand_indices = np.array([self.joint_names.index(j) for j in HAND_JOINTS])
+        self._chain = self._kinematic_chain()
+
+    def copy(self) -> "RobotModel":
+        """The same model with its own Pinocchio data (for use from another thread)."""
+        clone = copy.copy(self)
+        clone.data = self.model.createData()
+        clone.collision_data = pin.GeometryData(self.collision_model)
+        return clone
 
     @property
     def n_joints(self) -> int:
@@ -100,6 +133,55 @@ class RobotModel:
                 if parents[ja] == parents[jb] and self.model.names[parents[ja]] == "arm_7_joint":
                     continue
                 self.collision_model.addCollisionPair(pin.CollisionPair(a, b))
+
+    def _kinematic_chain(self) -> list:
+        """Per Pinocchio joint (in tree order): parent, fixed placement (R, or None for the identity,
+        and p), axis, and the q index, multiplier and offset that give its angle (mimic joints
+        follow their source)."""
+        axes = _parse_axes(self.urdf_path)
+        mimics = {m.name: m for m in self.mimic_joints}
+        chain = []
+        for index in range(1, self.model.njoints):
+            name = self.model.names[index]
+            placement = self.model.jointPlacements[index]
+            if name in mimics:
+                mimic = mimics[name]
+                source, multiplier, offset = self.joint_names.index(mimic.source), mimic.multiplier, mimic.offset
+            else:
+                source, multiplier, offset = self.joint_names.index(name), 1.0, 0.0
+            rotation = placement.rotation.copy()
+            chain.append((index, self.model.parents[index], None if np.allclose(rotation, np.eye(3)) else rotation,
+                          placement.translation.copy(), axes[name], source, multiplier, offset))
+        return chain
+
+    def batch_joint_placements(self, configurations: np.ndarray) -> tuple:
+        """Vectorized forward kinematics (the same as Pinocchio's) of configurations (B, n):
+        ({joint index: rotations (B, 3, 3)}, {joint index: positions (B, 3)}), world frame."""
+        qs = np.asarray(configurations, dtype=float)
+        batch = qs.shape[0]
+        rotations = {0: np.broadcast_to(np.eye(3), (batch, 3, 3))}
+        positions = {0: np.zeros((batch, 3))}
+        for index, parent, fixed_rotation, fixed_translation, axis, source, multiplier, offset in self._chain:
+            angle = multiplier * qs[:, source] + offset
+            parent_rotation = rotations[parent]
+            base_rotation = parent_rotation if fixed_rotation is None else parent_rotation @ fixed_rotation
+            positions[index] = positions[parent] + parent_rotation @ fixed_translation
+            rotations[index] = _rotate_about(base_rotation, axis, angle)
+        return rotations, positions
+
+    def batch_frame_placements(self, configurations: np.ndarray, frames) -> tuple:
+        """World placements of frames for many configurations: configurations (B, n) -> positions
+        (B, F, 3) and rotations (B, F, 3, 3) for the F frame names."""
+        rotations, positions = self.batch_joint_placements(configurations)
+        batch = len(positions[0])
+        frame_positions = np.empty((batch, len(frames), 3))
+        frame_rotations = np.empty((batch, len(frames), 3, 3))
+        for k, name in enumerate(frames):
+            frame = self.model.frames[self.frame_id(name)]
+            joint, placement = frame.parentJoint, frame.placement
+            frame_positions[:, k] = positions[joint] + rotations[joint] @ placement.translation
+            frame_rotations[:, k] = rotations[joint] @ placement.rotation
+        return frame_positions, frame_rotations
 
     def frame_id(self, name: str) -> int:
         if not self.model.existFrame(name):
@@ -156,3 +238,53 @@ class RobotModel:
             step = jac.T @ np.linalg.solve(jac @ jac.T + damping * np.eye(6), error)
             q[joints] = np.clip(q[joints] + step, self.lower[joints], self.upper[joints])
         return q
+
+
+def _rotate_about(rotations: np.ndarray, axis: np.ndarray, angles: np.ndarray) -> np.ndarray:
+    """rotations (B, 3, 3) times the rotations about a unit axis (3,) by angles (B,): for a
+    coordinate axis only two columns mix (cheap); any other axis uses Rodrigues' formula."""
+    cos, sin = np.cos(angles)[:, None], np.sin(angles)[:, None]
+    k = int(np.argmax(np.abs(axis)))
+    if abs(abs(axis[k]) - 1.0) < 1e-12:
+        sin = sin * np.sign(axis[k])
+        a, b = (k + 1) % 3, (k + 2) % 3
+        out = np.empty(np.broadcast_shapes(rotations.shape, (len(angles), 3, 3)))
+        out[:, :, k] = rotations[:, :, k]
+        out[:, :, a] = cos * rotations[:, :, a] + sin * rotations[:, :, b]
+        out[:, :, b] = cos * rotations[:, :, b] - sin * rotations[:, :, a]
+        return out
+    x, y, z = axis
+    skew = np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
+    return rotations @ (np.eye(3) + sin[:, :, None] * skew + (1.0 - cos[:, :, None]) * (skew @ skew))
+
+
+def write_srdf(samples: int = 20000, seed: int = 0, path: pathlib.Path = SRDF_PATH) -> int:
+    """Write the SRDF disabling the self-collision pairs that random configurations never bring
+    within NEVER_MARGIN of each other (as MoveIt's setup assistant does); returns how many."""
+    robot = RobotModel(srdf_path=None)
+    geometry, data = robot.collision_model, robot.collision_data
+    rng = np.random.default_rng(seed)
+    closest = np.full(len(geometry.collisionPairs), np.inf)
+    for _ in range(samples):
+        pin.computeDistances(robot.model, robot.data, geometry, data, rng.uniform(robot.lower, robot.upper))
+        closest = np.minimum(closest, [result.min_distance for result in data.distanceResults])
+    links = {}
+    for pair, distance in zip(geometry.collisionPairs, closest):
+        a = robot.model.frames[geometry.geometryObjects[pair.first].parentFrame].name
+        b = robot.model.frames[geometry.geometryObjects[pair.second].parentFrame].name
+        links[(a, b)] = min(links.get((a, b), np.inf), distance)
+    never = sorted(pair for pair, distance in links.items() if distance > NEVER_MARGIN)
+    digest = hashlib.sha256(robot.urdf_path.read_bytes()).hexdigest()
+    lines = ['<?xml version="1.0"?>',
+             f"<!-- Generated by `python -m tric_sim.robot_model` for {robot.urdf_path.name} "
+             f"sha256={digest}: link pairs never closer than {NEVER_MARGIN} m over {samples} random "
+             "configurations (seed {seed}); their collisions are not checked. -->".replace("{seed}", str(seed)),
+             f'<robot name="{robot.model.name}">']
+    lines += [f'  <disable_collisions link1="{a}" link2="{b}" reason="Never"/>' for a, b in never]
+    lines.append("</robot>")
+    path.write_text("\n".join(lines) + "\n")
+    return len(never)
+
+
+if __name__ == "__main__":
+    print(f"{write_srdf()} link pairs disabled in {SRDF_PATH}")

@@ -1,0 +1,175 @@
+"""Noisy samples around the demonstrations and their weights (paper Eq. 12-15).
+
+For demo i and step t (1 <= t < T) the samples are q~ = q_{t-1} + N(0, sigma^2) per joint, kept
+only inside the joint limits and free of collision with the demo's scene (tric_sim.collision, with
+the objects where they were at t-1). Each sample's weight is d_curve: its distance to the demo's
+path ahead, the polyline q_t, ..., q_{T-1} (Eq. 14-15). Samples do not depend on the value function,
+so they are drawn once per training, reproducibly from a seed. Units: rad.
+"""
+
+import multiprocessing
+from dataclasses import dataclass
+
+import numpy as np
+
+from tric_learning.dataset import Dataset
+from tric_learning.features import FeatureMap
+from tric_sim.collision import SceneCollision
+from tric_sim.robot_model import RobotModel
+
+#: Candidates are drawn in rounds: the first assumes this many per kept sample; later rounds draw
+#: for the still missing samples from the acceptance seen so far, at most MAX_DRAWS * M per step.
+OVERSAMPLING = 1.25
+MAX_ROUNDS = 3
+MAX_DRAWS = 6
+#: Consecutive steps whose objects' surfaces moved by less than this share one collision check with
+#: the first step's poses (held objects give by a millimetre or so), m.
+POSE_TOLERANCE = 0.002
+
+
+@dataclass
+class NoisySamples:
+    """S noisy samples of a dataset.
+
+    step: (S,) index of the demo step each sample is contrasted with, into the dataset's steps
+    flattened demo by demo (demo i, step t -> offsets[i] + t). y: (S, d) raw features.
+    weight: (S,) d_curve, rad. kept_per_step: (steps,) samples kept per step (<= M).
+    """
+
+    step: np.ndarray
+    y: np.ndarray
+    weight: np.ndarray
+    kept_per_step: np.ndarray
+
+
+def d_curve(points: np.ndarray, path: np.ndarray) -> np.ndarray:
+    """Distance (B,) of points (B, n) to the polyline through path (P, n) (Eq. 14)."""
+    if len(path) == 1:
+        return np.linalg.norm(points - path[0], axis=1)
+    starts, ends = path[:-1], path[1:]
+    segments = ends - starts                                                  # (P-1, n)
+    lengths = np.einsum("sn,sn->s", segments, segments)
+    relative = points[:, None, :] - starts[None, :, :]                        # (B, P-1, n)
+    fraction = np.einsum("bsn,sn->bs", relative, segments) / np.maximum(lengths, 1e-18)
+    fraction = np.clip(fraction, 0.0, 1.0)
+    closest = relative - fraction[:, :, None] * segments[None, :, :]
+    return np.sqrt(np.einsum("bsn,bsn->bs", closest, closest).min(axis=1))
+
+
+def step_offsets(dataset: Dataset) -> np.ndarray:
+    """Index of each demo's first step in the flattened steps, and the total, (N + 1,)."""
+    return np.concatenate([[0], np.cumsum([demo.length for demo in dataset.demos])])
+
+
+def generate(dataset: Dataset, robot: RobotModel, count: int, sigma: float, seed: int,
+             progress=None, workers: int = 2) -> NoisySamples:
+    """count (M) collision-free noisy samples per demo step t >= 1 (fewer only where MAX_ROUNDS of
+    resampling could not find them); progress(done, total) is called after each demo. Demos are
+    sampled in `workers` forked processes where the platform allows it, each from its own seed
+    (seed, demo index): the result does not depend on the number of workers."""
+    if count < 1 or not sigma > 0:
+        raise ValueError("the noisy sample count must be >= 1 and sigma > 0")
+    offsets = step_offsets(dataset)
+    results = [None] * len(dataset.demos)
+    job = (dataset, robot, count, sigma, seed)
+    if workers > 1 and len(dataset.demos) > 1 and "fork" in multiprocessing.get_all_start_methods():
+        # processes forked from here inherit the job; each returns its demo's arrays
+        global _JOB
+        _JOB = job
+        try:
+            with multiprocessing.get_context("fork").Pool(workers) as pool:
+                for done, (i, result) in enumerate(pool.imap_unordered(_forked_demo, range(len(dataset.demos)))):
+                    results[i] = result
+                    if progress is not None:
+                        progress(done + 1, len(dataset.demos))
+        finally:
+            _JOB = None
+    else:
+        for i in range(len(dataset.demos)):
+            results[i] = _demo_samples(*job[:2], i, *job[2:])
+            if progress is not None:
+                progress(i + 1, len(dataset.demos))
+    kept = np.zeros(offsets[-1], dtype=int)
+    for i, (steps, _, _) in enumerate(results):
+        np.add.at(kept, offsets[i] + steps, 1)
+    return NoisySamples(step=np.concatenate([offsets[i] + r[0] for i, r in enumerate(results)]),
+                        y=np.concatenate([r[1] for r in results]),
+                        weight=np.concatenate([r[2] for r in results]),
+                        kept_per_step=kept)
+
+
+_JOB = None
+
+
+def _forked_demo(index: int):
+    dataset, robot, count, sigma, seed = _JOB
+    return index, _demo_samples(dataset, robot, index, count, sigma, seed)
+
+
+def _demo_samples(dataset: Dataset, robot: RobotModel, index: int, count: int, sigma: float, seed: int):
+    """(steps (S,), features (S, d), weights (S,)) of one demo's noisy samples."""
+    demo = dataset.demos[index]
+    features = FeatureMap(dataset.definition, robot)
+    collision = SceneCollision(robot, demo.situation)
+    extents = {b.name: collision_extent(b) for b in collision.bodies}
+    rng = np.random.default_rng([seed, index])
+    chosen_q, chosen_step = [], []
+    t = 1
+    while t < demo.length:
+        # steps whose objects are where they were at step t - 1 (within POSE_TOLERANCE) form a batch
+        end = t + 1
+        while end < demo.length and _surface_shift(demo.object_poses[end - 1], demo.object_poses[t - 1],
+                                                  extents) < POSE_TOLERANCE:
+            end += 1
+        block = np.arange(t, end)
+        need = np.full(len(block), count)
+        acceptance = np.full(len(block), 1.0 / OVERSAMPLING)
+        for _ in range(MAX_ROUNDS):
+            draws = np.minimum(np.ceil(need / np.maximum(acceptance, 0.1)).astype(int), MAX_DRAWS * count)
+            draws[need == 0] = 0
+            if not draws.any():
+                break
+            owner = np.repeat(block, draws)
+            candidates = demo.q[owner - 1] + rng.normal(0.0, sigma, (len(owner), robot.n_joints))
+            valid = np.all((candidates >= robot.lower) & (candidates <= robot.upper), axis=1)
+            valid[valid] = collision.collision_free(candidates[valid], demo.object_poses[t - 1])
+            for k, step in enumerate(block):
+                mine = np.flatnonzero(valid & (owner == step))[:need[k]]
+                if draws[k]:
+                    acceptance[k] = max(np.sum(valid & (owner == step)) / draws[k], 1e-3)
+                need[k] -= len(mine)
+                chosen_q.append(candidates[mine])
+                chosen_step.append(np.full(len(mine), step))
+        t = end
+    qs, steps = np.concatenate(chosen_q), np.concatenate(chosen_step)
+    order = np.argsort(steps, kind="stable")
+    qs, steps = qs[order], steps[order]
+    ys = features.batch(qs, [demo.object_poses[s - 1] for s in steps])
+    weights = np.empty(len(steps))
+    for step in np.unique(steps):
+        mine = steps == step
+        weights[mine] = d_curve(qs[mine], demo.q[step:])
+    return steps, ys, weights
+
+
+def collision_extent(body) -> float:
+    """How far a body's surface moves per radian it turns about its frame's origin, at most, m
+    (0 for a sphere about its centre)."""
+    if body.shape == "sphere":
+        return 0.0
+    if body.role == "lid":  # turning about the hinge
+        return float(np.linalg.norm(body.dimensions))
+    return float(np.linalg.norm(body.dimensions)) / 2
+
+
+def _surface_shift(a: dict, b: dict, extents: dict) -> float:
+    """Largest displacement of any object's surface between two object-pose dicts, m (inf if the
+    objects differ)."""
+    if a.keys() != b.keys():
+        return float("inf")
+    shift = 0.0
+    for name in a:
+        (pa, qa), (pb, qb) = a[name], b[name]
+        angle = 2 * np.arccos(min(1.0, abs(float(np.dot(qa, qb)))))
+        shift = max(shift, float(np.linalg.norm(np.subtract(pa, pb))) + angle * extents.get(name, 0.0))
+    return shift

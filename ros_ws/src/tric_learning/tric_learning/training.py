@@ -1,0 +1,205 @@
+"""Training TRIC's value function (paper Sec. 3.2, Eq. 11-17) with L-BFGS.
+
+    L(D; w) = sum_i sum_t (alpha_n L_n(y_t^i) + alpha_g L_g(q_t^i)) + alpha_w |w|_1        (11)
+    L_n(y_t) = sum_m eps_{t,m} log(1 + exp(f(y_t) - f(y~_{t,m})))                         (16)
+    L_g(q_t) = cos(grad_q (f o phi)(q_t), q_{t+1} - q_t)                                    (17)
+
+with grad_q (f o phi) = (df/dy)(dphi/dq) from the recorded Jacobians (Eq. 10). Steps where the
+demonstration does not move (|q_{t+1} - q_t| < MIN_STEP) have no direction and are left out of L_g.
+The noisy samples are drawn once (tric_learning.samples); the optimizer is PyTorch's L-BFGS with a
+strong-Wolfe line search on the full batch (the paper: 100 iterations of BFGS), in float32,
+deterministic for a given seed on a given machine.
+"""
+
+import time
+from dataclasses import asdict, dataclass
+
+import numpy as np
+import torch
+
+from tric_learning import samples
+from tric_learning.dataset import Dataset
+from tric_learning.value_function import Scaling, ValueFunction
+from tric_sim.robot_model import RobotModel
+
+#: A demonstration step (between two samples) shorter than this has no direction for L_g: the hand
+#: only settles, rad.
+MIN_STEP = 0.01
+#: Features whose score is above this fraction of the largest count as selected (Sec. 5.5.1).
+SELECTED_FRACTION = 0.01
+#: The controller's delta makes about this many control ticks from a demo's start value to its end
+#: value (Sec. 5.2.3).
+TICKS_PER_DEMO = 500
+
+
+@dataclass
+class TrainingConfig:
+    """Hyper-parameters (the paper's defaults)."""
+
+    hidden_units: int = 30
+    noisy_samples: int = 60
+    sigma: float = 0.05
+    alpha_n: float = 1.0
+    alpha_g: float = 1.0
+    alpha_w: float = 0.001
+    max_iterations: int = 100
+    correlation_threshold: float = 0.995
+    seed: int = 0
+
+    def validate(self) -> "TrainingConfig":
+        """Return self, or ValueError naming the first value out of range."""
+        checks = [
+            (0 <= self.hidden_units <= 1000, "hidden_units must be in [0, 1000]"),
+            (1 <= self.noisy_samples <= 10000, "noisy_samples must be in [1, 10000]"),
+            (0 < self.sigma <= 1.0, "sigma must be in (0, 1] rad"),
+            (all(a >= 0 and np.isfinite(a) for a in (self.alpha_n, self.alpha_g, self.alpha_w)),
+             "alpha_n, alpha_g and alpha_w must be finite and >= 0"),
+            (self.alpha_n + self.alpha_g > 0, "alpha_n and alpha_g cannot both be 0"),
+            (1 <= self.max_iterations <= 100000, "max_iterations must be in [1, 100000]"),
+            (0 < self.correlation_threshold <= 1, "correlation_threshold must be in (0, 1]"),
+            (0 <= self.seed < 2**32, "seed must be in [0, 2^32)"),
+        ]
+        for ok, message in checks:
+            if not ok:
+                raise ValueError(message)
+        return self
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+
+@dataclass
+class TrainingResult:
+    """A trained model with its record: loss terms (unweighted sums), times (s), delta, counts."""
+
+    model: ValueFunction
+    config: TrainingConfig
+    losses: dict
+    iterations: int
+    sampling_time_s: float
+    optimization_time_s: float
+    delta: float
+    selected_features: int
+    mean_samples_per_step: float
+
+    @property
+    def train_time_s(self) -> float:
+        return self.sampling_time_s + self.optimization_time_s
+
+
+def train(dataset: Dataset, robot: RobotModel, config: TrainingConfig = TrainingConfig(),
+          progress=None) -> TrainingResult:
+    """Train f on dataset. progress(stage, fraction, losses) is called during sampling and after
+    each optimizer evaluation (losses: dict of the current terms, or None)."""
+    config.validate()
+    dataset.check()
+    report = progress or (lambda *_: None)
+    start = time.perf_counter()
+    noisy = samples.generate(dataset, robot, config.noisy_samples, config.sigma, config.seed,
+                             lambda done, total: report("sampling", done / total, None))
+    sampling_time = time.perf_counter() - start
+    start = time.perf_counter()
+    all_y = np.concatenate([demo.y for demo in dataset.demos])
+    scaling = Scaling.fit(all_y, config.correlation_threshold)
+    problem = _Problem(dataset, noisy, scaling, config)
+    weights, losses, iterations = problem.solve(report)
+    model = ValueFunction(scaling, *weights)
+    optimization_time = time.perf_counter() - start
+    starts = np.array([model.value(demo.y[0]) for demo in dataset.demos])
+    ends = np.array([model.value(demo.y[-1]) for demo in dataset.demos])
+    scores = model.scores()
+    return TrainingResult(
+        model=model, config=config, losses=losses, iterations=iterations,
+        sampling_time_s=sampling_time, optimization_time_s=optimization_time,
+        delta=float(np.mean(starts - ends) / TICKS_PER_DEMO),
+        selected_features=int(np.sum(scores > SELECTED_FRACTION * scores.max())) if scores.max() > 0 else 0,
+        mean_samples_per_step=float(noisy.kept_per_step[_later_steps(dataset)].mean()))
+
+
+def _later_steps(dataset: Dataset) -> np.ndarray:
+    """Flattened indices of every step t >= 1 (the ones with noisy samples)."""
+    offsets = samples.step_offsets(dataset)
+    return np.concatenate([np.arange(offsets[i] + 1, offsets[i + 1]) for i in range(len(dataset.demos))])
+
+
+class _Problem:
+    """The loss of Eq. 11 as a torch function of the flattened weights."""
+
+    def __init__(self, dataset: Dataset, noisy: samples.NoisySamples, scaling: Scaling, config: TrainingConfig):
+        self.config = config
+        dtype = torch.float32
+        self.s, self.k = len(scaling.kept), config.hidden_units
+        self.u = torch.tensor(scaling.transform(np.concatenate([d.y for d in dataset.demos])), dtype=dtype)
+        self.u_noisy = torch.tensor(scaling.transform(noisy.y), dtype=dtype)
+        self.noisy_step = torch.tensor(noisy.step, dtype=torch.long)
+        self.noisy_weight = torch.tensor(noisy.weight, dtype=dtype)
+        # L_g: the steps with a direction, their (scaled) Jacobians du/dq and directions
+        offsets = samples.step_offsets(dataset)
+        rows, jacobians, directions = [], [], []
+        for i, demo in enumerate(dataset.demos):
+            delta = np.diff(demo.q, axis=0)
+            moving = np.flatnonzero(np.linalg.norm(delta, axis=1) >= MIN_STEP)
+            rows.append(offsets[i] + moving)
+            jacobians.append(demo.jacobians[moving][:, scaling.kept, :] * scaling.factor[None, :, None])
+            directions.append(delta[moving])
+        self.g_rows = torch.tensor(np.concatenate(rows), dtype=torch.long)
+        self.g_jacobian = torch.tensor(np.concatenate(jacobians), dtype=dtype)      # (G, s, n)
+        self.g_direction = torch.tensor(np.concatenate(directions), dtype=dtype)    # (G, n)
+        rng = np.random.default_rng(config.seed)
+        initial = np.concatenate([rng.normal(0.0, 1.0 / np.sqrt(max(self.s, 1)), self.k * self.s),
+                                  rng.normal(0.0, 0.1, self.k), rng.normal(0.0, 0.01, self.s)])
+        self.theta = torch.tensor(initial, dtype=dtype, requires_grad=True)
+
+    def _split(self, theta):
+        k, s = self.k, self.s
+        return theta[:k * s].reshape(k, s), theta[k * s:k * s + k], theta[k * s + k:]
+
+    def terms(self, theta):
+        w1, w2, w3 = self._split(theta)
+
+        def value(u):
+            out = u @ w3
+            return out + torch.sigmoid(u @ w1.T) @ w2 if self.k else out
+
+        f_demo = value(self.u)
+        f_noisy = value(self.u_noisy)
+        loss_n = torch.sum(self.noisy_weight
+                           * torch.nn.functional.softplus(f_demo[self.noisy_step] - f_noisy))
+        u = self.u[self.g_rows]
+        du = w3.expand(len(u), -1)
+        if self.k:
+            z = torch.sigmoid(u @ w1.T)
+            du = du + (z * (1 - z) * w2) @ w1
+        gradient_q = torch.einsum("gsn,gs->gn", self.g_jacobian, du)
+        loss_g = torch.sum(torch.nn.functional.cosine_similarity(gradient_q, self.g_direction, dim=1, eps=1e-12))
+        loss_w = theta.abs().sum()
+        return loss_n, loss_g, loss_w
+
+    def solve(self, report):
+        config = self.config
+        optimizer = torch.optim.LBFGS([self.theta], lr=1.0, max_iter=config.max_iterations,
+                                      max_eval=config.max_iterations * 2, history_size=20,
+                                      tolerance_grad=1e-10, tolerance_change=1e-12,
+                                      line_search_fn="strong_wolfe")
+        latest = {}
+
+        def closure():
+            optimizer.zero_grad()
+            loss_n, loss_g, loss_w = self.terms(self.theta)
+            total = config.alpha_n * loss_n + config.alpha_g * loss_g + config.alpha_w * loss_w
+            total.backward()
+            latest.update(total=float(total.detach()), n=float(loss_n.detach()), g=float(loss_g.detach()),
+                          w=float(loss_w.detach()))
+            iteration = optimizer.state[optimizer._params[0]].get("n_iter", 0)
+            report("optimizing", min(iteration / config.max_iterations, 1.0), dict(latest, iteration=iteration))
+            return total
+
+        torch.manual_seed(config.seed)
+        optimizer.step(closure)
+        iterations = optimizer.state[optimizer._params[0]].get("n_iter", 0)
+        with torch.no_grad():
+            loss_n, loss_g, loss_w = self.terms(self.theta)
+        losses = {"n": float(loss_n), "g": float(loss_g), "w": float(loss_w)}
+        losses["total"] = config.alpha_n * losses["n"] + config.alpha_g * losses["g"] + config.alpha_w * losses["w"]
+        w1, w2, w3 = (t.detach().to(torch.float64).numpy().copy() for t in self._split(self.theta))
+        return (w1, w2, w3), losses, int(iterations)

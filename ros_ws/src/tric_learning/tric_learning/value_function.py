@@ -1,0 +1,98 @@
+"""The value function f(y; w) of TRIC (paper Eq. 19-20) with its preprocessing, for inference.
+
+Preprocessing (Sec. 5.2.1): each feature is rescaled to [0, 1] over the training demonstrations
+(u = (y - low) / (high - low)); constant features and features whose absolute correlation with an
+earlier kept feature exceeds a threshold are dropped. The model on the s kept, scaled features u is
+
+    f = z^T W2 + u^T W3,    z = sigmoid(W1 u)
+
+with K sigmoid units (K = 0: the linear model), W1 (K, s), W2 (K,), W3 (s,). (The paper writes
+z = 1 / (1 + e^{W1 y}), i.e. sigmoid(-W1 y); the sign is absorbed into W1. Its "W3 in R^K" is a
+typo for R^s.) Gradients are analytic: df/du = W1^T (W2 * z * (1 - z)) + W3, and df/dy on the raw
+features is that divided by (high - low), zero on dropped features.
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass
+class Scaling:
+    """Which raw features are kept (kept: (s,) indices into d) and their range (low, high: (s,))."""
+
+    kept: np.ndarray
+    low: np.ndarray
+    high: np.ndarray
+    size: int  # d, the number of raw features
+
+    @classmethod
+    def fit(cls, y: np.ndarray, correlation_threshold: float) -> "Scaling":
+        """Fit on raw feature samples y (S, d)."""
+        if not 0 < correlation_threshold <= 1:
+            raise ValueError("correlation_threshold must be in (0, 1]")
+        y = np.asarray(y, dtype=float)
+        low, high = y.min(axis=0), y.max(axis=0)
+        varying = np.flatnonzero(high - low > 1e-9)
+        scaled = (y[:, varying] - low[varying]) / (high[varying] - low[varying])
+        correlation = np.abs(np.corrcoef(scaled, rowvar=False))
+        kept = []
+        for k in range(len(varying)):
+            if all(correlation[k, j] <= correlation_threshold for j in kept):
+                kept.append(k)
+        chosen = varying[kept]
+        return cls(chosen, low[chosen], high[chosen], y.shape[1])
+
+    def transform(self, y: np.ndarray) -> np.ndarray:
+        """Scaled kept features (..., s) of raw features (..., d)."""
+        return (np.asarray(y)[..., self.kept] - self.low) / (self.high - self.low)
+
+    @property
+    def factor(self) -> np.ndarray:
+        """du/dy of the kept features, (s,)."""
+        return 1.0 / (self.high - self.low)
+
+
+@dataclass
+class ValueFunction:
+    """f(y; w) of Eq. 19-20 on raw features through its Scaling (see the module docstring)."""
+
+    scaling: Scaling
+    w1: np.ndarray
+    w2: np.ndarray
+    w3: np.ndarray
+
+    @property
+    def hidden_units(self) -> int:
+        return len(self.w2)
+
+    def value(self, y: np.ndarray) -> np.ndarray:
+        """f of raw features y (..., d) -> (...)."""
+        u = self.scaling.transform(y)
+        value = u @ self.w3
+        if self.hidden_units:
+            value = value + _sigmoid(u @ self.w1.T) @ self.w2
+        return value
+
+    def gradient(self, y: np.ndarray):
+        """(f, df/dy) at raw features y (d,): a scalar and (d,), zero on dropped features."""
+        u = self.scaling.transform(y)
+        value, du = float(u @ self.w3), self.w3.copy()
+        if self.hidden_units:
+            z = _sigmoid(self.w1 @ u)
+            value += float(z @ self.w2)
+            du += self.w1.T @ (self.w2 * z * (1.0 - z))
+        full = np.zeros(self.scaling.size)
+        full[self.scaling.kept] = du * self.scaling.factor
+        return value, full
+
+    def scores(self) -> np.ndarray:
+        """Each kept feature's contribution s(y) = |W1^T| |W2| + |W3| (Sec. 5.5.1), (s,)."""
+        score = np.abs(self.w3).copy()
+        if self.hidden_units:
+            score += np.abs(self.w1).T @ np.abs(self.w2)
+        return score
+
+
+def _sigmoid(x):
+    return 0.5 * (1.0 + np.tanh(0.5 * x))
