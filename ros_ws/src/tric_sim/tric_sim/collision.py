@@ -9,6 +9,7 @@ combinations whose bounding spheres come close. Units: m.
 """
 
 import math
+from dataclasses import dataclass
 
 import coal
 import numpy as np
@@ -182,6 +183,91 @@ class SceneCollision:
             distance, _ = metrics.object_surface("cylinder", (2 * shape.halfLength, shape.radius), cylinder, relative)
             return distance - body.dimensions[0]
         return None
+
+
+@dataclass
+class ClosePair:
+    """A robot geometry near something it must not penetrate: signed distance (m), and the row
+    (n,) that maps a joint step dq to the change of that distance (n^T J at the witness points)."""
+
+    name: str
+    distance: float
+    row: np.ndarray
+
+
+class Proximity:
+    """Distances for a controller, one configuration at a time: the robot geometries near the
+    scene bodies they must avoid, and arm geometries near other robot geometries.
+
+    The table, obstacles and box body are avoided by every robot geometry; the grasp target and the
+    lid only by the arm's geometries, the hand (palm and fingers) may touch them. Pairs inside the
+    hand are left to its joint limits (fingers touching each other do no harm).
+    """
+
+    def __init__(self, robot: RobotModel, situation: Situation):
+        self.robot = robot
+        self.scene = SceneCollision(robot, situation)
+        model = robot.model
+        objects = robot.collision_model.geometryObjects
+        self.hand = np.array([model.frames[g.parentFrame].name.startswith(("finger_", "palm")) for g in objects])
+        self.names = [g.name for g in objects]
+        self.bound = np.array([max(np.linalg.norm(c) + r for c, r in _bounding_spheres(shape))
+                               for _, _, shape in self.scene.robot_geometries])
+        self.self_pairs = np.array([(a, b) for a, b in self.scene.self_pairs if not (self.hand[a] and self.hand[b])])
+        self._request = coal.DistanceRequest()
+        self._result = coal.DistanceResult()
+        self._functors = {}
+
+    def near(self, q: np.ndarray, object_poses: dict, influence: float) -> list:
+        """ClosePairs within influence (m), closest first."""
+        robot, model, data = self.robot, self.robot.model, self.robot.data
+        geometry_data = robot.collision_data
+        pin.computeJointJacobians(model, data, q)
+        pin.updateGeometryPlacements(model, data, robot.collision_model, geometry_data)
+        placements = geometry_data.oMg
+        centres = np.array([placement.translation for placement in placements])
+        pairs = []
+        for body, shape, placement in zip(self.scene.bodies, self.scene.body_shapes,
+                                          self.scene.body_placements(object_poses)):
+            candidates = self.scene._moving & ~self.hand if body.role in ("target", "lid") else self.scene._moving
+            clearance = _body_distance(body, placement, centres) - self.bound
+            for k in np.flatnonzero(candidates & (clearance < influence)).tolist():
+                joint, _, robot_shape = self.scene.robot_geometries[k]
+                distance, point, away = self._distance(robot_shape, placements[k], shape, placement)
+                if distance < influence:
+                    pairs.append(ClosePair(f"{self.names[k]}/{body.name}", distance,
+                                           away @ self._point_jacobian(joint, point)))
+        if len(self.self_pairs):
+            a, b = self.self_pairs[:, 0], self.self_pairs[:, 1]
+            gaps = np.linalg.norm(centres[a] - centres[b], axis=1) - self.bound[a] - self.bound[b]
+            for a, b in self.self_pairs[gaps < influence].tolist():
+                (joint_a, _, shape_a), (joint_b, _, shape_b) = self.scene.robot_geometries[a], self.scene.robot_geometries[b]
+                distance, point_a, away = self._distance(shape_a, placements[a], shape_b, placements[b])
+                if distance < influence:
+                    point_b = point_a - away * distance
+                    row = away @ (self._point_jacobian(joint_a, point_a) - self._point_jacobian(joint_b, point_b))
+                    pairs.append(ClosePair(f"{self.names[a]}/{self.names[b]}", distance, row))
+        return sorted(pairs, key=lambda p: p.distance)
+
+    def _distance(self, shape_a, placement_a, shape_b, placement_b):
+        """(signed distance, witness point on a (3,), unit direction in which a moves away from b).
+        The shapes must be long-lived objects (the functor cache is keyed by their identity)."""
+        key = (id(shape_a), id(shape_b))
+        functor = self._functors.get(key)
+        if functor is None:
+            functor = self._functors[key] = coal.ComputeDistance(shape_a, shape_b)
+        self._result.clear()
+        distance = functor(coal.Transform3s(placement_a.rotation, placement_a.translation),
+                           coal.Transform3s(placement_b.rotation, placement_b.translation),
+                           self._request, self._result)
+        away = -np.array(self._result.normal)  # coal's normal points from a towards b
+        return float(distance), np.array(self._result.getNearestPoint1()), away
+
+    def _point_jacobian(self, joint: int, point: np.ndarray) -> np.ndarray:
+        """Linear Jacobian (3, n) of a point fixed to a joint's body, world frame."""
+        jac = pin.getJointJacobian(self.robot.model, self.robot.data, joint, pin.LOCAL_WORLD_ALIGNED)
+        offset = point - self.robot.data.oMi[joint].translation
+        return jac[:3] - pin.skew(offset) @ jac[3:]
 
 
 def _body_distance(body: scene.Body, placement: pin.SE3, points: np.ndarray) -> np.ndarray:

@@ -1,0 +1,99 @@
+"""Model files: weights as safetensors (no code runs on loading), the rest as JSON metadata.
+
+A model file holds the arrays of a learned model and a "tric" metadata entry: the model kind, the
+feature definition it was trained with, the kept features and their scaling, the hyper-parameters,
+the dataset's fingerprint, the final loss terms, training times, the controller's delta, and each
+kept feature's score s(y) (Sec. 5.5.1). Loading checks the file against the feature definition it is
+used with and refuses anything else with a message that says why.
+"""
+
+import json
+import pathlib
+from dataclasses import dataclass, field
+
+import numpy as np
+from safetensors import SafetensorError, safe_open
+from safetensors.numpy import load_file, save_file
+
+from tric_learning.features import FeatureDefinition
+from tric_learning.value_function import Scaling, ValueFunction
+
+FORMAT = "tric-model"
+VERSION = 1
+KINDS = ("tric", "dpl_joint", "dpl_finger")
+
+
+@dataclass
+class ModelFile:
+    """A model with what it was trained with. arrays: name -> array; info: JSON-compatible dict."""
+
+    kind: str
+    definition: FeatureDefinition
+    arrays: dict
+    info: dict = field(default_factory=dict)
+
+    def save(self, path) -> pathlib.Path:
+        """Write atomically (a temporary file renamed into place)."""
+        path = pathlib.Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        meta = {"format": FORMAT, "version": VERSION, "kind": self.kind,
+                "definition": self.definition.to_dict(), "fingerprint": self.definition.fingerprint,
+                "info": self.info}
+        temporary = path.with_name(path.name + ".tmp")
+        save_file({k: np.ascontiguousarray(v) for k, v in self.arrays.items()}, str(temporary),
+                  metadata={"tric": json.dumps(meta)})
+        temporary.replace(path)
+        return path
+
+    @classmethod
+    def load(cls, path, expected: FeatureDefinition = None) -> "ModelFile":
+        """Read a model file; ValueError if unreadable, not a TRIC model, or (when expected is
+        given) trained on another feature definition."""
+        path = pathlib.Path(path)
+        if not path.is_file():
+            raise ValueError(f"model file {path} does not exist")
+        try:
+            arrays = load_file(str(path))
+            with safe_open(str(path), framework="numpy") as handle:
+                meta = json.loads((handle.metadata() or {}).get("tric", "null"))
+        except (SafetensorError, OSError, json.JSONDecodeError, ValueError) as error:
+            raise ValueError(f"{path} is not a readable model file: {error}") from None
+        if not isinstance(meta, dict) or meta.get("format") != FORMAT:
+            raise ValueError(f"{path} is a safetensors file but not a TRIC model (no 'tric' metadata)")
+        if meta.get("version") != VERSION:
+            raise ValueError(f"{path} has model format version {meta.get('version')}; this reads {VERSION}")
+        if meta.get("kind") not in KINDS:
+            raise ValueError(f"{path} holds an unknown model kind '{meta.get('kind')}'")
+        definition = FeatureDefinition.from_dict(meta["definition"])
+        if definition.fingerprint != meta.get("fingerprint"):
+            raise ValueError(f"{path}: its feature definition does not match its recorded fingerprint")
+        if expected is not None:
+            expected.check_same(definition, f"model {path}")
+        return cls(meta["kind"], definition, arrays, meta.get("info", {}))
+
+
+def value_function_arrays(model: ValueFunction) -> dict:
+    """The arrays of a TRIC value function for a ModelFile."""
+    return {"w1": model.w1, "w2": model.w2, "w3": model.w3, "kept": model.scaling.kept.astype(np.int64),
+            "low": model.scaling.low, "high": model.scaling.high}
+
+
+def value_function(model_file: ModelFile) -> ValueFunction:
+    """The TRIC value function of a ModelFile, or ValueError if its arrays are inconsistent."""
+    if model_file.kind != "tric":
+        raise ValueError(f"the model is a '{model_file.kind}' model, not a TRIC value function")
+    a = model_file.arrays
+    try:
+        kept, size = a["kept"].astype(int), model_file.definition.size
+        s = len(kept)
+        consistent = (a["w1"].ndim == 2 and a["w1"].shape[1] == s and a["w2"].shape == (a["w1"].shape[0],)
+                      and a["w3"].shape == (s,) and a["low"].shape == (s,) and a["high"].shape == (s,)
+                      and np.all((kept >= 0) & (kept < size)) and np.all(a["high"] > a["low"]))
+    except KeyError as missing:
+        raise ValueError(f"the model file lacks the array {missing}") from None
+    if not consistent:
+        raise ValueError("the model file's arrays have inconsistent shapes")
+    for name in ("w1", "w2", "w3", "low", "high"):
+        if not np.all(np.isfinite(a[name])):
+            raise ValueError(f"the model file's {name} has non-finite values")
+    return ValueFunction(Scaling(kept, a["low"], a["high"], size), a["w1"], a["w2"], a["w3"])
