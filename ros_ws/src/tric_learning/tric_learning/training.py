@@ -24,12 +24,16 @@ from tric_sim.robot_model import RobotModel
 
 #: A demonstration step (between two samples) shorter than this has no direction for L_g: the hand
 #: only settles, rad.
-MIN_STEP = 0.01
+MIN_STEP = 0.03
 #: Features whose score is above this fraction of the largest count as selected (Sec. 5.5.1).
 SELECTED_FRACTION = 0.01
 #: The controller's delta makes about this many control ticks from a demo's start value to its end
 #: value (Sec. 5.2.3).
 TICKS_PER_DEMO = 500
+#: The controller's rho makes rho |grad_q (f o phi)|^2 this large at the demonstrations' median
+#: gradient: the value term dominates the step-size term there (Proposition 1), and steps shrink
+#: smoothly where the gradient vanishes.
+RHO_GAIN = 100.0
 
 
 @dataclass
@@ -79,6 +83,7 @@ class TrainingResult:
     sampling_time_s: float
     optimization_time_s: float
     delta: float
+    rho: float
     selected_features: int
     mean_samples_per_step: float
 
@@ -99,7 +104,8 @@ def train(dataset: Dataset, robot: RobotModel, config: TrainingConfig = Training
                              lambda done, total: report("sampling", done / total, None))
     sampling_time = time.perf_counter() - start
     start = time.perf_counter()
-    all_y = np.concatenate([demo.y for demo in dataset.demos])
+    # the scaling spans everything the model is trained on: the demonstrations and the noisy samples
+    all_y = np.concatenate([demo.y for demo in dataset.demos] + [noisy.y])
     scaling = Scaling.fit(all_y, config.correlation_threshold)
     problem = _Problem(dataset, noisy, scaling, config)
     weights, losses, iterations = problem.solve(report)
@@ -107,11 +113,14 @@ def train(dataset: Dataset, robot: RobotModel, config: TrainingConfig = Training
     optimization_time = time.perf_counter() - start
     starts = np.array([model.value(demo.y[0]) for demo in dataset.demos])
     ends = np.array([model.value(demo.y[-1]) for demo in dataset.demos])
+    norms = [np.linalg.norm(model.gradient(y)[1] @ jacobian)
+             for demo in dataset.demos for y, jacobian in zip(demo.y, demo.jacobians)]
     scores = model.scores()
     return TrainingResult(
         model=model, config=config, losses=losses, iterations=iterations,
         sampling_time_s=sampling_time, optimization_time_s=optimization_time,
         delta=float(np.mean(starts - ends) / TICKS_PER_DEMO),
+        rho=float(RHO_GAIN / max(np.median(norms), 1e-9) ** 2),
         selected_features=int(np.sum(scores > SELECTED_FRACTION * scores.max())) if scores.max() > 0 else 0,
         mean_samples_per_step=float(noisy.kept_per_step[_later_steps(dataset)].mean()))
 

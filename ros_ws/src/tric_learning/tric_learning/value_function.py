@@ -1,7 +1,8 @@
 """The value function f(y; w) of TRIC (paper Eq. 19-20) with its preprocessing, for inference.
 
 Preprocessing (Sec. 5.2.1): each feature is rescaled to [0, 1] over the training demonstrations
-(u = (y - low) / (high - low)); constant features and features whose absolute correlation with an
+(u = (y - low) / (high - low)); features that barely vary (range below MIN_RANGE: the demonstrations
+never moved them, so rescaling would blow up noise) and features whose absolute correlation with an
 earlier kept feature exceeds a threshold are dropped. The model on the s kept, scaled features u is
 
     f = z^T W2 + u^T W3,    z = sigmoid(W1 u)
@@ -15,6 +16,9 @@ features is that divided by (high - low), zero on dropped features.
 from dataclasses import dataclass
 
 import numpy as np
+
+#: Features varying by less than this over the training data are dropped, m.
+MIN_RANGE = 1e-3
 
 
 @dataclass
@@ -33,7 +37,7 @@ class Scaling:
             raise ValueError("correlation_threshold must be in (0, 1]")
         y = np.asarray(y, dtype=float)
         low, high = y.min(axis=0), y.max(axis=0)
-        varying = np.flatnonzero(high - low > 1e-9)
+        varying = np.flatnonzero(high - low > MIN_RANGE)
         scaled = (y[:, varying] - low[varying]) / (high[varying] - low[varying])
         correlation = np.abs(np.corrcoef(scaled, rowvar=False))
         kept = []

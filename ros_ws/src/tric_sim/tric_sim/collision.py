@@ -187,12 +187,14 @@ class SceneCollision:
 
 @dataclass
 class ClosePair:
-    """A robot geometry near something it must not penetrate: signed distance (m), and the row
-    (n,) that maps a joint step dq to the change of that distance (n^T J at the witness points)."""
+    """A robot geometry near something it must not penetrate (a scene body, or with_scene False:
+    another robot geometry): signed distance (m), and the row (n,) that maps a joint step dq to the
+    change of that distance (n^T J at the witness points)."""
 
     name: str
     distance: float
     row: np.ndarray
+    with_scene: bool = True
 
 
 class Proximity:
@@ -246,7 +248,7 @@ class Proximity:
                 if distance < influence:
                     point_b = point_a - away * distance
                     row = away @ (self._point_jacobian(joint_a, point_a) - self._point_jacobian(joint_b, point_b))
-                    pairs.append(ClosePair(f"{self.names[a]}/{self.names[b]}", distance, row))
+                    pairs.append(ClosePair(f"{self.names[a]}/{self.names[b]}", distance, row, with_scene=False))
         return sorted(pairs, key=lambda p: p.distance)
 
     def _distance(self, shape_a, placement_a, shape_b, placement_b):

@@ -36,9 +36,9 @@ HAND_JOINTS = ("finger_1_proximal_joint", "finger_1_distal_joint", "finger_2_knu
 
 #: Home configuration (rad), in the order of RobotModel.joint_names: the hand raised in front of the
 #: robot, above the objects' workspace (palm at about (0.30, 0, 0.75) m, facing forward and 45
-#: degrees down), fingers slightly open, the knuckle at the three-finger spread (pi/3).
+#: degrees down), the hand open with its fingers spread at 120 degrees (knuckle pi/3).
 HOME = np.array([0.0, -0.23, 0.0, 1.04, 0.0, 1.54, 0.0,
-                 -0.2, 0.2, np.pi / 3, -0.2, 0.2, -0.2, 0.2])
+                 -0.45, 0.35, np.pi / 3, -0.45, 0.35, -0.45, 0.35])
 
 
 @dataclass(frozen=True)

@@ -39,11 +39,11 @@ PREGRASP_DISTANCE = {"sphere": 0.10, "cylinder": 0.14}
 #: Hand pre-shapes: (knuckle, proximal, distal) in rad. Spheres: the three fingers spread at 120
 #: degrees; cylinders: fingers 2 and 3 side by side, facing the thumb.
 PRESHAPE = {"sphere": (math.pi / 3, -0.45, 0.35), "cylinder": (0.0, -0.6, 0.3)}
-#: Servo gains (1/s) and speed caps (m/s, rad/s) of the palm pose servo.
-POSITION_GAIN, ORIENTATION_GAIN = 4.0, 4.0
-MAX_LINEAR_SPEED, MAX_ANGULAR_SPEED = 0.5, 2.0
-#: Weight of the posture task that keeps the redundant arm near its home configuration.
-POSTURE_WEIGHT = 1e-3
+#: The palm pose servo descends the pose error E = |dx|^2 + ORIENTATION_LENGTH^2 |drot|^2 (m^2) along
+#: its joint-space gradient, with steps that make E fall at SERVO_RATE (1/s): exponentially, as long
+#: as the joints' velocity limits allow.
+SERVO_RATE = 6.0
+ORIENTATION_LENGTH = 0.3
 #: Phase tolerances: palm position (m) and orientation (rad) error to leave reach / approach.
 REACH_TOLERANCE = (0.015, 0.08)
 APPROACH_TOLERANCE = (0.004, 0.04)
@@ -123,8 +123,10 @@ def frame_from(normal: np.ndarray, x_hint: np.ndarray) -> np.ndarray:
 
 
 class PoseServo:
-    """Differential IK of the arm towards a palm pose: each call returns joint increments (7,) that
-    reduce the pose error at bounded speed, within joint limits and above the table."""
+    """The arm's motion towards a palm pose: each call returns joint increments (7,) along the
+    steepest descent of the pose error in joint space, at bounded speed, within joint limits, above
+    the table and (while reaching) clear of the object. Moving down a gradient in joint space is what
+    TRIC assumes of a teacher (paper Sec. 3.2.3 and Proposition 1)."""
 
     def __init__(self, robot: RobotModel, period: float):
         self.robot, self.period = robot, period
@@ -147,15 +149,18 @@ class PoseServo:
         current = robot.data.oMf[self.palm]
         position_error = target.translation - current.translation
         rotation_error = pin.log3(target.rotation @ current.rotation.T)  # world frame
-        v = POSITION_GAIN * position_error
-        w = ORIENTATION_GAIN * rotation_error
-        v *= min(1.0, MAX_LINEAR_SPEED / max(np.linalg.norm(v), 1e-12))
-        w *= min(1.0, MAX_ANGULAR_SPEED / max(np.linalg.norm(w), 1e-12))
         jac = pin.getFrameJacobian(robot.model, robot.data, self.palm, pin.LOCAL_WORLD_ALIGNED)[:, arm]
-        desired = np.concatenate([v, w]) * self.period
-        posture = (robot.home[arm] - q[arm]) * self.period
-        hessian = jac.T @ jac + POSTURE_WEIGHT * np.eye(len(arm))
-        gradient = -jac.T @ desired - POSTURE_WEIGHT * posture
+        # steepest descent of the weighted pose error in joint space (transpose-Jacobian control),
+        # its speed capped by the joints' velocity limits
+        error = np.concatenate([position_error, ORIENTATION_LENGTH ** 2 * rotation_error])
+        cost = position_error @ position_error + ORIENTATION_LENGTH ** 2 * rotation_error @ rotation_error
+        descent = jac.T @ error  # -1/2 of the gradient of the cost
+        # step length: the cost falls by SERVO_RATE * period of itself (to first order)
+        desired = descent * (SERVO_RATE * self.period * cost / max(2.0 * descent @ descent, 1e-18))
+        max_step = robot.velocity_limits[arm] * self.period * 0.9
+        desired *= min(1.0, float(np.min(max_step / np.maximum(np.abs(desired), 1e-12))))
+        hessian = np.eye(len(arm))
+        gradient = -desired
         rows, lower = [], []
         for fid in self.clearance_frames:
             z = robot.data.oMf[fid].translation[2]
@@ -173,7 +178,6 @@ class PoseServo:
             lower.append(DAMPER_RATE * (OBJECT_CLEARANCE - (distance[0] - radius)))
         rows, lower = np.array(rows), np.array(lower)
         upper = np.full(len(lower), 1e20)
-        max_step = robot.velocity_limits[arm] * self.period * 0.9
         box_low = np.maximum(robot.lower[arm] + 0.02 - q[arm], -max_step)
         box_high = np.minimum(robot.upper[arm] - 0.02 - q[arm], max_step)
         box_low = np.minimum(box_low, 0.0)
