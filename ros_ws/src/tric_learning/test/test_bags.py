@@ -9,17 +9,19 @@ import shutil
 import signal
 import subprocess
 import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 import yaml
 from mcap.reader import make_reader
+from mcap.records import Schema
+from mcap.writer import Writer as McapWriter
 from mcap_ros2.decoder import DecoderFactory
 from rclpy.serialization import deserialize_message, serialize_message
 from rosbags.highlevel import AnyReader
 from rosbags.typesys import get_types_from_msg
 
+import geometry_msgs.msg
 from builtin_interfaces.msg import Time
 from geometry_msgs.msg import Point, Point32, Polygon, Pose, Quaternion
 from sensor_msgs.msg import Image, Imu, JointState
@@ -43,7 +45,8 @@ def _situation():
                            polygon=Polygon(points=[Point32(x=0.5, y=-0.25, z=0.0), Point32(x=1.5)]))
     return Situation(name="sphere_grid_07", task="grasp", object_kind="sphere", object_dimensions=[0.04],
                      object_pose=_pose(0.5, 0.1, 0.8), obstacles=[box, cylinder, prism],
-                     obstacle_poses=[_pose(0.3, -0.2, 0.9), _pose(0.6, 0.3, 0.85, qw=-1.0), _pose(0.0, 0.0, 0.0)],
+                     obstacle_poses=[_pose(0.3, -0.2, 0.9), _pose(0.6, 0.3, 0.85, qw=-1.0),
+                                     _pose(0.0, 0.0, 0.0)],
                      initial_joint_positions=[], seed=7)
 
 
@@ -102,9 +105,8 @@ CUSTOM_DATA = {"episode_id": "sphere_grid_07", "fingerprint": "f" * 64}
 
 def _write_bag(path, messages, flush_every=True, custom_data=CUSTOM_DATA):
     with bags.BagWriter(path, custom_data=custom_data) as writer:
-        for topic, message, _ in messages:
-            if topic not in writer._topics:
-                writer.add_topic(topic, type(message), latched=topic in LATCHED)
+        for topic, message_class in {t: type(m) for t, m, _ in messages}.items():
+            writer.add_topic(topic, message_class, latched=topic in LATCHED)
         for topic, message, stamp in messages:
             writer.write(topic, message, stamp)
             if flush_every:
@@ -149,6 +151,12 @@ def assert_same(expected, actual, where="message"):
             assert expected == actual, f"{where}: {expected!r} != {actual!r}"
 
 
+def test_the_module_does_not_import_rclpy():
+    check = "import sys, tric_learning.bags; assert 'rclpy' not in sys.modules, sorted(sys.modules)"
+    subprocess.run([sys.executable, "-c", check], check=True,
+                   env={**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)})
+
+
 # --- message definitions ---------------------------------------------------------------------
 
 
@@ -156,15 +164,14 @@ def test_message_definition_concatenates_dependencies_once_like_rosbag2():
     text = bags.message_definition("tric_msgs/msg/FeatureSample")
     separator = "\n" + "=" * 80 + "\n"
     parts = text.split(separator)
-    share = Path(os.environ["AMENT_PREFIX_PATH"].split(os.pathsep)[0])  # any prefix; compare by content
     assert parts[0] == bags._interface_file("tric_msgs/msg/FeatureSample", ".msg").read_text()
     names = [p.split("\n", 1)[0] for p in parts[1:]]
     assert names == ["MSG: std_msgs/Header", "MSG: builtin_interfaces/Time", "MSG: tric_msgs/ObjectPoses",
                      "MSG: geometry_msgs/Pose", "MSG: geometry_msgs/Point", "MSG: geometry_msgs/Quaternion"]
-    assert share.exists()
     # Constants, default values, bounded arrays and trailing comments come through as installed.
     solid = bags.message_definition("shape_msgs/SolidPrimitive")
-    assert "uint8 BOX=1" in solid and "float64[<=3] dimensions" in solid and "MSG: geometry_msgs/Point32" in solid
+    assert "uint8 BOX=1" in solid and "float64[<=3] dimensions  # At no point" in solid
+    assert "MSG: geometry_msgs/Point32" in solid
     assert "float64 w 1" in text
     # An independent parser reads every type out of it.
     types = get_types_from_msg(text, "tric_msgs/msg/FeatureSample")
@@ -217,15 +224,14 @@ def test_mcap_indexed_reader_reads_the_same_messages(bag, messages):
 
 
 def test_cdr_is_what_ros2_serializes(messages):
-    decoders = DecoderFactory()
     for topic, message, _ in messages:
         data = bags.serialize_cdr(message)
         assert_same(message, deserialize_message(data, type(message)), f"rclpy reads ours: {topic}")
         # and the reader decodes ROS 2's own bytes (which end with padding)
         type_name = bags.ros_type_name(type(message))
-        schema = type("Schema", (), {"id": hash(type_name), "name": type_name, "encoding": "ros2msg",
-                                     "data": bags.message_definition(type_name).encode()})
-        decode = decoders.decoder_for("cdr", schema)
+        schema = Schema(id=len(type_name), name=type_name, encoding="ros2msg",
+                        data=bags.message_definition(type_name).encode())
+        decode = DecoderFactory().decoder_for("cdr", schema)
         assert_same(message, decode(serialize_message(message)), f"ours reads rclpy's: {topic}")
     # Values rosbags reads differently (as int8: byte values above 127; char: a wrong type hash), so
     # not in the bag above; mcap_ros2 reads char as int8 too.
@@ -252,8 +258,7 @@ def test_file_follows_rosbag2_mcap_conventions(bag, messages):
     for schema in summary.schemas.values():
         assert schema.data.decode() == bags.message_definition(schema.name)
         assert schema.name.count("/msg/") == 1
-    assert {c.chunk_index.compression if hasattr(c, "chunk_index") else c.compression
-            for c in summary.chunk_indexes} == {"zstd"}
+    assert {c.compression for c in summary.chunk_indexes} == {"zstd"}
     assert len(summary.chunk_indexes) == len(messages)  # flush() after each message closes a chunk
     channels = {c.topic: c for c in summary.channels.values()}
     assert set(channels) == {t for t, _, _ in messages}
@@ -288,7 +293,8 @@ def test_rosbag2_metadata_record_is_version_9_with_counts(bag, messages):
     assert samples["type"] == "tric_msgs/msg/FeatureSample" and samples["serialization_format"] == "cdr"
     assert samples["type_description_hash"].startswith("RIHS01_")
     assert samples["offered_qos_profiles"][0]["durability"] == "volatile"
-    assert topics["/situation"]["topic_metadata"]["offered_qos_profiles"][0]["durability"] == "transient_local"
+    (situation_qos,) = topics["/situation"]["topic_metadata"]["offered_qos_profiles"]
+    assert situation_qos["durability"] == "transient_local"
 
 
 def test_bag_info_reads_the_summary(bag, messages):
@@ -320,28 +326,18 @@ def test_topic_selection_and_expected_types(bag):
 # --- the writer ------------------------------------------------------------------------------
 
 
-def test_writer_refuses_a_message_class_generated_from_another_definition(tmp_path):
+def test_writer_refuses_a_message_class_generated_from_another_definition(tmp_path, monkeypatch):
     # A stale build: the generated class has other fields than the installed .msg declares (here a
     # JointState class posing as tric_msgs/FeatureSample), possibly only in a nested type.
     stale = type("FeatureSample", (JointState,), {"__module__": "tric_msgs.msg._feature_sample"})
-    stale_pose = type("Pose", (JointState,), {"__module__": "geometry_msgs.msg._pose"})
     with bags.BagWriter(tmp_path / "demo.mcap") as writer:
         with pytest.raises(ValueError, match=r"has the fields \['header', 'name', .*declares \['header', "
                                              r"'step', .*rebuild tric_msgs"):
             writer.add_topic("/samples", stale)
-        with pytest.raises(ValueError, match="rebuild geometry_msgs"):
-            bags._check_generated_class(type("Situation", (Situation,), {
-                "__module__": "tric_msgs.msg._situation",
-                "SLOT_TYPES": tuple(t if i != 4 else _namespaced(stale_pose) for i, t in
-                                    enumerate(Situation.SLOT_TYPES))}))
-
-
-def _namespaced(msg_class):
-    """A rosidl type naming msg_class, as SLOT_TYPES hold them."""
-    from rosidl_parser.definition import NamespacedType
-    import geometry_msgs.msg
-    geometry_msgs.msg.StalePose = msg_class
-    return NamespacedType(["geometry_msgs", "msg"], "StalePose")
+        monkeypatch.setattr(geometry_msgs.msg, "Pose",
+                            type("Pose", (JointState,), {"__module__": "geometry_msgs.msg._pose"}))
+        with pytest.raises(ValueError, match="Pose has the fields .* rebuild geometry_msgs"):
+            writer.add_topic("/situation", Situation)
 
 
 def test_writer_writes_a_part_file_and_renames_it_on_close(tmp_path):
@@ -399,7 +395,8 @@ def test_empty_bag(tmp_path):
     path = bags.BagWriter(tmp_path / "empty.mcap").close()
     assert list(bags.read_bag(path)) == []
     info = bags.bag_info(path)
-    assert info.complete and info.topics == {} and (info.message_count, info.start_ns, info.end_ns) == (0, 0, 0)
+    assert info.complete and info.topics == {}
+    assert (info.message_count, info.start_ns, info.end_ns) == (0, 0, 0)
 
 
 # --- damaged and foreign files ---------------------------------------------------------------
@@ -429,7 +426,7 @@ def test_every_truncation_yields_a_prefix_or_a_clear_error(tmp_path):
     messages = [("/joint_states", JointState(name=["a"], position=[float(i)]), i) for i in range(5)]
     data = _write_bag(tmp_path / "small.mcap", messages).read_bytes()
     cut_file = tmp_path / "cut.mcap"
-    for cut in range(0, len(data), 3):
+    for cut in range(0, len(data), 29):
         cut_file.write_bytes(data[:cut])
         with pytest.raises(ValueError):
             bags.read_bag(cut_file)
@@ -447,13 +444,14 @@ def test_corrupt_bytes_give_the_right_messages_or_a_clear_error(tmp_path):
     data = _write_bag(tmp_path / "small.mcap", messages).read_bytes()
     corrupt_file = tmp_path / "corrupt.mcap"
     rng = random.Random(0)
-    for position in sorted(rng.sample(range(len(data)), 300)):
+    for position in sorted(rng.sample(range(len(data)), 100)):
         corrupt = bytearray(data)
         corrupt[position] ^= 1 << rng.randrange(8)
         corrupt_file.write_bytes(corrupt)
         for tolerant in (False, True):
             try:
-                read = [(m.stamp_ns, m.message.position[0]) for m in bags.read_bag(corrupt_file, tolerant=tolerant)]
+                read = [(m.stamp_ns, m.message.position[0])
+                        for m in bags.read_bag(corrupt_file, tolerant=tolerant)]
                 bags.bag_info(corrupt_file, tolerant=tolerant)
             except ValueError:
                 continue
@@ -476,7 +474,8 @@ def test_a_writer_killed_with_sigkill_leaves_its_flushed_messages(tmp_path):
         "time.sleep(60)\n")
     path = tmp_path / "killed.mcap"
     process = subprocess.Popen([sys.executable, "-c", child, str(path)], stdout=subprocess.PIPE,
-                               stderr=subprocess.PIPE, env={**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)})
+                               stderr=subprocess.PIPE,
+                               env={**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)})
     try:
         line = process.stdout.readline()
         if line.strip() != b"flushed":
@@ -502,7 +501,7 @@ def test_foreign_and_missing_files_are_refused_clearly(tmp_path):
         bags.bag_info(tmp_path)
     text = tmp_path / "notes.mcap"
     text.write_text("these are not the bytes you are looking for\n")
-    with pytest.raises(ValueError, match=r"notes.mcap is not an MCAP bag: it does not start with the MCAP magic"):
+    with pytest.raises(ValueError, match="notes.mcap is not an MCAP bag: it does not start with the MCAP "):
         bags.read_bag(text, tolerant=True)
     with pytest.raises(ValueError, match="not an MCAP bag"):
         bags.bag_info(text)
@@ -510,9 +509,8 @@ def test_foreign_and_missing_files_are_refused_clearly(tmp_path):
     with pytest.raises(ValueError, match="it is empty"):
         bags.read_bag(tmp_path / "empty.mcap")
     other = tmp_path / "other.mcap"
-    from mcap.writer import Writer
     with open(other, "wb") as file:
-        writer = Writer(file)
+        writer = McapWriter(file)
         writer.start(profile="ros1")
         writer.finish()
     with pytest.raises(ValueError, match="other.mcap is an MCAP file but not a ROS 2 bag .profile 'ros1'"):

@@ -281,7 +281,8 @@ class BagWriter:
         settable later with set_custom_data(); chunk_size: uncompressed bytes per chunk at most."""
         self.path = Path(path)
         if self.path.suffix != BAG_SUFFIX:
-            raise ValueError(f"bag path {self.path} must end in '{BAG_SUFFIX}' (ros2 bag tells storage by it)")
+            raise ValueError(f"bag path {self.path} must end in '{BAG_SUFFIX}' "
+                             "(ros2 bag tells the storage plugin by it)")
         if self.path.exists():
             raise FileExistsError(f"bag {self.path} exists already; refusing to overwrite it")
         self.part_path = self.path.with_name(self.path.name + PART_SUFFIX)
@@ -460,22 +461,49 @@ class _Damage(Exception):
     def __init__(self, path: Path, offset: int, size: int, messages_before: int, reason: str):
         super().__init__(f"bag {path} is truncated or corrupt at byte {offset} of {size} ({reason}); "
                          f"{messages_before} messages before the damage are readable")
-        self.messages_before = messages_before
 
 
-def _open_bag(path: Path):
+class _BagFile:
+    """A bag file open for reading whose read(n) never asks for more than the file holds, so that a
+    corrupt length field makes a short read instead of a gigantic allocation."""
+
+    def __init__(self, path: Path):
+        self._file = path.open("rb")
+        self.size = os.fstat(self._file.fileno()).st_size
+
+    def read(self, n: int = -1) -> bytes:
+        remaining = max(0, self.size - self._file.tell())
+        return self._file.read(remaining if n < 0 else min(n, remaining))
+
+    def seek(self, offset: int, whence: int = os.SEEK_SET) -> int:
+        return self._file.seek(offset, whence)
+
+    def tell(self) -> int:
+        return self._file.tell()
+
+    def close(self) -> None:
+        self._file.close()
+
+    def __enter__(self) -> _BagFile:
+        return self
+
+    def __exit__(self, *exception: Any) -> None:
+        self.close()
+
+
+def _open_bag(path: Path) -> _BagFile:
     """The bag file open for reading; ValueError unless it is an existing MCAP file of profile ros2."""
     if not path.exists():
         raise ValueError(f"bag {path} does not exist")
     if not path.is_file():
         raise ValueError(f"bag {path} is not a file")
-    file = path.open("rb")
+    file = _BagFile(path)
     try:
         if file.read(len(_MCAP_MAGIC)) != _MCAP_MAGIC:
-            raise ValueError(f"{path} is not an MCAP bag: " + (
-                "it is empty" if path.stat().st_size == 0 else "it does not start with the MCAP magic"))
+            raise ValueError(f"{path} is not an MCAP bag: "
+                             + ("it is empty" if file.size == 0 else "it does not start with the MCAP magic"))
         try:
-            header = next(StreamReader(file, skip_magic=True, record_size_limit=path.stat().st_size).records)
+            header = next(StreamReader(file, skip_magic=True, record_size_limit=file.size).records)
         except (StopIteration, *_DAMAGE_ERRORS):
             header = None  # a damaged start, reported by whoever reads on
         if header is not None and (not isinstance(header, Header) or header.profile != "ros2"):
@@ -488,37 +516,23 @@ def _open_bag(path: Path):
     return file
 
 
-def _is_finished(file) -> bool:
+def _is_finished(file: _BagFile) -> bool:
     """Whether an MCAP file ends with a footer record and the closing magic, as a finished bag does."""
-    size = os.fstat(file.fileno()).st_size
-    if size < 2 * len(_MCAP_MAGIC) + _FOOTER_RECORD_SIZE:
+    if file.size < 2 * len(_MCAP_MAGIC) + _FOOTER_RECORD_SIZE:
         return False
-    file.seek(size - _FOOTER_RECORD_SIZE - len(_MCAP_MAGIC))
+    file.seek(file.size - _FOOTER_RECORD_SIZE - len(_MCAP_MAGIC))
     tail = file.read()
     file.seek(0)
     return (tail.endswith(_MCAP_MAGIC) and tail[0] == Opcode.FOOTER
             and struct.unpack_from("<Q", tail, 1)[0] == _FOOTER_RECORD_SIZE - 9)
 
 
-def _summary(file) -> Summary | None:
+def _summary(file: _BagFile) -> Summary | None:
     """The MCAP summary section of a finished bag; None when it has none or it does not read."""
     try:
-        return SeekingReader(file).get_summary()
+        return SeekingReader(file, record_size_limit=file.size).get_summary()
     except _INDEX_ERRORS:
         return None
-
-
-class _Clamped:
-    """A binary file whose read(n) never asks for more than the file holds, so that a corrupt length
-    field makes a short read instead of a gigantic allocation."""
-
-    def __init__(self, file, size: int):
-        self._file = file
-        self._size = size
-
-    def read(self, n: int = -1) -> bytes:
-        remaining = self._size - self._file.tell()
-        return self._file.read(remaining if n < 0 else min(n, remaining))
 
 
 def _records(path: Path) -> Iterator[Any]:
@@ -527,8 +541,7 @@ def _records(path: Path) -> Iterator[Any]:
     Raises _Damage where the file stops being readable (a truncated file: at its end).
     """
     with _open_bag(path) as file:
-        size = os.fstat(file.fileno()).st_size
-        records = StreamReader(_Clamped(file, size), validate_crcs=True, record_size_limit=size).records
+        records = StreamReader(file, validate_crcs=True, record_size_limit=file.size).records
         messages_read = 0
         while True:
             try:
@@ -537,7 +550,7 @@ def _records(path: Path) -> Iterator[Any]:
                 return
             except _DAMAGE_ERRORS as error:
                 reason = str(error) or "the file ends in the middle of a record"
-                raise _Damage(path, file.tell(), size, messages_read, reason) from None
+                raise _Damage(path, file.tell(), file.size, messages_read, reason) from None
             messages_read += isinstance(record, Message)
             yield record
 
@@ -619,7 +632,7 @@ def _messages(path: Path, selected: frozenset | None, expected: dict, tolerant: 
     except _Damage as damage:
         if not tolerant:
             raise _strict_error(damage) from None
-        _log.warning("%s; read those", damage)
+        _log.warning("%s; returning those", damage)
 
 
 def _decoder(path: Path, decoders: DecoderFactory, channel: Channel, schema: Schema):
@@ -681,7 +694,7 @@ def bag_info(path: str | os.PathLike, *, tolerant: bool = False) -> BagInfo:
             try:
                 return _bag_info(path, True, summary.schemas, summary.channels.values(),
                                  statistics.channel_message_counts,
-                                 list(SeekingReader(file).iter_metadata()),
+                                 list(SeekingReader(file, record_size_limit=file.size).iter_metadata()),
                                  statistics.message_start_time, statistics.message_end_time)
             except _INDEX_ERRORS:
                 pass  # a damaged index or metadata record: read the records instead
