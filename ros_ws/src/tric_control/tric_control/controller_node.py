@@ -1,0 +1,583 @@
+"""The controller node ("controller"): runs a learned model on the robot with motion-rate control.
+
+A thin ROS shell around tric_control.motion_rate.MotionRateController: every control tick it reads
+the measured joint positions q and the objects' poses, takes one motion-rate step (Eq. 8-9) on the
+loaded model's objective and publishes the integrated position target.
+
+Topics:
+- subscribes /joint_states (sensor_msgs/JointState), /object_poses (tric_msgs/ObjectPoses) and
+  /situation (tric_msgs/Situation, depth 1, transient_local, as the simulator latches it: the scene's
+  table, obstacles and box are the geometry the collision priors keep the robot away from);
+- publishes /joint_command (sensor_msgs/JointState: all of the robot's joints, by name, position
+  targets in rad), /episode (tric_msgs/EpisodeEvent: START with the situation, END, or ABORT on failure
+  or cancel; source = the model kind, e.g. "tric") and ~/status (tric_msgs/ControllerStatus, every
+  tick; in realtime mode also while idle or holding).
+
+Services and actions:
+- ~/load_model (tric_msgs/srv/LoadModel): load a model file. Refused, keeping the current model, when
+  the file is unreadable, was trained on another feature definition than this controller's task, is
+  of a kind the controller cannot run (only "tric" for now, see tric_control.objectives), or while an
+  episode runs.
+- ~/execute (tric_msgs/action/Execute): one episode from the current state, until the controller
+  converges (the robot came to rest), the step budget is spent, the goal is canceled, or something
+  fails (no model, no situation, no joint states for state_timeout_s). Feedback every 10 ticks. One
+  goal at a time; others are rejected while one runs.
+
+Parameters:
+- task ("grasp" | "open_box", default "grasp"): the feature definition models must match.
+- model_path (string, default ""): a model file to load at start.
+- mode ("lockstep" | "realtime", default "lockstep"): see below.
+- control_rate_hz (default 100): control ticks per second; the step bound of a tick is the joints'
+  velocity limits divided by this rate.
+- max_steps (default 800): an episode's step budget when the goal gives none.
+- state_timeout_s (default 10): wall seconds without joint states before an episode aborts.
+- use_sim_time: as usual. Realtime mode's timer and staleness test run on the node clock, which must
+  be the clock the joint states are stamped with (with the simulator: use_sim_time true).
+
+Lockstep protocol (mode "lockstep", with the simulator in lockstep): the simulator publishes the state
+of period t (stamped t) and waits; the controller answers that /joint_states message with exactly one
+/joint_command stamped t; the simulator then simulates one period and publishes the state t + period.
+The control loop runs in a thread of its own that waits on the topics directly (tric_sim.lockstep).
+
+Realtime mode: a timer at control_rate_hz on the node clock commands from the latest joint state. When
+that state is older than 3 control periods (or the objects' poses are missing) the input is stale: the
+node commands the last measured positions (approached at the velocity bound) with status HOLDING,
+does not step the controller, and resumes when fresh states arrive.
+
+Safety: every command is checked against the joint limits and the per-tick velocity bound before it
+is published (the controller already respects both; a violation is clipped and counted in a warning).
+"""
+
+import math
+import sys
+import threading
+import time
+
+import numpy as np
+import rclpy
+from rclpy.action import ActionServer, CancelResponse, GoalResponse
+from rclpy.clock import Clock, ClockType
+from rclpy.executors import ExternalShutdownException
+from rclpy.node import Node
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.task import Future
+from rcl_interfaces.msg import ParameterDescriptor
+from sensor_msgs.msg import JointState
+from tric_msgs.action import Execute
+from tric_msgs.msg import ControllerStatus, EpisodeEvent, ObjectPoses, Situation as SituationMsg
+from tric_msgs.srv import LoadModel
+
+from tric_learning.features import TASK_LANDMARKS, FeatureDefinition
+from tric_learning.model_file import ModelFile
+from tric_sim import messages
+from tric_sim.collision import Proximity
+from tric_sim.lockstep import StateStream, command_msg, run_in_thread
+from tric_sim.robot_model import RobotModel
+
+from tric_control.motion_rate import MotionRateController
+from tric_control.objectives import make_objective
+
+STATE_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
+EVENT_QOS = QoSProfile(depth=20, reliability=ReliabilityPolicy.RELIABLE)
+#: /situation as the simulator publishes it: latched for late joiners.
+LATCHED_QOS = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+MODES = ("lockstep", "realtime")
+#: Realtime: joint states older than this many control periods are stale.
+STALE_PERIODS = 3
+FEEDBACK_EVERY = 10
+#: Wall seconds between checks of cancel requests and the state timeout (lockstep waits, realtime watchdog).
+POLL_S = 0.05
+
+
+class Canceled(Exception):
+    """The goal was canceled during the episode."""
+
+
+class Loaded:
+    """A loaded model: its file, path and controller objective."""
+
+    def __init__(self, path: str, model_file: ModelFile, objective):
+        self.path, self.file, self.objective = path, model_file, objective
+        self.kind = model_file.kind
+        self.objects = tuple(source.partition("/")[2] for source in model_file.definition.landmark_sources
+                             if source.startswith("object/"))
+
+
+class Scene:
+    """The current situation and the collision queries for it."""
+
+    def __init__(self, situation, msg: SituationMsg, proximity: Proximity):
+        self.situation, self.msg, self.proximity = situation, msg, proximity
+
+
+class Episode:
+    """One run of ~/execute: the controller and the running statistics of its result."""
+
+    def __init__(self, goal_handle, episode_id: str, model: Loaded, scene: Scene, controller, max_steps: int):
+        self.goal_handle, self.episode_id, self.model, self.scene = goal_handle, episode_id, model, scene
+        self.controller, self.max_steps = controller, max_steps
+        self.steps = 0
+        self.initial_value = math.nan
+        self.final_value = math.nan
+        self.min_distance = math.inf
+        self.min_margin = math.inf
+        self.tick_ms = []
+        self.previous = None        # the last command published (n,), or None before the first
+        self.start_ns = None        # stamp of the first answered state (START), None before it
+        self.last_ns = None         # stamp of the last answered state
+        self.wall_start = time.monotonic()
+        self.last_state_wall = self.wall_start
+        self.done = Future()        # realtime: (outcome, message) when the episode is over
+
+    def finish(self, outcome: str, message: str = "") -> None:
+        if not self.done.done():
+            self.done.set_result((outcome, message))
+
+    def fill(self, result) -> None:
+        result.steps = self.steps
+        result.initial_value, result.final_value = self.initial_value, self.final_value
+        result.min_distance = self.min_distance if self.steps else math.nan
+        result.min_joint_limit_margin = self.min_margin if self.steps else math.nan
+        result.wall_time_s = time.monotonic() - self.wall_start
+        result.mean_tick_ms = float(np.mean(self.tick_ms)) if self.tick_ms else math.nan
+        result.max_tick_ms = float(np.max(self.tick_ms)) if self.tick_ms else math.nan
+
+
+class ControllerNode(Node):
+    """Serves ~/load_model and ~/execute (see the module docstring)."""
+
+    def __init__(self, **kwargs):
+        super().__init__("controller", **kwargs)
+        self.task = self._parameter("task", "grasp", "the task: 'grasp' or 'open_box'")
+        model_path = self._parameter("model_path", "", "a model file to load at start (empty: none)")
+        self.mode = self._parameter("mode", "lockstep", "'lockstep' (answer every joint state) or 'realtime'")
+        rate = self._parameter("control_rate_hz", 100.0, "control ticks per second")
+        self.max_steps = self._parameter("max_steps", 800, "an episode's default step budget")
+        self.state_timeout = self._parameter(
+            "state_timeout_s", 10.0, "wall seconds without joint states before an episode aborts")
+        if self.task not in TASK_LANDMARKS:
+            raise ValueError(f"parameter task must be one of {', '.join(TASK_LANDMARKS)}, got '{self.task}'")
+        if self.mode not in MODES:
+            raise ValueError(f"parameter mode must be 'lockstep' or 'realtime', got '{self.mode}'")
+        if not (math.isfinite(rate) and 1.0 <= rate <= 1000.0):
+            raise ValueError(f"parameter control_rate_hz must be in [1, 1000], got {rate:g}")
+        if self.max_steps < 1:
+            raise ValueError(f"parameter max_steps must be at least 1, got {self.max_steps}")
+        if not (math.isfinite(self.state_timeout) and self.state_timeout > 0):
+            raise ValueError(f"parameter state_timeout_s must be positive, got {self.state_timeout:g}")
+        self.period = 1.0 / rate
+        self.period_ns = int(round(1e9 / rate))
+        self.robot = RobotModel()
+        self.definition = FeatureDefinition.for_task(self.task, self.robot)
+        self.max_step = self.robot.velocity_limits * self.period
+        self.model = None
+        self.scene = None
+        self.violations = 0
+        self._busy = threading.Lock()
+        self._stop = threading.Event()
+        self._control_thread = None
+        self._episode = None  # realtime: the running episode
+        if model_path:
+            self.model = self._load(model_path)  # ValueError: a bad parameter
+
+        self.command_pub = self.create_publisher(JointState, "/joint_command", STATE_QOS)
+        self.episode_pub = self.create_publisher(EpisodeEvent, "/episode", EVENT_QOS)
+        self.status_pub = self.create_publisher(ControllerStatus, "~/status", STATE_QOS)
+        self.create_subscription(SituationMsg, "/situation", self._on_situation, LATCHED_QOS)
+        self.stream = None
+        self._latest = None   # realtime: (stamp_ns, q, received wall time) of the newest joint state
+        self._poses = {}
+        if self.mode == "lockstep":
+            self.stream = StateStream(self.context, "controller_state_stream", self.robot.joint_names, STATE_QOS)
+        else:
+            self.create_subscription(JointState, "/joint_states", self._on_joint_state, STATE_QOS)
+            self.create_subscription(ObjectPoses, "/object_poses", self._on_object_poses, STATE_QOS)
+            self.create_timer(self.period, self._on_control_timer)
+            self.create_timer(POLL_S, self._on_watchdog, clock=Clock(clock_type=ClockType.STEADY_TIME))
+        self.create_service(LoadModel, "~/load_model", self._on_load_model)
+        self._server = ActionServer(self, Execute, "~/execute", execute_callback=self._execute,
+                                    goal_callback=self._on_goal, cancel_callback=lambda _: CancelResponse.ACCEPT)
+        self.get_logger().info(
+            f"controller for '{self.task}' in {self.mode} mode at {rate:g} Hz; model: "
+            + (f"{self.model.path} ({self.model.kind})" if self.model else "none (call ~/load_model)"))
+
+    def _parameter(self, name, default, description):
+        """Declare a parameter; its value converted to the default's type, or ValueError."""
+        value = self.declare_parameter(
+            name, default, ParameterDescriptor(description=description, dynamic_typing=True)).value
+        kind = type(default)
+        if kind is str:
+            ok = isinstance(value, str)
+        elif isinstance(value, bool) or not isinstance(value, (int, float)):
+            ok = False
+        else:
+            ok = kind is float or float(value).is_integer()
+        if not ok:
+            what = {str: "a string", int: "an integer", float: "a number"}[kind]
+            raise ValueError(f"parameter {name} must be {what}, got {value!r}")
+        return kind(value)
+
+    def destroy_node(self):
+        self._stop.set()
+        episode = self._episode
+        if episode is not None:
+            episode.finish("failed", "the controller is shutting down")
+        thread = self._control_thread
+        if thread is not None and thread is not threading.current_thread():
+            thread.join(timeout=5.0)
+        self._server.destroy()
+        if self.stream is not None:
+            self.stream.destroy()
+        return super().destroy_node()
+
+    # --- model and scene -----------------------------------------------------------------------
+
+    def _load(self, path: str) -> Loaded:
+        """The model at path, ready to run, or ValueError saying why not."""
+        if not path:
+            raise ValueError("no model path given")
+        try:
+            model_file = ModelFile.load(path, self.definition)
+            objective = make_objective(model_file, self.robot)
+        except ValueError:
+            raise
+        except Exception as error:  # anything else a damaged file provokes: still a clear refusal
+            raise ValueError(f"{path} could not be loaded: {type(error).__name__}: {error}") from None
+        return Loaded(path, model_file, objective)
+
+    def _on_load_model(self, request, response):
+        if not self._busy.acquire(blocking=False):
+            response.success = False
+            response.message = "refused: an episode is running (cancel it or wait for its end)"
+            self.get_logger().warning(f"load_model {request.model_path}: {response.message}")
+            return response
+        try:
+            loaded = self._load(request.model_path)
+        except ValueError as error:
+            response.success = False
+            response.message = f"model refused, keeping {self.model.path if self.model else 'no model'}: {error}"
+            self.get_logger().warning(response.message)
+            return response
+        finally:
+            self._busy.release()
+        self.model = loaded
+        definition = loaded.file.definition
+        response.success = True
+        response.message = f"loaded {loaded.kind} model {loaded.path}"
+        response.model_kind, response.task = loaded.kind, definition.task
+        response.fingerprint = definition.fingerprint
+        response.input_features = definition.size
+        self.get_logger().info(response.message)
+        return response
+
+    def _on_situation(self, msg: SituationMsg):
+        try:
+            situation = messages.situation_from_msg(msg, self.robot.n_joints)
+            if self.scene is not None and self.scene.situation == situation:
+                return  # the same scene again (e.g. a reset to the same situation): nothing changed
+            proximity = Proximity(self.robot, situation)
+        except ValueError as error:
+            self.get_logger().warning(f"ignored /situation '{msg.name}': {error}")
+            return
+        self.scene = Scene(situation, msg, proximity)
+
+    # --- realtime inputs ---------------------------------------------------------------------------
+
+    def _on_joint_state(self, msg: JointState):
+        try:
+            q = messages.joint_positions_from_msg(msg, self.robot.joint_names)
+        except ValueError as error:
+            self.get_logger().warning(f"ignored /joint_states: {error}", throttle_duration_sec=1.0)
+            return
+        self._latest = (messages.time_ns(msg.header.stamp), q, time.monotonic())
+
+    def _on_object_poses(self, msg: ObjectPoses):
+        try:
+            self._poses = messages.object_poses_from_msg(msg)
+        except ValueError as error:
+            self.get_logger().warning(f"ignored /object_poses: {error}", throttle_duration_sec=1.0)
+
+    # --- the action ------------------------------------------------------------------------------
+
+    def _on_goal(self, goal):
+        if not self._busy.acquire(blocking=False):
+            self.get_logger().warning("episode refused: another one is running")
+            return GoalResponse.REJECT
+        self._busy.release()
+        return GoalResponse.ACCEPT
+
+    async def _execute(self, goal_handle):
+        with self._busy:
+            return await self._run(goal_handle)
+
+    async def _run(self, goal_handle):
+        goal = goal_handle.request
+        result = Execute.Result(outcome="failed", initial_value=math.nan, final_value=math.nan,
+                                min_distance=math.nan, min_joint_limit_margin=math.nan,
+                                mean_tick_ms=math.nan, max_tick_ms=math.nan)
+        model, scene = self.model, self.scene
+        if model is None:
+            return self._abort(goal_handle, result, "no model loaded: call ~/load_model first "
+                               "(or set the model_path parameter)")
+        if scene is None:
+            return self._abort(goal_handle, result, "no situation known: nothing was published on /situation "
+                               "(is the simulator running?)")
+        if scene.situation.task != self.task:
+            return self._abort(goal_handle, result, f"the current situation '{scene.situation.name}' is a "
+                               f"'{scene.situation.task}' task; this controller runs '{self.task}'")
+        controller = MotionRateController(self.robot, scene.proximity, model.objective, self.period)
+        episode = Episode(goal_handle, goal.episode_id or scene.situation.name, model, scene, controller,
+                          int(goal.max_steps) or self.max_steps)
+        self.get_logger().info(f"episode '{episode.episode_id}' ({model.kind}, {episode.max_steps} steps at most)")
+        if self.mode == "lockstep":
+            try:
+                outcome, message = await run_in_thread(self, self._drive, episode)
+            except Canceled:
+                outcome, message = "canceled", "canceled"
+            except RuntimeError as error:
+                outcome, message = "failed", str(error)
+            except Exception as error:  # a bug: still an answer, not a traceback
+                self.get_logger().error(f"episode failed: {error!r}")
+                outcome, message = "failed", f"internal error: {type(error).__name__}: {error}"
+        else:
+            self._episode = episode
+            try:
+                outcome, message = await episode.done
+            finally:
+                self._episode = None
+        episode.fill(result)
+        result.outcome, result.message = outcome, message
+        if outcome == "canceled":
+            self._event(EpisodeEvent.ABORT, episode)
+            goal_handle.canceled()
+            self.get_logger().info(f"episode '{episode.episode_id}' canceled after {episode.steps} steps")
+            return result
+        if outcome == "failed":
+            self._event(EpisodeEvent.ABORT, episode)
+            return self._abort(goal_handle, result, message)
+        self._event(EpisodeEvent.END, episode)
+        result.success = True
+        self.get_logger().info(f"episode '{episode.episode_id}': {message}")
+        goal_handle.succeed()
+        return result
+
+    def _abort(self, goal_handle, result, message):
+        self.get_logger().error(f"episode aborted: {message}")
+        result.success, result.message, result.outcome = False, message, "failed"
+        goal_handle.abort()
+        return result
+
+    def _event(self, kind, episode: Episode):
+        """Publish an EpisodeEvent; END and ABORT only for an episode that started."""
+        if kind != EpisodeEvent.START and episode.start_ns is None:
+            return
+        msg = EpisodeEvent(event=kind, episode_id=episode.episode_id, source=episode.model.kind)
+        msg.header.stamp = messages.time_msg(episode.start_ns if kind == EpisodeEvent.START else episode.last_ns)
+        if kind == EpisodeEvent.START:
+            msg.situation = episode.scene.msg
+        self.episode_pub.publish(msg)
+
+    # --- lockstep --------------------------------------------------------------------------------
+
+    def _drive(self, episode: Episode):
+        """The lockstep control loop (in its own thread): answer each new state with one command.
+        Returns (outcome, message); raises Canceled or RuntimeError."""
+        self._control_thread = threading.current_thread()
+        try:
+            last = -1
+            while True:
+                stamp, q = self._next_state(episode, last)
+                if last >= 0 and stamp - last != self.period_ns and episode.steps == 1:
+                    self.get_logger().warning(
+                        f"joint states come every {(stamp - last) / 1e6:g} ms of simulated time, but "
+                        f"control_rate_hz sets a period of {self.period * 1e3:g} ms")
+                last = stamp
+                poses = self.stream.poses
+                missing = [name for name in episode.model.objects if name not in poses]
+                if missing:
+                    raise RuntimeError(f"no pose of {', '.join(missing)} on /object_poses: is the simulator running?")
+                outcome = self._tick(episode, stamp, q, poses, stamp)
+                if outcome:
+                    return outcome
+        finally:
+            self._control_thread = None
+
+    def _next_state(self, episode: Episode, after_ns: int):
+        """(stamp_ns, q) of the next joint state, waiting up to state_timeout_s; raises Canceled or
+        RuntimeError (no states, a new scene, shutdown)."""
+        deadline = time.monotonic() + self.state_timeout
+        while True:
+            if self._stop.is_set():
+                raise RuntimeError("the controller is shutting down")
+            if episode.goal_handle.is_cancel_requested:
+                raise Canceled()
+            if self.scene is not episode.scene:
+                raise RuntimeError("the scene was reset during the episode")
+            remaining = deadline - time.monotonic()
+            if remaining <= 0:
+                raise RuntimeError(f"no joint states for {self.state_timeout:g} s: is the simulator running?")
+            state = self.stream.next_state(min(remaining, POLL_S), after_ns=after_ns)
+            if state is not None:
+                return state
+
+    # --- one tick (both modes) -------------------------------------------------------------------
+
+    def _tick(self, episode: Episode, stamp_ns: int, q, poses, status_ns: int):
+        """One controller step from the state stamped stamp_ns: command, status, statistics and
+        feedback. Returns (outcome, message) when the episode is over, else None; raises RuntimeError."""
+        controller = episode.controller
+        if episode.start_ns is None:
+            episode.start_ns = stamp_ns
+            controller.reset(q)
+            episode.previous = np.array(q, dtype=float)
+            self._event(EpisodeEvent.START, episode)
+        started = time.perf_counter()
+        try:
+            tick = controller.tick(q, poses)
+        except Exception as error:  # the objective or the QP failed on this input
+            raise RuntimeError(f"control tick {episode.steps} failed: {type(error).__name__}: {error}") from None
+        tick_ms = (time.perf_counter() - started) * 1e3
+        command = self._safe_command(tick.target, episode.previous)
+        if not np.array_equal(command, tick.target):
+            controller.reference = command.copy()  # integrate from what was actually commanded
+        self.command_pub.publish(command_msg(self.robot.joint_names, command, stamp_ns))
+        step_norm = float(np.linalg.norm(command - episode.previous))
+        episode.previous = command
+        episode.steps += 1
+        episode.last_ns = stamp_ns
+        if episode.steps == 1:
+            episode.initial_value = float(tick.value)
+        episode.final_value = float(tick.value)
+        episode.min_distance = min(episode.min_distance, float(tick.min_distance))
+        margin = float(min(np.min(q - self.robot.lower), np.min(self.robot.upper - q)))
+        episode.min_margin = min(episode.min_margin, margin)
+        episode.tick_ms.append(tick_ms)
+        status = ControllerStatus(
+            state=ControllerStatus.CONVERGED if tick.converged else ControllerStatus.RUNNING,
+            model_path=episode.model.path, step=episode.steps, value=float(tick.value),
+            value_rate=float(getattr(episode.model.objective, "delta", math.nan)),
+            gradient_norm=float(tick.gradient_norm), step_norm=step_norm,
+            min_distance=float(tick.min_distance), active_constraints=list(tick.active), tick_time_ms=tick_ms)
+        status.header.stamp = messages.time_msg(status_ns)
+        self.status_pub.publish(status)
+        if episode.steps % FEEDBACK_EVERY == 0:
+            episode.goal_handle.publish_feedback(Execute.Feedback(
+                step=episode.steps, value=float(tick.value), step_norm=step_norm,
+                min_distance=float(tick.min_distance)))
+        if tick.converged:
+            return "converged", f"converged after {episode.steps} steps"
+        if episode.steps >= episode.max_steps:
+            return "step_budget", f"step budget of {episode.max_steps} spent"
+        return None
+
+    def _safe_command(self, target, previous: np.ndarray, count: bool = True) -> np.ndarray:
+        """target moved into the joint limits and within one tick's velocity bound of previous;
+        violations (there should be none from the controller) are counted and logged if count."""
+        target = np.asarray(target, dtype=float)
+        if target.shape != previous.shape or not np.all(np.isfinite(target)):
+            self._violation("a non-finite or mis-sized target; holding the previous command")
+            return previous.copy()
+        change = target - previous
+        command = np.clip(previous + np.clip(change, -self.max_step, self.max_step),
+                          self.robot.lower, self.robot.upper)
+        if count and np.any(np.abs(change) > self.max_step + 1e-12):
+            self._violation("a target step beyond the velocity bound")
+        if count and np.any((target < self.robot.lower) | (target > self.robot.upper)):
+            self._violation("a target outside the joint limits")
+        return self.robot.check_configuration(command, "command")
+
+    def _violation(self, what: str) -> None:
+        self.violations += 1
+        self.get_logger().warning(f"clipped {what} ({self.violations} safety violations so far)",
+                                  throttle_duration_sec=1.0)
+
+    # --- realtime ----------------------------------------------------------------------------------
+
+    def _on_control_timer(self):
+        """Realtime: one tick from the latest state, a hold on stale input, or idle status."""
+        now_ns = self.get_clock().now().nanoseconds
+        episode = self._episode
+        if episode is None or episode.done.done():
+            self._status(ControllerStatus.IDLE, now_ns)
+            return
+        latest = self._latest
+        if latest is None:
+            self._status(ControllerStatus.HOLDING, now_ns, episode)
+            return
+        stamp, q, _ = latest
+        poses = self._poses
+        stale = now_ns - stamp > STALE_PERIODS * self.period_ns
+        missing = [name for name in episode.model.objects if name not in poses]
+        if stale or missing:
+            self._hold(episode, q, now_ns)
+            if missing:
+                self.get_logger().warning(f"holding: no pose of {', '.join(missing)} on /object_poses",
+                                          throttle_duration_sec=1.0)
+            return
+        try:
+            outcome = self._tick(episode, stamp, q, poses, now_ns)
+        except Exception as error:
+            outcome = ("failed", str(error) if isinstance(error, RuntimeError)
+                       else f"internal error: {type(error).__name__}: {error}")
+        if outcome:
+            episode.finish(*outcome)
+
+    def _hold(self, episode: Episode, q, now_ns: int):
+        """Command the last measured positions (approached within the velocity bound); HOLDING."""
+        previous = episode.previous if episode.previous is not None else np.array(q, dtype=float)
+        command = self._safe_command(q, previous, count=False)
+        episode.previous = command
+        if episode.controller.reference is not None:
+            episode.controller.reference = command.copy()
+        self.command_pub.publish(command_msg(self.robot.joint_names, command, now_ns))
+        self._status(ControllerStatus.HOLDING, now_ns, episode)
+
+    def _status(self, state, now_ns: int, episode: Episode = None):
+        status = ControllerStatus(state=state, model_path=self.model.path if self.model else "",
+                                  value=math.nan, value_rate=math.nan, gradient_norm=math.nan,
+                                  min_distance=math.nan, tick_time_ms=0.0)
+        if episode is not None:
+            status.step = episode.steps
+            status.model_path = episode.model.path
+            status.value = episode.final_value
+            status.value_rate = float(getattr(episode.model.objective, "delta", math.nan))
+        status.header.stamp = messages.time_msg(now_ns)
+        self.status_pub.publish(status)
+
+    def _on_watchdog(self):
+        """Realtime (wall clock): cancel requests and the state timeout of the running episode."""
+        episode = self._episode
+        if episode is None or episode.done.done():
+            return
+        if episode.goal_handle.is_cancel_requested:
+            episode.finish("canceled", "canceled")
+            return
+        if self.scene is not episode.scene:
+            episode.finish("failed", "the scene was reset during the episode")
+            return
+        latest = self._latest
+        last_wall = max(episode.wall_start, latest[2]) if latest is not None else episode.wall_start
+        if time.monotonic() - last_wall > self.state_timeout:
+            episode.finish("failed", f"no joint states for {self.state_timeout:g} s: is the robot running?")
+
+
+def main(args=None):
+    rclpy.init(args=args)
+    try:
+        node = ControllerNode()
+    except ValueError as error:
+        print(f"controller: {error}", file=sys.stderr)
+        rclpy.try_shutdown()
+        return 2
+    try:
+        rclpy.spin(node)
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        node.destroy_node()
+        rclpy.try_shutdown()
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,212 @@
+"""The controller node in-process: model loading and refusals, a lockstep episode on the simulator
+node, the realtime hold on stale joint states, and refused episodes."""
+
+import time
+
+import numpy as np
+import pytest
+from action_msgs.msg import GoalStatus
+from rclpy.action import ActionClient
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from sensor_msgs.msg import JointState
+from tric_msgs.action import Execute
+from tric_msgs.msg import ControllerStatus, EpisodeEvent, ObjectPoses, Situation as SituationMsg
+from tric_msgs.srv import LoadModel, ResetScene
+
+from conftest import call, run_action, wait_for
+from tric_control.controller_node import ControllerNode
+from tric_learning import model_file
+from tric_learning.features import FeatureDefinition
+from tric_learning.recording import record_offline
+from tric_learning.training import TrainingConfig, train
+from tric_sim import messages, situations
+from tric_sim.robot_model import HOME, RobotModel
+from tric_sim.simulator_node import SimulatorNode
+
+#: Test subscriptions keep every message (the checks compare consecutive commands).
+KEEP_ALL = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
+LATCHED = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+
+
+@pytest.fixture(scope="module")
+def robot():
+    return RobotModel()
+
+
+@pytest.fixture(scope="module")
+def model_path(tmp_path_factory, robot):
+    """A tiny TRIC grasp model (3 demonstrations, 5 hidden units): fast to make, not meant to grasp."""
+    dataset = record_offline(robot, situations.sphere_grid()[12:15], 5.0)
+    result = train(dataset, robot, TrainingConfig(hidden_units=5, noisy_samples=10, max_iterations=20))
+    return str(model_file.from_training(result, dataset).save(tmp_path_factory.mktemp("model") / "model.safetensors"))
+
+
+class Observer(Node):
+    """Records what the controller publishes."""
+
+    def __init__(self, context):
+        super().__init__("test_observer", context=context)
+        self.commands, self.statuses, self.events = [], [], []
+        self.create_subscription(JointState, "/joint_command", self.commands.append, KEEP_ALL)
+        self.create_subscription(ControllerStatus, "/controller/status", self.statuses.append, KEEP_ALL)
+        self.create_subscription(EpisodeEvent, "/episode", self.events.append, KEEP_ALL)
+
+
+def make_controller(context, **parameters):
+    return ControllerNode(context=context, parameter_overrides=[
+        Parameter(name, value=value) for name, value in parameters.items()])
+
+
+def load(observer, path):
+    return call(observer, LoadModel, "/controller/load_model", LoadModel.Request(model_path=path))
+
+
+def test_load_model_refuses_bad_files_and_keeps_the_current_model(ros_context, spin, robot, model_path, tmp_path):
+    controller = make_controller(ros_context)
+    observer = spin(controller, Observer(ros_context))[1]
+    good = load(observer, model_path)
+    assert good.success, good.message
+    assert (good.model_kind, good.task) == ("tric", "grasp")
+    grasp = FeatureDefinition.for_task("grasp", robot)
+    assert good.fingerprint == grasp.fingerprint and good.input_features == grasp.size == 224
+
+    text = tmp_path / "notes.safetensors"
+    text.write_text("not a model\n" * 20)
+    box = model_file.ModelFile("tric", FeatureDefinition.for_task("open_box", robot),
+                               {"w1": np.zeros((2, 3))}, {"delta": 0.1, "rho": 1.0}).save(tmp_path / "box.safetensors")
+    dpl = model_file.ModelFile("dpl_joint", grasp, {"w": np.zeros(3)}).save(tmp_path / "dpl.safetensors")
+    refusals = {str(tmp_path / "missing.safetensors"): "does not exist", str(text): "not a readable model file",
+                str(box): "another feature definition", str(dpl): "cannot be run", "": "no model path"}
+    for path, reason in refusals.items():
+        response = load(observer, path)
+        assert not response.success and reason in response.message, response.message
+        assert f"keeping {model_path}" in response.message
+    assert controller.model.path == model_path
+
+
+def test_lockstep_episode_on_the_simulator(ros_context, spin, robot, model_path):
+    simulator = SimulatorNode(context=ros_context, parameter_overrides=[Parameter("mode", value="lockstep")])
+    controller = make_controller(ros_context, mode="lockstep")
+    observer = spin(simulator, controller, Observer(ros_context))[2]
+    situation = situations.dataset("sphere_test")[0]
+    reset = call(observer, ResetScene, "/simulator/reset_scene",
+                 ResetScene.Request(situation=messages.situation_to_msg(situation)))
+    assert reset.success, reset.message
+    assert load(observer, model_path).success
+    wait_for(lambda: controller.scene is not None and controller.scene.situation == situation, what="the situation")
+    status, result, feedback = run_action(observer, Execute, "/controller/execute",
+                                          Execute.Goal(max_steps=150, episode_id="ctl_test"), timeout=60.0)
+    assert status == GoalStatus.STATUS_SUCCEEDED, result.message
+    assert result.success and result.outcome in ("step_budget", "converged")
+    assert 0 < result.steps <= 150
+    assert np.isfinite(result.initial_value) and np.isfinite(result.final_value)
+    assert np.isfinite(result.min_distance) and np.isfinite(result.min_joint_limit_margin)
+    assert 0 < result.mean_tick_ms <= result.max_tick_ms
+    assert [f.step for f in feedback] == list(range(10, result.steps + 1, 10))
+
+    wait_for(lambda: len(observer.commands) >= result.steps and len(observer.statuses) >= result.steps,
+             what="every command and status")
+    commands = np.array([observer.commands[k].position for k in range(result.steps)])
+    assert list(observer.commands[0].name) == list(robot.joint_names)
+    assert np.all(commands >= robot.lower) and np.all(commands <= robot.upper)
+    start = messages.joint_positions_from_msg(reset.joint_state, robot.joint_names)
+    steps = np.abs(np.diff(np.vstack([start, commands]), axis=0))
+    assert np.all(steps <= robot.velocity_limits * 0.01 + 1e-9)
+    stamps = [messages.time_ns(c.header.stamp) for c in observer.commands[:result.steps]]
+    assert np.all(np.diff(stamps) == 10_000_000)  # one command per simulated period, none skipped
+    assert {s.state for s in observer.statuses} <= {ControllerStatus.RUNNING, ControllerStatus.CONVERGED}
+    assert observer.statuses[-1].step == result.steps and observer.statuses[0].value_rate > 0
+
+    wait_for(lambda: len(observer.events) >= 2, what="START and END")
+    start_event, end_event = observer.events[:2]
+    assert (start_event.event, end_event.event) == (EpisodeEvent.START, EpisodeEvent.END)
+    assert start_event.source == end_event.source == "tric" and start_event.episode_id == "ctl_test"
+    assert start_event.situation.name == situation.name
+    assert messages.time_ns(end_event.header.stamp) == stamps[-1]
+
+
+def test_realtime_holds_on_stale_joint_states(ros_context, spin, model_path):
+    controller = make_controller(ros_context, mode="realtime", model_path=model_path)
+    observer = Observer(ros_context)
+    state_pub = observer.create_publisher(JointState, "/joint_states", 10)
+    poses_pub = observer.create_publisher(ObjectPoses, "/object_poses", 10)
+    situation_pub = observer.create_publisher(SituationMsg, "/situation", LATCHED)
+    spin(controller, observer)
+    situation = situations.dataset("sphere_test")[0]
+    situation_pub.publish(messages.situation_to_msg(situation))
+    wait_for(lambda: controller.scene is not None, what="the situation")
+    wait_for(lambda: any(s.state == ControllerStatus.IDLE for s in observer.statuses), what="idle status")
+
+    client = ActionClient(observer, Execute, "/controller/execute")
+    assert client.wait_for_server(timeout_sec=10.0)
+    goal_future = client.send_goal_async(Execute.Goal(max_steps=10000))
+    handle = wait_for(lambda: goal_future.result() if goal_future.done() else None, what="goal response")
+    assert handle.accepted
+    poses = {"object": (situation.object_position, situation.object_orientation)}
+    for _ in range(20):
+        now = observer.get_clock().now().nanoseconds
+        poses_pub.publish(messages.object_poses_msg(poses, now))
+        state_pub.publish(messages.joint_state_msg(controller.robot.joint_names, HOME, np.zeros(14), now))
+        time.sleep(0.01)
+    stopped = time.monotonic()
+    wait_for(lambda: any(s.state == ControllerStatus.RUNNING for s in observer.statuses), 1.0, "running ticks")
+
+    def holding():
+        return (observer.statuses and observer.statuses[-1].state == ControllerStatus.HOLDING
+                and observer.commands and np.array_equal(observer.commands[-1].position, HOME))
+
+    wait_for(holding, 1.0, "a hold command at the last positions and status HOLDING")
+    assert time.monotonic() - stopped < 1.0
+    refused = load(observer, model_path)
+    assert not refused.success and "episode is running" in refused.message
+    second = client.send_goal_async(Execute.Goal(max_steps=10))
+    assert not wait_for(lambda: second.result() if second.done() else None, what="goal response").accepted
+
+    result_future = handle.get_result_async()
+    handle.cancel_goal_async()
+    wrapped = wait_for(lambda: result_future.result() if result_future.done() else None, 10.0, "the result")
+    assert wrapped.status == GoalStatus.STATUS_CANCELED and wrapped.result.outcome == "canceled"
+    assert wrapped.result.steps > 0
+    wait_for(lambda: [e.event for e in observer.events] == [EpisodeEvent.START, EpisodeEvent.ABORT],
+             what="START and ABORT")
+    client.destroy()
+
+
+def test_execute_is_refused_without_model(ros_context, spin):
+    without_model = make_controller(ros_context)
+    observer = spin(without_model, Observer(ros_context))[1]
+    status, result, _ = run_action(observer, Execute, "/controller/execute", Execute.Goal(max_steps=10))
+    assert status == GoalStatus.STATUS_ABORTED and not result.success
+    assert result.outcome == "failed" and "no model loaded" in result.message
+    assert not observer.events
+
+
+def test_execute_is_refused_without_situation(ros_context, spin, model_path):
+    controller = make_controller(ros_context, model_path=model_path)
+    observer = spin(controller, Observer(ros_context))[1]
+    status, result, _ = run_action(observer, Execute, "/controller/execute", Execute.Goal(max_steps=10))
+    assert status == GoalStatus.STATUS_ABORTED and "no situation known" in result.message
+    assert not observer.events
+
+
+def test_lockstep_episode_aborts_without_joint_states(ros_context, spin, model_path):
+    controller = make_controller(ros_context, model_path=model_path, state_timeout_s=0.3)
+    observer = Observer(ros_context)
+    situation_pub = observer.create_publisher(SituationMsg, "/situation", LATCHED)
+    spin(controller, observer)
+    situation_pub.publish(messages.situation_to_msg(situations.dataset("sphere_test")[0]))
+    wait_for(lambda: controller.scene is not None, what="the situation")
+    status, result, _ = run_action(observer, Execute, "/controller/execute", Execute.Goal(max_steps=10))
+    assert status == GoalStatus.STATUS_ABORTED and "no joint states for 0.3 s" in result.message
+    assert result.steps == 0 and not observer.commands and not observer.events
+
+
+@pytest.mark.parametrize("name, value, reason", [
+    ("mode", "fast", "parameter mode"), ("task", "juggle", "parameter task"),
+    ("control_rate_hz", 0.0, "control_rate_hz"), ("max_steps", "many", "an integer"),
+    ("state_timeout_s", -1.0, "state_timeout_s"), ("model_path", "/no/such/model.safetensors", "does not exist")])
+def test_bad_parameters_are_refused(ros_context, name, value, reason):
+    with pytest.raises(ValueError, match=reason):
+        make_controller(ros_context, **{name: value})
