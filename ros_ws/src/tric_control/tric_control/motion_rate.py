@@ -15,11 +15,19 @@ solver, re-used and warm-started tick after tick.
 Priors (C_prior of Eq. 9) are constraints:
 - joint limits with a margin and a per-tick step bound (the joints' velocity limits);
 - collision avoidance: for the COLLISION_ROWS closest pairs within INFLUENCE (tric_sim.collision
-  .Proximity: every robot geometry against the table, obstacles and box body; arm links also against
-  the grasp target and the lid; arm links against the rest of the robot), a velocity damper
-  n^T J dq >= -DAMPING * (d - SAFETY) keeps each pair from closing faster than a fraction of its
-  remaining margin. The hand (palm and fingers) is allowed to touch the grasp target and the lid, as
-  the paper's collision cost rises at the end of a grasp: contact is the goal there.
+  .Proximity: every robot geometry against every scene body, arm links against the rest of the
+  robot), a velocity damper n^T J dq >= -DAMPING * (d - safety) keeps each pair from closing faster
+  than a fraction of its remaining margin. The safety distance is SAFETY for the scene, SELF_SAFETY
+  between the robot's links, and -TOUCH_DEPTH for the hand against the grasp target and the lid: as
+  in the paper, where the collision cost rises at the end of a grasp, the fingers come to touch the
+  object (contact is the goal there) and may press into it a few millimetres, which makes the grip.
+
+- the model's domain: a learned value function is only known where it was trained. Each kept
+  feature u (scaled to [0, 1] over the demonstrations and noisy samples) is kept within
+  [-DOMAIN_MARGIN, 1 + DOMAIN_MARGIN]: the DOMAIN_ROWS features nearest their bounds get the same
+  kind of damper, du/dq dq >= -DAMPING * (u - bound) (signs mirrored at the upper bound). Without it
+  the linear part of f extrapolates, and the controller drives the hand into configurations never
+  demonstrated (fingers bent backwards) where f keeps falling.
 
 The command is a reference that integrates the steps; it may lead the measured joints by at most
 MAX_LEAD, so that fingers held back by an object keep squeezing it, and a blocked arm does not wind up.
@@ -34,14 +42,23 @@ import proxsuite
 from tric_sim.collision import Proximity
 from tric_sim.robot_model import RobotModel
 
-COLLISION_ROWS = 6
+COLLISION_ROWS = 10
+DOMAIN_ROWS = 8
+DOMAIN_MARGIN = 0.05
 INFLUENCE = 0.05
-#: Distances kept from the scene and between the robot's own links, m.
+#: Distances kept from the scene and between the robot's own links, and how far the hand may press
+#: into the grasp target or the lid, m.
 SAFETY = 0.01
 SELF_SAFETY = 0.002
+TOUCH_DEPTH = 0.005
+SAFETY_BY_ROLE = {"self": SELF_SAFETY, "touch": -TOUCH_DEPTH}
+#: Soft touch prior: within TOUCH_SOFT of the grasp target or lid the hand is pushed back with this
+#: weight (relative to the step-size term).
+TOUCH_SOFT = 0.02
+TOUCH_WEIGHT = 1.0
 DAMPING = 0.3
 JOINT_MARGIN = 0.02
-MAX_LEAD = 0.1
+MAX_LEAD = 0.03
 #: Convergence: the robot has come to rest, its joints having moved less than CONVERGED_MOTION (rad,
 #: in norm) over the last CONVERGED_WINDOW ticks.
 CONVERGED_WINDOW = 100
@@ -63,40 +80,44 @@ class Tick:
 
 
 class StepQP:
-    """min 1/2 dq^T H dq + c^T dq over dq (n,) with box bounds and COLLISION_ROWS rows l <= C dq;
-    solve() returns None when the solver finds no solution."""
+    """min 1/2 dq^T H dq + c^T dq over dq (n,) with box bounds and `rows` inequality rows
+    l <= C dq; solve() returns None when the solver finds no solution."""
 
-    def __init__(self, n: int):
-        self.n = n
-        self.qp = proxsuite.proxqp.dense.QP(n, 0, COLLISION_ROWS, True)
-        self.qp.settings.eps_abs = 1e-8
-        self.qp.settings.max_iter = 200
+    def __init__(self, n: int, rows: int):
+        self.n, self.rows = n, rows
+        self.qp = proxsuite.proxqp.dense.QP(n, 0, rows, True)
+        self.qp.settings.eps_abs = 1e-7
+        self.qp.settings.max_iter = 100
+        self.qp.settings.max_iter_in = 50
+        # conflicting dampers: solve for the closest feasible constraints instead of failing
+        self.qp.settings.primal_infeasibility_solving = True
         self.qp.settings.initial_guess = proxsuite.proxqp.InitialGuess.WARM_START_WITH_PREVIOUS_RESULT
         self.initialized = False
 
     def solve(self, hessian, linear, rows, lower, box_low, box_high) -> np.ndarray:
-        upper = np.full(COLLISION_ROWS, 1e20)
+        upper = np.full(self.rows, 1e20)
         if self.initialized:
             self.qp.update(H=hessian, g=linear, C=rows, l=lower, u=upper, l_box=box_low, u_box=box_high)
         else:
             self.qp.init(hessian, linear, None, None, rows, lower, upper, box_low, box_high)
             self.initialized = True
         self.qp.solve()
-        if self.qp.results.info.status != proxsuite.proxqp.QPSolverOutput.PROXQP_SOLVED:
+        if self.qp.results.info.status not in (proxsuite.proxqp.QPSolverOutput.PROXQP_SOLVED,
+                                               proxsuite.proxqp.QPSolverOutput.PROXQP_SOLVED_CLOSEST_PRIMAL_FEASIBLE):
             return None
         return np.clip(self.qp.results.x, box_low, box_high)
 
 
 class MotionRateController:
-    """Runs the motion-rate step for one objective (see objectives in tric_control.objectives).
+    """Runs the motion-rate step for one objective (see tric_control.objectives).
 
-    objective(q, object_poses) -> (hessian (n, n), linear (n,), value, gradient_norm) of the
-    objective's quadratic model in dq (without the |dq|^2 term, which this adds).
+    objective(q, object_poses) -> Objective: the quadratic model of the cost in dq (without the
+    |dq|^2 term, which this adds), the cost's value and gradient norm, and the domain rows.
     """
 
     def __init__(self, robot: RobotModel, proximity: Proximity, objective, period: float = 0.01):
         self.robot, self.proximity, self.objective, self.period = robot, proximity, objective, period
-        self.qp = StepQP(robot.n_joints)
+        self.qp = StepQP(robot.n_joints, COLLISION_ROWS + DOMAIN_ROWS)
         self.reference = None
         self.values = []
         self.history = []
@@ -112,50 +133,94 @@ class MotionRateController:
         q = np.asarray(q, dtype=float)
         if self.reference is None:
             self.reset(q)
+        previous = self.reference
         self.reference = q + np.clip(self.reference - q, -MAX_LEAD, MAX_LEAD)
-        hessian, linear, value, gradient_norm = self.objective(q, object_poses)
-        hessian = hessian + 2.0 * np.eye(robot.n_joints)
+        model = self.objective(q, object_poses)
+        hessian = model.hessian + 2.0 * np.eye(robot.n_joints)
+        linear = model.linear.copy()
         pairs = self.proximity.near(q, object_poses, INFLUENCE)[:COLLISION_ROWS]
-        rows = np.zeros((COLLISION_ROWS, robot.n_joints))
-        lower = np.full(COLLISION_ROWS, -1e20)
+        for pair in pairs:
+            # the soft part of the touch prior: the hand is pushed back from the object within
+            # TOUCH_SOFT, as by a spring of stiffness TOUCH_WEIGHT / |row|^2 in the step's metric
+            if pair.role == "touch" and pair.distance < TOUCH_SOFT:
+                weight = TOUCH_WEIGHT / max(pair.row @ pair.row, 1e-9)
+                hessian += 2.0 * weight * np.outer(pair.row, pair.row)
+                linear += 2.0 * weight * (pair.distance - TOUCH_SOFT) * pair.row
+        rows = np.zeros((COLLISION_ROWS + DOMAIN_ROWS, robot.n_joints))
+        lower = np.full(COLLISION_ROWS + DOMAIN_ROWS, -1e20)
         max_step = robot.velocity_limits * self.period
-        for k, pair in enumerate(pairs):
-            rows[k] = pair.row
-            safety = SAFETY if pair.with_scene else SELF_SAFETY
-            # never ask for more separation than half of what a step within the bounds can give
-            lower[k] = min(-DAMPING * (pair.distance - safety), 0.5 * np.abs(pair.row) @ max_step)
+        # each row: (gradient of a margin that must stay >= 0, the margin now); never ask for more
+        # than half of what a step within the bounds can give
+        margins = [(pair.row, pair.distance - SAFETY_BY_ROLE.get(pair.role, SAFETY)) for pair in pairs]
+        margins += [None] * (COLLISION_ROWS - len(pairs)) + model.domain_rows[:DOMAIN_ROWS]
+        for k, entry in enumerate(margins):
+            if entry is not None:
+                rows[k] = entry[0]
+                lower[k] = min(-DAMPING * entry[1], 0.5 * np.abs(entry[0]) @ max_step)
         box_low = np.maximum(robot.lower + JOINT_MARGIN - self.reference, -max_step)
         box_high = np.minimum(robot.upper - JOINT_MARGIN - self.reference, max_step)
         box_low, box_high = np.minimum(box_low, 0.0), np.maximum(box_high, 0.0)
         step = self.qp.solve(hessian, linear, rows, lower, box_low, box_high)
-        if step is None:  # no step satisfies every constraint: hold still this tick
+        if step is None:  # the solver found no step: hold still this tick
             step = np.zeros(robot.n_joints)
-        self.reference = np.clip(self.reference + step, robot.lower, robot.upper)
+        # the command moves by at most one velocity-bounded step per tick, within the joint limits
+        target = previous + np.clip(self.reference + step - previous, -max_step, max_step)
+        self.reference = np.clip(target, robot.lower, robot.upper)
         active = [pair.name for k, pair in enumerate(pairs) if rows[k] @ step <= lower[k] + 1e-7]
+        active += [f"feature_range:{name}" for name, k in zip(model.domain_names, range(COLLISION_ROWS, len(rows)))
+                   if rows[k] @ step <= lower[k] + 1e-7]
         active += [f"joint_limit:{robot.joint_names[i]}" for i in
                    np.flatnonzero((step <= box_low + 1e-9) & (box_low > -max_step + 1e-9)
                                   | (step >= box_high - 1e-9) & (box_high < max_step - 1e-9))]
-        self.values.append(value)
+        self.values.append(model.value)
         self.history.append(q)
         converged = (len(self.history) > CONVERGED_WINDOW
                      and np.linalg.norm(q - self.history[-CONVERGED_WINDOW - 1]) < CONVERGED_MOTION)
-        return Tick(target=self.reference.copy(), value=value, gradient_norm=gradient_norm, step=step,
+        return Tick(target=self.reference.copy(), value=model.value, gradient_norm=model.gradient_norm, step=step,
                     min_distance=pairs[0].distance if pairs else INFLUENCE, active=active,
                     converged=converged)
+
+
+@dataclass
+class Objective:
+    """An objective's quadratic model at q: 1/2 dq^T hessian dq + linear^T dq, the cost's value and
+    gradient norm, and the domain rows: (gradient (n,), margin) pairs, nearest their bound first, with
+    the names of their features."""
+
+    hessian: np.ndarray
+    linear: np.ndarray
+    value: float
+    gradient_norm: float
+    domain_rows: list = field(default_factory=list)
+    domain_names: list = field(default_factory=list)
+
+
+def domain_rows(scaling, y: np.ndarray, jacobian: np.ndarray, count: int):
+    """The count kept features nearest the bounds of their training range (+-DOMAIN_MARGIN) as
+    (gradient of the margin (n,), margin) rows and their indices into the kept features."""
+    u = scaling.transform(y)
+    du = jacobian[scaling.kept] * scaling.factor[:, None]                # (s, n)
+    to_low, to_high = u + DOMAIN_MARGIN, 1.0 + DOMAIN_MARGIN - u
+    nearest = np.argsort(np.minimum(to_low, to_high))[:count]
+    rows = [(du[k], to_low[k]) if to_low[k] <= to_high[k] else (-du[k], to_high[k]) for k in nearest]
+    return rows, nearest
 
 
 class ValueObjective:
     """TRIC's objective: rho (g^T dq + delta)^2 with g = (df/dy)(dphi/dq) at q."""
 
-    def __init__(self, feature_map, value_function, delta: float, rho: float):
+    def __init__(self, feature_map, value_function, delta: float, rho: float, feature_names=None):
         if not (delta > 0 and rho > 0):
             raise ValueError("delta and rho must be positive")
         self.features, self.value_function, self.delta, self.rho = feature_map, value_function, delta, rho
+        names = feature_names or feature_map.definition.feature_names
+        self.kept_names = [names[k] for k in value_function.scaling.kept]
 
-    def __call__(self, q, object_poses):
+    def __call__(self, q, object_poses) -> Objective:
         y, jacobian = self.features.with_jacobian(q, object_poses)
         value, df_dy = self.value_function.gradient(y)
         g = df_dy @ jacobian
-        hessian = 2.0 * self.rho * np.outer(g, g)
-        linear = 2.0 * self.rho * self.delta * g
-        return hessian, linear, value, float(np.linalg.norm(g))
+        rows, nearest = domain_rows(self.value_function.scaling, y, jacobian, DOMAIN_ROWS)
+        return Objective(hessian=2.0 * self.rho * np.outer(g, g), linear=2.0 * self.rho * self.delta * g,
+                         value=value, gradient_norm=float(np.linalg.norm(g)), domain_rows=rows,
+                         domain_names=[self.kept_names[k] for k in nearest])

@@ -6,8 +6,8 @@ the position of j in i's frame (3 numbers) and the distance between them (1 numb
 
     p_ij = R_i^T (x_j - x_i),    d_ij = |x_j - x_i|
 
-Grasping uses 8 landmarks (object centre, three fingertips, three finger bases, palm centre): 56 pairs,
-224 features. Box opening uses 5 (box, lid, fingertips of fingers 2 and 3, robot base): 80 features.
+Grasping uses 8 landmarks (object centre, three fingertips, the middles of the three fingers' lower
+segments, palm centre): 56 pairs, 224 features. Box opening uses 5 (box, lid, fingertips of fingers 2 and 3, robot base): 80 features.
 The Jacobian is analytic, from the frames' Jacobians (objects do not move with q):
 
     dp_ij/dq = R_i^T (Jv_j - Jv_i) + R_i^T [x_j - x_i]_x Jw_i,    dd_ij/dq = (x_j - x_i)^T (Jv_j - Jv_i) / d_ij
@@ -29,8 +29,8 @@ TASK_LANDMARKS = {
     "grasp": (("object", "object/object"),
               ("fingertip_1", "robot/finger_1_tip"), ("fingertip_2", "robot/finger_2_tip"),
               ("fingertip_3", "robot/finger_3_tip"),
-              ("finger_base_1", "robot/finger_1_base"), ("finger_base_2", "robot/finger_2_base"),
-              ("finger_base_3", "robot/finger_3_base"),
+              ("finger_mid_1", "robot/finger_1_middle"), ("finger_mid_2", "robot/finger_2_middle"),
+              ("finger_mid_3", "robot/finger_3_middle"),
               ("palm", "robot/palm_center")),
     "open_box": (("box", "object/object"), ("lid", "object/lid"),
                  ("fingertip_2", "robot/finger_2_tip"), ("fingertip_3", "robot/finger_3_tip"),

@@ -97,3 +97,25 @@ def value_function(model_file: ModelFile) -> ValueFunction:
         if not np.all(np.isfinite(a[name])):
             raise ValueError(f"the model file's {name} has non-finite values")
     return ValueFunction(Scaling(kept, a["low"], a["high"], size), a["w1"], a["w2"], a["w3"])
+
+
+def from_training(result, dataset) -> ModelFile:
+    """The ModelFile of a TRIC training result (tric_learning.training.TrainingResult) on dataset."""
+    model = result.model
+    names = np.array(dataset.definition.feature_names)[model.scaling.kept]
+    return ModelFile("tric", dataset.definition, value_function_arrays(model), {
+        "hyperparameters": result.config.to_dict(),
+        "dataset_fingerprint": dataset.fingerprint,
+        "demos": [demo.name for demo in dataset.demos],
+        "losses": result.losses,
+        "iterations": result.iterations,
+        "sampling_time_s": result.sampling_time_s,
+        "optimization_time_s": result.optimization_time_s,
+        "train_time_s": result.train_time_s,
+        "delta": result.delta,
+        "rho": result.rho,
+        "selected_features": result.selected_features,
+        "mean_samples_per_step": result.mean_samples_per_step,
+        "kept_features": names.tolist(),
+        "scores": model.scores().tolist(),
+    })

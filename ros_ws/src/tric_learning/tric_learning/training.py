@@ -1,11 +1,14 @@
 """Training TRIC's value function (paper Sec. 3.2, Eq. 11-17) with L-BFGS.
 
-    L(D; w) = sum_i sum_t (alpha_n L_n(y_t^i) + alpha_g L_g(q_t^i)) + alpha_w |w|_1        (11)
+    L(D; w) = 1/S sum_i sum_t (alpha_n L_n(y_t^i) + alpha_g L_g(q_t^i)) + alpha_w |w|_1    (11)
     L_n(y_t) = sum_m eps_{t,m} log(1 + exp(f(y_t) - f(y~_{t,m})))                         (16)
     L_g(q_t) = cos(grad_q (f o phi)(q_t), q_{t+1} - q_t)                                    (17)
 
 with grad_q (f o phi) = (df/dy)(dphi/dq) from the recorded Jacobians (Eq. 10). Steps where the
 demonstration does not move (|q_{t+1} - q_t| < MIN_STEP) have no direction and are left out of L_g.
+The data terms are divided by the number S of demonstration steps (N T): then the paper's
+alpha_w = 0.001 gives its regularization whatever N and T are (summed, it would grow weaker with every
+demonstration added; measured here, the summed form leaves f too rough to control with).
 The noisy samples are drawn once (tric_learning.samples); the optimizer is PyTorch's L-BFGS with a
 strong-Wolfe line search on the full batch (the paper: 100 iterations of BFGS), in float32,
 deterministic for a given seed on a given machine.
@@ -74,7 +77,8 @@ class TrainingConfig:
 
 @dataclass
 class TrainingResult:
-    """A trained model with its record: loss terms (unweighted sums), times (s), delta, counts."""
+    """A trained model with its record: loss terms (L_n and L_g per demonstration step, |w|_1),
+    times (s), the controller's delta and rho, counts."""
 
     model: ValueFunction
     config: TrainingConfig
@@ -139,6 +143,7 @@ class _Problem:
         dtype = torch.float32
         self.s, self.k = len(scaling.kept), config.hidden_units
         self.u = torch.tensor(scaling.transform(np.concatenate([d.y for d in dataset.demos])), dtype=dtype)
+        self.steps = len(self.u)
         self.u_noisy = torch.tensor(scaling.transform(noisy.y), dtype=dtype)
         self.noisy_step = torch.tensor(noisy.step, dtype=torch.long)
         self.noisy_weight = torch.tensor(noisy.weight, dtype=dtype)
@@ -195,10 +200,10 @@ class _Problem:
         def closure():
             optimizer.zero_grad()
             loss_n, loss_g, loss_w = self.terms(self.theta)
-            total = config.alpha_n * loss_n + config.alpha_g * loss_g + config.alpha_w * loss_w
+            total = (config.alpha_n * loss_n + config.alpha_g * loss_g) / self.steps + config.alpha_w * loss_w
             total.backward()
-            latest.update(total=float(total.detach()), n=float(loss_n.detach()), g=float(loss_g.detach()),
-                          w=float(loss_w.detach()))
+            latest.update(total=float(total.detach()), n=float(loss_n.detach()) / self.steps,
+                          g=float(loss_g.detach()) / self.steps, w=float(loss_w.detach()))
             iteration = optimizer.state[optimizer._params[0]].get("n_iter", 0)
             report("optimizing", min(iteration / config.max_iterations, 1.0), dict(latest, iteration=iteration))
             return total
@@ -208,7 +213,7 @@ class _Problem:
         iterations = optimizer.state[optimizer._params[0]].get("n_iter", 0)
         with torch.no_grad():
             loss_n, loss_g, loss_w = self.terms(self.theta)
-        losses = {"n": float(loss_n), "g": float(loss_g), "w": float(loss_w)}
+        losses = {"n": float(loss_n) / self.steps, "g": float(loss_g) / self.steps, "w": float(loss_w)}
         losses["total"] = config.alpha_n * losses["n"] + config.alpha_g * losses["g"] + config.alpha_w * losses["w"]
         w1, w2, w3 = (t.detach().to(torch.float64).numpy().copy() for t in self._split(self.theta))
         return (w1, w2, w3), losses, int(iterations)

@@ -187,22 +187,23 @@ class SceneCollision:
 
 @dataclass
 class ClosePair:
-    """A robot geometry near something it must not penetrate (a scene body, or with_scene False:
-    another robot geometry): signed distance (m), and the row (n,) that maps a joint step dq to the
-    change of that distance (n^T J at the witness points)."""
+    """A robot geometry near something it must not penetrate: signed distance (m), the row (n,)
+    that maps a joint step dq to the change of that distance (n^T J at the witness points), and the
+    other's role: a scene body's ("table", "obstacle", "box_body", "target", "lid"), "touch" for the
+    hand against the grasp target or the lid (which it may press), or "self" (another robot part)."""
 
     name: str
     distance: float
     row: np.ndarray
-    with_scene: bool = True
+    role: str = "self"
 
 
 class Proximity:
     """Distances for a controller, one configuration at a time: the robot geometries near the
     scene bodies they must avoid, and arm geometries near other robot geometries.
 
-    The table, obstacles and box body are avoided by every robot geometry; the grasp target and the
-    lid only by the arm's geometries, the hand (palm and fingers) may touch them. Pairs inside the
+    Every robot geometry is checked against every scene body; pairs of the hand (palm and fingers)
+    with the grasp target or the lid get the role "touch" (the hand may press them). Pairs inside the
     hand are left to its joint limits (fingers touching each other do no harm).
     """
 
@@ -231,14 +232,14 @@ class Proximity:
         pairs = []
         for body, shape, placement in zip(self.scene.bodies, self.scene.body_shapes,
                                           self.scene.body_placements(object_poses)):
-            candidates = self.scene._moving & ~self.hand if body.role in ("target", "lid") else self.scene._moving
             clearance = _body_distance(body, placement, centres) - self.bound
-            for k in np.flatnonzero(candidates & (clearance < influence)).tolist():
+            for k in np.flatnonzero(self.scene._moving & (clearance < influence)).tolist():
                 joint, _, robot_shape = self.scene.robot_geometries[k]
                 distance, point, away = self._distance(robot_shape, placements[k], shape, placement)
                 if distance < influence:
+                    role = "touch" if body.role in ("target", "lid") and self.hand[k] else body.role
                     pairs.append(ClosePair(f"{self.names[k]}/{body.name}", distance,
-                                           away @ self._point_jacobian(joint, point)))
+                                           away @ self._point_jacobian(joint, point), role))
         if len(self.self_pairs):
             a, b = self.self_pairs[:, 0], self.self_pairs[:, 1]
             gaps = np.linalg.norm(centres[a] - centres[b], axis=1) - self.bound[a] - self.bound[b]
@@ -248,7 +249,7 @@ class Proximity:
                 if distance < influence:
                     point_b = point_a - away * distance
                     row = away @ (self._point_jacobian(joint_a, point_a) - self._point_jacobian(joint_b, point_b))
-                    pairs.append(ClosePair(f"{self.names[a]}/{self.names[b]}", distance, row, with_scene=False))
+                    pairs.append(ClosePair(f"{self.names[a]}/{self.names[b]}", distance, row, "self"))
         return sorted(pairs, key=lambda p: p.distance)
 
     def _distance(self, shape_a, placement_a, shape_b, placement_b):

@@ -43,11 +43,13 @@ COLORS = {
     "obstacle": (0.45, 0.45, 0.5, 1.0),
 }
 #: Friction coefficients of the fingers and the objects.
-LATERAL_FRICTION = 1.0
+LATERAL_FRICTION = 0.6
 SPINNING_FRICTION = 0.002
 #: Distance beyond which robot-to-scene distances are not resolved (reported as this value), m: the
 #: contact-breaking threshold, within which PyBullet reports contact points with their distance.
 DISTANCE_CUTOFF = 0.02
+#: Force (N m) of the hard stops at the joint limits: contacts cannot bend a joint past them.
+JOINT_LIMIT_FORCE = 1000.0
 #: Gains of the joint servos (PyBullet's POSITION_CONTROL: position and velocity error weights).
 POSITION_GAIN = 0.1
 VELOCITY_GAIN = 1.0
@@ -108,7 +110,8 @@ class PhysicsWorld:
         self._velocity_gains = [VELOCITY_GAIN] * len(self.all_joints)
         for link in range(-1, pb.getNumJoints(self.robot_id, physicsClientId=self.client)):
             pb.changeDynamics(self.robot_id, link, lateralFriction=LATERAL_FRICTION,
-                              spinningFriction=SPINNING_FRICTION, physicsClientId=self.client)
+                              spinningFriction=SPINNING_FRICTION, jointLimitForce=JOINT_LIMIT_FORCE,
+                              physicsClientId=self.client)
         self.periods = 0
         self.situation = None
         self.bodies = {}

@@ -23,9 +23,11 @@ SRDF_PATH = URDF_PATH.with_suffix(".srdf")
 #: disabled as "Never" in the SRDF, m.
 NEVER_MARGIN = 0.005
 
-#: Landmark frames on the robot (paper Fig. 7): palm centre, fingertips, finger bases.
+#: Landmark frames on the robot (paper Fig. 7): palm centre, fingertips, the middles of the fingers'
+#: lower segments (and the finger bases on the palm).
 PALM = "palm_center"
 FINGERTIPS = ("finger_1_tip", "finger_2_tip", "finger_3_tip")
+FINGER_MIDDLES = ("finger_1_middle", "finger_2_middle", "finger_3_middle")
 FINGER_BASES = ("finger_1_base", "finger_2_base", "finger_3_base")
 BASE = "base_link"
 
