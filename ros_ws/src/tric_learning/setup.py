@@ -16,5 +16,8 @@ setup(
     maintainer_email="maintainers@tric-ros.org",
     description="TRIC learning: task-space features and their Jacobians, MCAP datasets and the recorder node, the value function, its losses and training, the trainer node, the DPL baseline.",
     license="Apache-2.0",
-    entry_points={"console_scripts": []},
+    entry_points={"console_scripts": [
+        "recorder = tric_learning.recorder_node:main",
+        "tric-record = tric_learning.record_cli:main",
+    ]},
 )

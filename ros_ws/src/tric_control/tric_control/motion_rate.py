@@ -54,8 +54,8 @@ TOUCH_DEPTH = 0.005
 SAFETY_BY_ROLE = {"self": SELF_SAFETY, "touch": -TOUCH_DEPTH}
 #: Soft touch prior: within TOUCH_SOFT of the grasp target or lid the hand is pushed back with this
 #: weight (relative to the step-size term).
-TOUCH_SOFT = 0.02
-TOUCH_WEIGHT = 1.0
+TOUCH_SOFT = 0.01
+TOUCH_WEIGHT = 3.0
 DAMPING = 0.3
 JOINT_MARGIN = 0.02
 MAX_LEAD = 0.03

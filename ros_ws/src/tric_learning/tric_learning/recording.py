@@ -1,17 +1,43 @@
-"""Recording demonstrations: samples every period of simulated time, features and Jacobians.
+"""Recording demonstrations: samples every period of simulated time, features and Jacobians, into
+one MCAP bag per episode; and reading such bags back into a Dataset.
 
 The recorder node and the offline recorder share EpisodeSampler: given the joint states and object
 poses of an episode as they come, it takes one sample per `period` of simulated time (the paper:
 every 125 ms of a 5 s demonstration, T = 40) with y = phi(q) and J = dphi/dq.
+
+A bag holds (topic: type):
+    /tric/feature_definition: tric_msgs/FeatureDefinition   once, latched
+    /tric/situation:          tric_msgs/Situation           once, latched
+    /tric/samples:            tric_msgs/FeatureSample       one per sample (q, y, J, object poses)
+    /joint_states:            sensor_msgs/JointState        every control period (raw)
+    /object_poses:            tric_msgs/ObjectPoses         every control period (raw)
+    /episode:                 tric_msgs/EpisodeEvent        START, END, OUTCOME (the teacher's metrics)
+and in its rosbag2 custom data: tric.episode_id, tric.source, tric.task, tric.fingerprint and, once
+known, tric.outcome (the metrics as JSON).
 """
 
+import json
+import pathlib
 from dataclasses import dataclass
 
 import numpy as np
+from sensor_msgs.msg import JointState
+from tric_msgs.msg import EpisodeEvent, FeatureDefinition as FeatureDefinitionMsg, FeatureSample, ObjectPoses
+from tric_msgs.msg import Situation as SituationMsg
 
+from tric_learning import bags
 from tric_learning.dataset import Dataset, Demo
 from tric_learning.features import FeatureDefinition, FeatureMap
+from tric_learning.messages import definition_from_msg, definition_msg, sample_arrays, sample_msg
+from tric_sim import messages
 from tric_sim.robot_model import RobotModel
+
+DEFINITION_TOPIC = "/tric/feature_definition"
+SITUATION_TOPIC = "/tric/situation"
+SAMPLES_TOPIC = "/tric/samples"
+TOPIC_TYPES = {DEFINITION_TOPIC: FeatureDefinitionMsg, SITUATION_TOPIC: SituationMsg,
+               SAMPLES_TOPIC: FeatureSample, "/joint_states": JointState, "/object_poses": ObjectPoses,
+               "/episode": EpisodeEvent}
 
 #: Default sampling period of demonstrations, s (the paper's 125 ms).
 SAMPLE_PERIOD = 0.125
@@ -99,3 +125,165 @@ def record_offline(robot: RobotModel, situations, duration: float, period: float
     finally:
         world.close()
     return Dataset(definition, demos).check()
+
+
+class BagRecorder:
+    """Writes one episode into one bag (see the module docstring) as its messages come.
+
+    The bag is written to "<path>.part" and renamed to path when the episode's outcome arrives
+    (finish()); abort() deletes it. Every sample is flushed, so a recorder killed mid-episode leaves
+    a readable ".part" with everything up to the last sample. A sample is written once a later state
+    shows it is inside the episode: the episode's last state (stamped with END, which no command
+    answered) is not a sample, so 5 s at 125 ms give the paper's T = 40.
+    """
+
+    def __init__(self, path, robot: RobotModel, situation, episode_id: str, source: str,
+                 start_event: EpisodeEvent, period: float = SAMPLE_PERIOD):
+        self.definition = FeatureDefinition.for_task(situation.task, robot)
+        self.sampler = EpisodeSampler(FeatureMap(self.definition, robot), period)
+        self.robot = robot
+        self.poses = {}
+        self.end_ns = None
+        self.pending = None
+        self.writer = bags.BagWriter(path, {"tric.episode_id": episode_id, "tric.source": source,
+                                            "tric.task": situation.task,
+                                            "tric.fingerprint": self.definition.fingerprint})
+        for topic, msg_type in TOPIC_TYPES.items():
+            self.writer.add_topic(topic, msg_type, latched=topic in (DEFINITION_TOPIC, SITUATION_TOPIC))
+        start_ns = messages.time_ns(start_event.header.stamp)
+        self.start_ns = start_ns
+        self.writer.write(DEFINITION_TOPIC, definition_msg(self.definition), start_ns)
+        self.writer.write(SITUATION_TOPIC, messages.situation_to_msg(situation), start_ns)
+        self.writer.write("/episode", start_event, start_ns)
+        self.writer.flush()
+
+    @property
+    def path(self) -> pathlib.Path:
+        return self.writer.path
+
+    def object_poses(self, msg: ObjectPoses) -> None:
+        stamp = messages.time_ns(msg.header.stamp)
+        if stamp < self.start_ns or (self.end_ns is not None and stamp > self.end_ns):
+            return
+        self.poses = messages.object_poses_from_msg(msg)
+        self.writer.write("/object_poses", msg, stamp)
+
+    def joint_state(self, msg: JointState) -> bool:
+        """Record a joint state of the episode; True if it became a sample."""
+        stamp = messages.time_ns(msg.header.stamp)
+        if stamp < self.start_ns or (self.end_ns is not None and stamp > self.end_ns) or not self.poses:
+            return False
+        self.writer.write("/joint_states", msg, stamp)
+        q = messages.joint_positions_from_msg(msg, self.definition.joint_names)
+        self._write_pending()
+        self.pending = self.sampler.offer(stamp, q, self.poses)
+        return self.pending is not None
+
+    def _write_pending(self):
+        if self.pending is not None:
+            if self.end_ns is None or self.pending.stamp_ns < self.end_ns:
+                self.writer.write(SAMPLES_TOPIC, sample_msg(self.pending, self.definition.fingerprint),
+                                  self.pending.stamp_ns)
+                self.writer.flush()
+            else:
+                self.sampler.samples.remove(self.pending)
+            self.pending = None
+
+    def end(self, event: EpisodeEvent) -> None:
+        self.end_ns = messages.time_ns(event.header.stamp)
+        self._write_pending()
+        self.writer.write("/episode", event, self.end_ns)
+
+    def finish(self, outcome: EpisodeEvent = None) -> pathlib.Path:
+        """Write the outcome (if any) and close the bag; returns its path."""
+        self._write_pending()
+        if outcome is not None:
+            self.writer.write("/episode", outcome, messages.time_ns(outcome.header.stamp))
+            self.writer.set_custom_data("tric.outcome", json.dumps(messages.metrics_dict(outcome.metrics)))
+        return self.writer.close()
+
+    def abort(self) -> None:
+        self.writer.discard()
+
+
+def bag_paths(paths) -> list:
+    """The .mcap files among paths (files, or folders whose *.mcap files are taken in name order);
+    ValueError for a path that does not exist or holds no bag."""
+    found = []
+    for path in map(pathlib.Path, paths):
+        if path.is_dir():
+            inside = sorted(path.glob("*" + bags.BAG_SUFFIX))
+            if not inside:
+                raise ValueError(f"{path} holds no {bags.BAG_SUFFIX} bags")
+            found += inside
+        elif path.is_file():
+            found.append(path)
+        else:
+            raise ValueError(f"{path} does not exist")
+    if not found:
+        raise ValueError("no bags given")
+    return found
+
+
+def load_dataset(paths, robot: RobotModel = None, progress=None) -> Dataset:
+    """A Dataset of the demonstrations in the bags at paths (see bag_paths). Every bag must be a
+    finished TRIC recording of the same feature definition, on this robot; anything else is
+    refused with a ValueError that names the bag and the problem. progress(done, total) after each."""
+    files = bag_paths(paths)
+    definition, demos = None, []
+    for k, path in enumerate(files):
+        demo, bag_definition = _load_demo(path)
+        if definition is None:
+            definition = bag_definition
+            if robot is not None:
+                try:
+                    FeatureDefinition.for_task(definition.task, robot).check_same(definition, f"bag {path}")
+                except ValueError as error:
+                    raise ValueError(f"{error} (recorded with another robot model or definition)") from None
+        else:
+            try:
+                definition.check_same(bag_definition, f"bag {path}")
+            except ValueError as error:
+                raise ValueError(f"{error}; the first bag was {files[0]}") from None
+        demos.append(demo)
+        if progress is not None:
+            progress(k + 1, len(files))
+    try:
+        return Dataset(definition, demos).check()
+    except ValueError as error:
+        raise ValueError(f"the bags do not make a dataset: {error}") from None
+
+
+def _load_demo(path: pathlib.Path):
+    info = bags.bag_info(path)
+    if SAMPLES_TOPIC not in info.topics or DEFINITION_TOPIC not in info.topics:
+        raise ValueError(f"bag {path} is not a TRIC demonstration (no {SAMPLES_TOPIC} or {DEFINITION_TOPIC})")
+    definition = situation = None
+    samples, metrics, source = [], {}, info.custom_data.get("tric.source", "")
+    expected = {DEFINITION_TOPIC: FeatureDefinitionMsg, SITUATION_TOPIC: SituationMsg,
+                SAMPLES_TOPIC: FeatureSample, "/episode": EpisodeEvent}
+    try:
+        for message in bags.read_bag(path, topics=list(expected), expected_types=expected):
+            if message.topic == DEFINITION_TOPIC:
+                definition = definition_from_msg(message.message)
+            elif message.topic == SITUATION_TOPIC:
+                situation = messages.situation_from_msg(message.message)
+            elif message.topic == SAMPLES_TOPIC:
+                if definition is None:
+                    raise ValueError("a sample before the feature definition")
+                samples.append(sample_arrays(message.message, definition))
+            elif message.message.event == EpisodeEvent.OUTCOME:
+                metrics = messages.metrics_dict(message.message.metrics)
+    except ValueError as error:
+        text = str(error)
+        raise ValueError(text if str(path) in text else f"bag {path}: {text}") from None
+    if situation is None:
+        raise ValueError(f"bag {path} has no situation")
+    if len(samples) < 3:
+        raise ValueError(f"bag {path} has {len(samples)} samples; a demonstration needs at least 3")
+    stamps, qs, ys, jacobians, poses = zip(*samples)
+    name = info.custom_data.get("tric.episode_id", path.stem)
+    demo = Demo(name=name, situation=situation, q=np.array(qs), y=np.array(ys), jacobians=np.array(jacobians),
+                object_poses=list(poses), stamps_ns=np.array(stamps, dtype=np.int64), metrics=metrics,
+                source=source)
+    return demo, definition

@@ -1,0 +1,87 @@
+"""The feature map: values on hand-made configurations, analytic Jacobians, definitions."""
+
+import math
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from tric_learning.features import FeatureDefinition, FeatureMap
+from tric_sim.robot_model import RobotModel
+
+
+@pytest.fixture(scope="module")
+def robot():
+    return RobotModel()
+
+
+def test_sizes_and_names(robot):
+    grasp = FeatureDefinition.for_task("grasp", robot)
+    box = FeatureDefinition.for_task("open_box", robot)
+    assert grasp.size == 224 and len(grasp.landmark_names) == 8 and len(grasp.pairs) == 56
+    assert box.size == 80 and len(box.landmark_names) == 5
+    assert grasp.feature_names[:4] == ("p[object->fingertip_1].x", "p[object->fingertip_1].y",
+                                       "p[object->fingertip_1].z", "d[object,fingertip_1]")
+    assert len(set(grasp.feature_names)) == 224
+    assert grasp.fingerprint != box.fingerprint
+    assert FeatureDefinition.from_dict(grasp.to_dict()) == grasp
+    with pytest.raises(ValueError, match="unknown|no feature definition"):
+        FeatureDefinition.for_task("juggle", robot)
+
+
+def test_values_on_a_hand_made_configuration(robot):
+    """Arm straight up (q = 0 for the arm): the palm centre sits on the z axis; an object placed
+    0.3 m in front of it, turned 90 degrees about z, must appear where geometry says."""
+    definition = FeatureDefinition.for_task("grasp", robot)
+    features = FeatureMap(definition, robot)
+    q = np.zeros(robot.n_joints)
+    robot.forward(q)
+    palm = robot.frame_placement("palm_center")
+    assert np.allclose(palm.translation[:2], 0.0) and np.allclose(palm.rotation, np.eye(3))
+    object_position = palm.translation + np.array([0.3, 0.0, 0.0])
+    yaw = (0.0, 0.0, math.sin(math.pi / 4), math.cos(math.pi / 4))
+    y = dict(zip(definition.feature_names, features(q, {"object": (tuple(object_position), yaw)})))
+    # the object seen from the palm (palm frame = world frame here)
+    assert np.allclose([y["p[palm->object].x"], y["p[palm->object].y"], y["p[palm->object].z"]], [0.3, 0, 0])
+    # the palm seen from the object, whose x axis points along world y
+    assert np.allclose([y["p[object->palm].x"], y["p[object->palm].y"], y["p[object->palm].z"]], [0, 0.3, 0])
+    assert math.isclose(y["d[palm,object]"], 0.3) and math.isclose(y["d[object,palm]"], 0.3)
+
+
+@pytest.mark.parametrize("task, poses", [
+    ("grasp", {"object": ((0.6, 0.1, 0.3), (0.0, 0.2, 0.0, 0.98))}),
+    ("open_box", {"object": ((0.6, 0.0, 0.1), (0.0, 0.0, 0.2, 0.98)), "lid": ((0.7, 0.0, 0.2), (0.0, 0.3, 0.95, 0.1))}),
+])
+def test_jacobian_matches_finite_differences(robot, task, poses):
+    features = FeatureMap(FeatureDefinition.for_task(task, robot), robot)
+    rng = np.random.default_rng(0)
+    for _ in range(5):
+        q = rng.uniform(robot.lower, robot.upper)
+        y, jacobian = features.with_jacobian(q, poses)
+        assert np.allclose(y, features(q, poses))
+        numeric = np.zeros_like(jacobian)
+        for j in range(robot.n_joints):
+            dq = np.zeros(robot.n_joints)
+            dq[j] = 1e-6
+            numeric[:, j] = (features(q + dq, poses) - features(q - dq, poses)) / 2e-6
+        assert np.abs(jacobian - numeric).max() < 1e-6
+
+
+def test_batch_matches_single_evaluations(robot):
+    features = FeatureMap(FeatureDefinition.for_task("grasp", robot), robot)
+    poses = {"object": ((0.6, 0.1, 0.3), (0.0, 0.0, 0.0, 1.0))}
+    qs = np.random.default_rng(1).uniform(robot.lower, robot.upper, (20, robot.n_joints))
+    assert np.allclose(features.batch(qs, poses), [features(q, poses) for q in qs], atol=1e-12)
+    per_sample = [{"object": ((0.5 + 0.01 * k, 0.0, 0.3), (0.0, 0.0, 0.0, 1.0))} for k in range(20)]
+    assert np.allclose(features.batch(qs, per_sample), [features(q, p) for q, p in zip(qs, per_sample)], atol=1e-12)
+
+
+def test_missing_object_and_other_robot_are_refused(robot):
+    definition = FeatureDefinition.for_task("open_box", robot)
+    features = FeatureMap(definition, robot)
+    with pytest.raises(ValueError, match="'lid' is missing"):
+        features(robot.home, {"object": ((0.6, 0.0, 0.1), (0.0, 0.0, 0.0, 1.0))})
+    other = FeatureDefinition(definition.task, definition.landmark_names, definition.landmark_sources,
+                              definition.pairs, definition.joint_names, "another_robot:0000")
+    with pytest.raises(ValueError, match="another robot"):
+        FeatureMap(other, robot)

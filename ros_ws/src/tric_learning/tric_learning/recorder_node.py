@@ -1,0 +1,183 @@
+"""The recorder node: one MCAP bag per episode, with features and Jacobians (tric_learning.recording).
+
+Listens to /episode (tric_msgs/EpisodeEvent): on START from a recorded source it opens
+`<output_dir>/<episode_id>.mcap.part`; it then writes every /joint_states and /object_poses of the
+episode and, every `sample_period_s` of simulated time, a tric_msgs/FeatureSample with
+y = phi(q) and dphi/dq; on END it stops, on OUTCOME (or after `outcome_timeout_s` without one) it
+writes the outcome and renames the bag to `<episode_id>.mcap`; on ABORT it deletes it.
+
+Parameters: output_dir ("recordings"), sample_period_s (0.125), sources (["teacher"]: the episode
+sources to record), outcome_timeout_s (30).
+"""
+
+import pathlib
+import sys
+import threading
+import time
+from collections import deque
+
+import rclpy
+from rclpy.executors import ExternalShutdownException
+from rclpy.node import Node
+from rclpy.qos import QoSProfile, ReliabilityPolicy
+from rcl_interfaces.msg import ParameterDescriptor
+from sensor_msgs.msg import JointState
+from tric_msgs.msg import EpisodeEvent, ObjectPoses
+
+from tric_learning import bags
+from tric_learning.recording import SAMPLE_PERIOD, BagRecorder
+from tric_sim import messages
+from tric_sim.lockstep import TopicPoller
+from tric_sim.robot_model import RobotModel
+
+STATE_QOS = QoSProfile(depth=50, reliability=ReliabilityPolicy.RELIABLE)
+EVENT_QOS = QoSProfile(depth=20, reliability=ReliabilityPolicy.RELIABLE)
+#: States kept from before an episode's START (its first states may arrive before the event).
+BACKLOG = 20
+
+
+class RecorderNode(Node):
+    """Records episodes to bags (see the module docstring). `finished` lists the bags written."""
+
+    def __init__(self, **kwargs):
+        super().__init__("recorder", **kwargs)
+        describe = lambda text: ParameterDescriptor(description=text)  # noqa: E731
+        self.output_dir = pathlib.Path(self.declare_parameter(
+            "output_dir", "recordings", describe("folder the bags are written to")).value)
+        self.period = float(self.declare_parameter(
+            "sample_period_s", SAMPLE_PERIOD, describe("simulated seconds between samples")).value)
+        self.sources = list(self.declare_parameter(
+            "sources", ["teacher"], describe("episode sources to record")).value)
+        self.outcome_timeout = float(self.declare_parameter(
+            "outcome_timeout_s", 30.0, describe("wall seconds to wait for an ended episode's outcome")).value)
+        if not self.period > 0 or not self.outcome_timeout > 0:
+            raise ValueError("sample_period_s and outcome_timeout_s must be positive")
+        self.robot = RobotModel()
+        self.finished = []
+        self._lock = threading.Lock()
+        self._recorder = None
+        self._ended_at = None
+        self._backlog = deque(maxlen=BACKLOG)
+        self._stop = threading.Event()
+        self.create_subscription(EpisodeEvent, "/episode", self._on_event, EVENT_QOS)
+        self._poller = TopicPoller(self.context, "recorder_streams", {
+            "state": (JointState, "/joint_states", STATE_QOS), "poses": (ObjectPoses, "/object_poses", STATE_QOS)})
+        self._thread = threading.Thread(target=self._stream, daemon=True, name="recorder_streams")
+        self._thread.start()
+        self.create_timer(1.0, self._check_outcome_timeout)
+        self.get_logger().info(f"recording episodes of {', '.join(self.sources)} to {self.output_dir}/")
+
+    def destroy_node(self):
+        self._stop.set()
+        self._thread.join()
+        self._poller.destroy()
+        with self._lock:
+            if self._recorder is not None:
+                self._close(None)
+        return super().destroy_node()
+
+    @property
+    def busy(self) -> bool:
+        """Whether an episode's bag is open."""
+        return self._recorder is not None
+
+    def _stream(self):
+        while not self._stop.is_set() and self.context.ok():
+            received = self._poller.poll(0.05)
+            if not received["state"] and not received["poses"]:
+                continue
+            with self._lock:
+                for kind in ("poses", "state"):
+                    for msg in received[kind]:
+                        self._backlog.append((kind, msg))
+                        if self._recorder is not None:
+                            self._write(kind, msg)
+
+    def _write(self, kind, msg):
+        try:
+            if kind == "poses":
+                self._recorder.object_poses(msg)
+            else:
+                self._recorder.joint_state(msg)
+        except ValueError as error:
+            self.get_logger().warning(f"skipped a malformed {kind} message: {error}", throttle_duration_sec=1.0)
+
+    def _on_event(self, event: EpisodeEvent):
+        with self._lock:
+            if event.event == EpisodeEvent.START:
+                if event.source not in self.sources:
+                    return
+                if self._recorder is not None:
+                    self.get_logger().warning(f"episode '{event.episode_id}' started before the previous one "
+                                              "finished; closing the previous bag")
+                    self._close(None)
+                self._start(event)
+            elif self._recorder is None or event.episode_id != self._episode_id:
+                return
+            elif event.event == EpisodeEvent.END:
+                self._recorder.end(event)
+                self._ended_at = time.monotonic()
+            elif event.event == EpisodeEvent.OUTCOME:
+                self._close(event)
+            elif event.event == EpisodeEvent.ABORT:
+                self._recorder.abort()
+                self.get_logger().info(f"episode '{event.episode_id}' aborted: bag discarded")
+                self._recorder = None
+
+    def _start(self, event):
+        try:
+            situation = messages.situation_from_msg(event.situation, self.robot.n_joints)
+        except ValueError as error:
+            self.get_logger().error(f"episode '{event.episode_id}' not recorded: {error}")
+            return
+        self.output_dir.mkdir(parents=True, exist_ok=True)
+        path = self._free_path(event.episode_id or situation.name)
+        self._recorder = BagRecorder(path, self.robot, situation, event.episode_id, event.source, event,
+                                     self.period)
+        self._episode_id = event.episode_id
+        self._ended_at = None
+        for kind, msg in list(self._backlog):  # the episode's first states may have come first
+            self._write(kind, msg)
+
+    def _free_path(self, name: str) -> pathlib.Path:
+        safe = "".join(c if c.isalnum() or c in "-_." else "_" for c in name) or "episode"
+        path, k = self.output_dir / f"{safe}{bags.BAG_SUFFIX}", 1
+        while path.exists() or path.with_name(path.name + bags.PART_SUFFIX).exists():
+            path, k = self.output_dir / f"{safe}_{k}{bags.BAG_SUFFIX}", k + 1
+        return path
+
+    def _close(self, outcome):
+        recorder, self._recorder = self._recorder, None
+        path = recorder.finish(outcome)
+        self.finished.append(path)
+        self.get_logger().info(f"wrote {path} ({len(recorder.sampler.samples)} samples)")
+
+    def _check_outcome_timeout(self):
+        with self._lock:
+            if self._recorder is not None and self._ended_at is not None \
+                    and time.monotonic() - self._ended_at > self.outcome_timeout:
+                self.get_logger().warning(f"no outcome for '{self._episode_id}' within "
+                                          f"{self.outcome_timeout:g} s: closing its bag without one")
+                self._close(None)
+
+
+def main(args=None):
+    rclpy.init(args=args)
+    try:
+        node = RecorderNode()
+    except ValueError as error:
+        print(f"recorder: {error}", file=sys.stderr)
+        rclpy.try_shutdown()
+        return 2
+    try:
+        rclpy.spin(node)
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        node.destroy_node()
+        rclpy.try_shutdown()
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,121 @@
+"""The recorder through the real nodes: bags readable by this project and by rosbags, with the same
+numbers; bad bags refused; a killed recorder leaves its finished bags intact."""
+
+import os
+import pathlib
+import shutil
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+import yaml
+from mcap.reader import make_reader
+from rosbags.highlevel import AnyReader
+
+from tric_learning import bags
+from tric_learning.record_cli import demonstrate_all
+from tric_learning.recording import SAMPLES_TOPIC, load_dataset
+from tric_sim import situations
+from tric_sim.robot_model import RobotModel
+
+
+@pytest.fixture(scope="module")
+def recorded(tmp_path_factory):
+    """Two sphere demonstrations and one box opening, recorded by tric-record's graph."""
+    out = tmp_path_factory.mktemp("bags")
+    chosen = situations.sphere_grid()[3:5] + situations.dataset("box_train")[:1]
+    rows = demonstrate_all(chosen, out, 0.125, 0.0, progress=False)
+    assert all(result.success and path for _, result, path in rows)
+    return out, rows
+
+
+def test_a_five_second_demonstration_is_forty_samples(recorded):
+    out, rows = recorded
+    dataset = load_dataset([out / "sphere_grid_03.mcap", out / "sphere_grid_04.mcap"], RobotModel())
+    assert [demo.length for demo in dataset.demos] == [40, 40]
+    demo = dataset.demos[0]
+    # a sample at the first control period (10 ms) at or after each 125 ms of the episode
+    offsets = demo.stamps_ns - demo.stamps_ns[0] - np.arange(40) * 125_000_000
+    assert np.all((offsets >= 0) & (offsets < 10_000_000))
+    assert demo.metrics["success"] and demo.metrics["lift_tested"]
+    assert demo.situation == situations.sphere_grid()[3] and demo.source == "teacher"
+    info = bags.bag_info(out / "sphere_grid_03.mcap")
+    assert info.complete and info.custom_data["tric.task"] == "grasp" and "tric.outcome" in info.custom_data
+    assert info.topics["/joint_states"].message_count >= 499  # every control period of the 5 s
+
+
+def test_rosbags_reads_the_same_samples(recorded, tmp_path):
+    out, _ = recorded
+    bag = out / "sphere_grid_03.mcap"
+    with open(bag, "rb") as file:
+        metadata = [yaml.safe_load(m.metadata["serialized_metadata"])
+                    for m in make_reader(file).iter_metadata() if m.name == "rosbag2"][-1]
+    shutil.copy(bag, tmp_path / bag.name)
+    (tmp_path / "metadata.yaml").write_text(yaml.safe_dump({"rosbag2_bagfile_information": metadata}))
+    with AnyReader([tmp_path]) as reader:
+        connections = [c for c in reader.connections if c.topic == SAMPLES_TOPIC]
+        samples = [reader.deserialize(raw, c.msgtype) for c, _, raw in reader.messages(connections=connections)]
+    ours = [m.message for m in bags.read_bag(bag, topics=[SAMPLES_TOPIC])]
+    assert len(samples) == len(ours) == 40
+    for theirs, mine in zip(samples, ours):
+        assert np.array_equal(theirs.q, mine.q) and np.array_equal(theirs.y, mine.y)
+        assert np.array_equal(theirs.jacobian, mine.jacobian)
+        assert (theirs.jacobian_rows, theirs.jacobian_cols) == (224, 14)
+
+
+def test_bad_bags_are_refused_naming_the_file(recorded, tmp_path):
+    out, _ = recorded
+    sphere, box = out / "sphere_grid_03.mcap", out / "box_train_00.mcap"
+    truncated = tmp_path / "truncated.mcap"
+    truncated.write_bytes(sphere.read_bytes()[: sphere.stat().st_size // 2])
+    with pytest.raises(ValueError, match="truncated.mcap"):
+        load_dataset([truncated])
+    with pytest.raises(ValueError, match="another feature definition.*task differs"):
+        load_dataset([sphere, box])
+    foreign = tmp_path / "notes.mcap"
+    foreign.write_text("not a bag")
+    with pytest.raises(ValueError, match="notes.mcap"):
+        load_dataset([foreign])
+    with pytest.raises(ValueError, match="does not exist"):
+        load_dataset([tmp_path / "missing.mcap"])
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    with pytest.raises(ValueError, match="holds no .mcap bags"):
+        load_dataset([empty])
+
+
+def test_recorder_killed_mid_demonstration_keeps_finished_bags(tmp_path):
+    env = dict(os.environ)
+    process = subprocess.Popen([sys.executable, "-m", "tric_learning.record_cli", "sphere_train",
+                                "--out", str(tmp_path)], env=env, stdout=subprocess.DEVNULL,
+                               stderr=subprocess.DEVNULL)
+    try:
+        deadline = time.monotonic() + 120
+        while time.monotonic() < deadline:
+            finished = sorted(tmp_path.glob("*.mcap"))
+            partial = sorted(tmp_path.glob("*.mcap.part"))
+            if finished and partial and _samples_in(partial[0]) >= 5:
+                break
+            time.sleep(0.05)
+        else:
+            pytest.fail("the recorder never had a finished bag and a bag in progress at once")
+    finally:
+        process.send_signal(signal.SIGKILL)
+        process.wait()
+    dataset = load_dataset(finished, RobotModel())
+    assert all(demo.length == 40 for demo in dataset.demos)
+    interrupted = sorted(tmp_path.glob("*.mcap.part"))[0]
+    with pytest.raises(ValueError):
+        bags.bag_info(interrupted)  # an unfinished bag is not taken for a finished one
+    samples = list(bags.read_bag(interrupted, topics=[SAMPLES_TOPIC], tolerant=True))
+    assert len(samples) >= 5  # readable up to the last flushed sample
+
+
+def _samples_in(path: pathlib.Path) -> int:
+    try:
+        return sum(1 for _ in bags.read_bag(path, topics=[SAMPLES_TOPIC], tolerant=True))
+    except ValueError:
+        return 0
