@@ -4,7 +4,9 @@ Listens to /episode (tric_msgs/EpisodeEvent): on START from a recorded source it
 `<output_dir>/<episode_id>.mcap.part`; it then writes every /joint_states and /object_poses of the
 episode and, every `sample_period_s` of simulated time, a tric_msgs/FeatureSample with
 y = phi(q) and dphi/dq; on END it stops, on OUTCOME (or after `outcome_timeout_s` without one) it
-writes the outcome and renames the bag to `<episode_id>.mcap`; on ABORT it deletes it.
+writes the outcome and renames the bag to `<episode_id>.mcap`; on ABORT it deletes it. The states are
+read by a thread of the node's own, which may lag behind the events: a bag is closed only once that
+thread has seen the episode's last state (or `outcome_timeout_s` passed), so no sample is lost.
 
 Parameters: output_dir ("recordings"), sample_period_s (0.125), sources (["teacher"]: the episode
 sources to record), outcome_timeout_s (30).
@@ -30,7 +32,8 @@ from tric_sim import messages
 from tric_sim.lockstep import TopicPoller
 from tric_sim.robot_model import RobotModel
 
-STATE_QOS = QoSProfile(depth=50, reliability=ReliabilityPolicy.RELIABLE)
+#: Deep enough to hold a whole 5 s episode at 100 Hz should the recording thread fall behind.
+STATE_QOS = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
 EVENT_QOS = QoSProfile(depth=20, reliability=ReliabilityPolicy.RELIABLE)
 #: States kept from before an episode's START (its first states may arrive before the event).
 BACKLOG = 20
@@ -57,6 +60,7 @@ class RecorderNode(Node):
         self._lock = threading.Lock()
         self._recorder = None
         self._ended_at = None
+        self._outcome = None
         self._backlog = deque(maxlen=BACKLOG)
         self._stop = threading.Event()
         self.create_subscription(EpisodeEvent, "/episode", self._on_event, EVENT_QOS)
@@ -92,6 +96,8 @@ class RecorderNode(Node):
                         self._backlog.append((kind, msg))
                         if self._recorder is not None:
                             self._write(kind, msg)
+                if self._outcome is not None and self._recorder.reached_end:
+                    self._close(self._outcome)
 
     def _write(self, kind, msg):
         try:
@@ -118,7 +124,9 @@ class RecorderNode(Node):
                 self._recorder.end(event)
                 self._ended_at = time.monotonic()
             elif event.event == EpisodeEvent.OUTCOME:
-                self._close(event)
+                self._outcome = event
+                if self._recorder.reached_end:
+                    self._close(event)
             elif event.event == EpisodeEvent.ABORT:
                 self._recorder.abort()
                 self.get_logger().info(f"episode '{event.episode_id}' aborted: bag discarded")
@@ -136,6 +144,7 @@ class RecorderNode(Node):
                                      self.period)
         self._episode_id = event.episode_id
         self._ended_at = None
+        self._outcome = None
         for kind, msg in list(self._backlog):  # the episode's first states may have come first
             self._write(kind, msg)
 
@@ -147,7 +156,7 @@ class RecorderNode(Node):
         return path
 
     def _close(self, outcome):
-        recorder, self._recorder = self._recorder, None
+        recorder, self._recorder, self._outcome = self._recorder, None, None
         path = recorder.finish(outcome)
         self.finished.append(path)
         self.get_logger().info(f"wrote {path} ({len(recorder.sampler.samples)} samples)")
@@ -156,9 +165,13 @@ class RecorderNode(Node):
         with self._lock:
             if self._recorder is not None and self._ended_at is not None \
                     and time.monotonic() - self._ended_at > self.outcome_timeout:
-                self.get_logger().warning(f"no outcome for '{self._episode_id}' within "
-                                          f"{self.outcome_timeout:g} s: closing its bag without one")
-                self._close(None)
+                if self._outcome is None:
+                    self.get_logger().warning(f"no outcome for '{self._episode_id}' within "
+                                              f"{self.outcome_timeout:g} s: closing its bag without one")
+                else:
+                    self.get_logger().warning(f"the last state of '{self._episode_id}' never arrived: "
+                                              "closing its bag with the states it has")
+                self._close(self._outcome)
 
 
 def main(args=None):

@@ -144,6 +144,7 @@ class BagRecorder:
         self.robot = robot
         self.poses = {}
         self.end_ns = None
+        self.latest_state_ns = -1
         self.pending = None
         self.writer = bags.BagWriter(path, {"tric.episode_id": episode_id, "tric.source": source,
                                             "tric.task": situation.task,
@@ -171,6 +172,8 @@ class BagRecorder:
     def joint_state(self, msg: JointState) -> bool:
         """Record a joint state of the episode; True if it became a sample."""
         stamp = messages.time_ns(msg.header.stamp)
+        if stamp >= self.start_ns:
+            self.latest_state_ns = max(self.latest_state_ns, stamp)
         if stamp < self.start_ns or (self.end_ns is not None and stamp > self.end_ns) or not self.poses:
             return False
         self.writer.write("/joint_states", msg, stamp)
@@ -188,6 +191,11 @@ class BagRecorder:
             else:
                 self.sampler.samples.remove(self.pending)
             self.pending = None
+
+    @property
+    def reached_end(self) -> bool:
+        """Whether the episode has ended and its last state (stamped at or after END) was seen."""
+        return self.end_ns is not None and self.latest_state_ns >= self.end_ns
 
     def end(self, event: EpisodeEvent) -> None:
         self.end_ns = messages.time_ns(event.header.stamp)
