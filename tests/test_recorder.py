@@ -40,6 +40,10 @@ def test_a_five_second_demonstration_is_forty_samples(recorded):
     # a sample at the first control period (10 ms) at or after each 125 ms of the episode
     offsets = demo.stamps_ns - demo.stamps_ns[0] - np.arange(40) * 125_000_000
     assert np.all((offsets >= 0) & (offsets < 10_000_000))
+    # every demonstration starts where its situation puts the robot, not where the previous one
+    # (and its lift test) left it
+    for recorded_demo in dataset.demos:
+        assert np.allclose(recorded_demo.q[0], RobotModel().home, atol=1e-3)
     assert demo.metrics["success"] and demo.metrics["lift_tested"]
     assert demo.situation == situations.sphere_grid()[3] and demo.source == "teacher"
     info = bags.bag_info(out / "sphere_grid_03.mcap")

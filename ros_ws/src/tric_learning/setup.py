@@ -19,5 +19,8 @@ setup(
     entry_points={"console_scripts": [
         "recorder = tric_learning.recorder_node:main",
         "tric-record = tric_learning.record_cli:main",
+        "trainer = tric_learning.trainer_node:main",
+        "tric-train = tric_learning.train_cli:main",
+        "tric-analyze = tric_learning.analysis:main",
     ]},
 )

@@ -33,16 +33,20 @@ class ModelFile:
     info: dict = field(default_factory=dict)
 
     def save(self, path) -> pathlib.Path:
-        """Write atomically (a temporary file renamed into place)."""
+        """Write atomically (a temporary file renamed into place; removed again if writing fails)."""
         path = pathlib.Path(path)
         path.parent.mkdir(parents=True, exist_ok=True)
         meta = {"format": FORMAT, "version": VERSION, "kind": self.kind,
                 "definition": self.definition.to_dict(), "fingerprint": self.definition.fingerprint,
                 "info": self.info}
         temporary = path.with_name(path.name + ".tmp")
-        save_file({k: np.ascontiguousarray(v) for k, v in self.arrays.items()}, str(temporary),
-                  metadata={"tric": json.dumps(meta)})
-        temporary.replace(path)
+        try:
+            save_file({k: np.ascontiguousarray(v) for k, v in self.arrays.items()}, str(temporary),
+                      metadata={"tric": json.dumps(meta)})
+            temporary.replace(path)
+        except BaseException:
+            temporary.unlink(missing_ok=True)
+            raise
         return path
 
     @classmethod

@@ -1,6 +1,6 @@
 """tric-record: record teacher demonstrations to MCAP bags, through the real nodes.
 
-    tric-record DATASET|--situations-file FILE [--out DIR] [--period S] [--duration S]
+    tric-record DATASET|--situations-file FILE [--out DIR] [--period S] [--duration S] [--domain-id N]
 
 Runs the simulator (lockstep), the teacher and the recorder nodes in one process: for each situation
 the teacher demonstrates (action /teacher/demonstrate) and the recorder writes one bag
@@ -9,6 +9,7 @@ Prints a table of the demonstrations' outcomes; exits non-zero if any failed.
 """
 
 import argparse
+import os
 import pathlib
 import sys
 import threading
@@ -30,12 +31,23 @@ from tric_sim.situations import DATASETS, dataset, load_situations
 from tric_sim.teacher_node import TeacherNode
 
 
-class InProcessGraph:
-    """Nodes spun by one SingleThreadedExecutor in a background thread, on a context of their own."""
+def private_domain_id() -> int:
+    """A DDS domain for an in-process graph that no other graph should share: the simulator's
+    topics (/joint_states, /situation, ...) must not mix with those of another simulator or robot
+    on the same network. Chosen from the process id in 1..100 (0 is left to the user's own graph)."""
+    return 1 + os.getpid() % 100
 
-    def __init__(self):
+
+class InProcessGraph:
+    """Nodes spun by one SingleThreadedExecutor in a background thread, on a context of their own.
+
+    domain_id: the DDS domain of the context (None: the environment's ROS_DOMAIN_ID). Discovery is
+    limited to this machine unless ROS_AUTOMATIC_DISCOVERY_RANGE says otherwise."""
+
+    def __init__(self, domain_id: int = None):
+        os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
         self.context = Context()
-        rclpy.init(context=self.context)
+        rclpy.init(context=self.context, domain_id=domain_id)
         self.executor = SingleThreadedExecutor(context=self.context)
         self.nodes = []
         self._thread = None
@@ -66,9 +78,11 @@ def wait(future, timeout: float, what: str):
     return future.result()
 
 
-def demonstrate_all(situations, out: pathlib.Path, period: float, duration: float, progress=True):
-    """Demonstrate and record every situation; returns [(situation, result, bag path or None)]."""
-    graph = InProcessGraph()
+def demonstrate_all(situations, out: pathlib.Path, period: float, duration: float, progress=True,
+                    domain_id: int = None):
+    """Demonstrate and record every situation; returns [(situation, result, bag path or None)].
+    domain_id: the graph's DDS domain (None: the environment's)."""
+    graph = InProcessGraph(domain_id)
     try:
         graph.add(SimulatorNode(context=graph.context, parameter_overrides=[Parameter("mode", value="lockstep")]))
         graph.add(TeacherNode(context=graph.context))
@@ -108,6 +122,9 @@ def main(argv=None) -> int:
     parser.add_argument("--period", type=float, default=0.125, help="sampling period, simulated s")
     parser.add_argument("--duration", type=float, default=0.0,
                         help="demonstration length, simulated s (default: 5 s grasps, 8 s boxes)")
+    parser.add_argument("--domain-id", type=int, default=None,
+                        help="DDS domain of the in-process nodes (default: a private one, 1 + pid %% 100, "
+                             "so that they never mix with another simulator's topics)")
     args = parser.parse_args(argv)
     if bool(args.dataset) == bool(args.situations_file):
         parser.error("give either DATASET or --situations-file")
@@ -118,8 +135,12 @@ def main(argv=None) -> int:
         return 2
     if not args.period > 0 or args.duration < 0:
         parser.error("--period must be positive and --duration not negative")
+    domain_id = private_domain_id() if args.domain_id is None else args.domain_id
+    if not 0 <= domain_id <= 232:
+        parser.error("--domain-id must be in [0, 232]")
+    print(f"tric-record: nodes in DDS domain {domain_id}", file=sys.stderr)
     start = time.monotonic()
-    rows = demonstrate_all(situations, pathlib.Path(args.out), args.period, args.duration)
+    rows = demonstrate_all(situations, pathlib.Path(args.out), args.period, args.duration, domain_id=domain_id)
     print(f"\n{'situation':24s} {'success':>7s} {'grasp cost':>10s} {'lift':>5s} {'lid (rad)':>9s}  bag")
     for situation, result, path in rows:
         m = result.metrics

@@ -12,16 +12,22 @@ demonstration added; measured here, the summed form leaves f too rough to contro
 The noisy samples are drawn once (tric_learning.samples); the optimizer is PyTorch's L-BFGS with a
 strong-Wolfe line search on the full batch (the paper: 100 iterations of BFGS), in float32,
 deterministic for a given seed on a given machine.
+
+train_from_bags() is the whole job that the trainer node and tric-train share: bags -> dataset ->
+train() -> model file.
 """
 
+import os
+import pathlib
 import time
 from dataclasses import asdict, dataclass
 
 import numpy as np
 import torch
 
-from tric_learning import samples
+from tric_learning import model_file, samples
 from tric_learning.dataset import Dataset
+from tric_learning.recording import bag_paths, load_dataset
 from tric_learning.value_function import Scaling, ValueFunction
 from tric_sim.robot_model import RobotModel
 
@@ -37,6 +43,9 @@ TICKS_PER_DEMO = 500
 #: gradient: the value term dominates the step-size term there (Proposition 1), and steps shrink
 #: smoothly where the gradient vanishes.
 RHO_GAIN = 100.0
+#: The model file written next to the first bag when no output path is given.
+DEFAULT_MODEL_NAME = "model.safetensors"
+MODEL_SUFFIX = ".safetensors"
 
 
 @dataclass
@@ -127,6 +136,48 @@ def train(dataset: Dataset, robot: RobotModel, config: TrainingConfig = Training
         rho=float(RHO_GAIN / max(np.median(norms), 1e-9) ** 2),
         selected_features=int(np.sum(scores > SELECTED_FRACTION * scores.max())) if scores.max() > 0 else 0,
         mean_samples_per_step=float(noisy.kept_per_step[_later_steps(dataset)].mean()))
+
+
+@dataclass
+class BagTraining:
+    """What train_from_bags() did: the model file written, the dataset and the training result."""
+
+    path: pathlib.Path
+    dataset: Dataset
+    result: TrainingResult
+
+
+def model_output_path(output_path, first_bag: pathlib.Path) -> pathlib.Path:
+    """Where the model goes: output_path, or DEFAULT_MODEL_NAME next to first_bag when output_path
+    is empty; ValueError if it is not a writable .safetensors file path."""
+    path = pathlib.Path(output_path) if output_path else first_bag.parent / DEFAULT_MODEL_NAME
+    if path.suffix != MODEL_SUFFIX:
+        raise ValueError(f"the model path {path} must end in {MODEL_SUFFIX}")
+    if path.is_dir():
+        raise ValueError(f"the model path {path} is a folder")
+    existing = next(parent for parent in path.absolute().parents if parent.exists())
+    if not existing.is_dir() or not os.access(existing, os.W_OK | os.X_OK):
+        raise ValueError(f"the model path {path} cannot be written ({existing} is not a writable folder)")
+    return path
+
+
+def train_from_bags(paths, output_path, config: TrainingConfig, robot: RobotModel, progress=None) -> BagTraining:
+    """Load the demonstrations in the bags at paths (files or folders, see recording.bag_paths),
+    train on them and write the model file to output_path (see model_output_path). Every input is
+    checked before anything is written: a bad bag, value or path raises ValueError and leaves no
+    file. progress(stage, fraction, losses) as in train(), with the stages "loading" and "saving"
+    before and after it."""
+    config.validate()
+    files = bag_paths(paths)
+    path = model_output_path(output_path, files[0])
+    report = progress or (lambda *_: None)
+    report("loading", 0.0, None)
+    dataset = load_dataset(files, robot, lambda done, total: report("loading", done / total, None))
+    result = train(dataset, robot, config, report)
+    report("saving", 0.0, result.losses)
+    model_file.from_training(result, dataset).save(path)
+    report("saving", 1.0, result.losses)
+    return BagTraining(path, dataset, result)
 
 
 def _later_steps(dataset: Dataset) -> np.ndarray:

@@ -103,7 +103,9 @@ class SceneCollision:
 
     def collision_free(self, configurations: np.ndarray, object_poses: dict) -> np.ndarray:
         """Boolean mask (B,) over configurations (B, n)."""
-        qs = np.atleast_2d(np.asarray(configurations, dtype=float))
+        qs = np.asarray(configurations, dtype=float).reshape(-1, self.robot.n_joints)
+        if len(qs) == 0:
+            return np.zeros(0, dtype=bool)
         rotations, positions = self.robot.batch_joint_placements(qs)
         joints = [self.robot_geometries[k][0] for k, _, _ in self.spheres]
         centres = np.stack([positions[j] + rotations[j] @ c for j, (_, c, _) in zip(joints, self.spheres)], 1)

@@ -128,7 +128,9 @@ class PhysicsWorld:
     # --- scene ---------------------------------------------------------------------------------
 
     def reset(self, situation: Situation) -> None:
-        """Replace the scene by the situation's and put the robot at its initial configuration."""
+        """Replace the scene by the situation's and put the robot at its initial configuration.
+        The clock advances by one control period, so that the new scene's first state is stamped
+        after every state of the previous one (subscribers tell the scenes apart by stamp)."""
         situation.validate(self.robot.n_joints)
         q0 = (self.robot.check_configuration(situation.initial_joint_positions, "initial_joint_positions")
               if situation.initial_joint_positions else self.robot.home.copy())
@@ -157,6 +159,7 @@ class PhysicsWorld:
         self.setpoint = q0.copy()
         self.command(q0)
         self.min_distance = self.closest_distance()
+        self.periods += 1
 
     def _create_body(self, body: scene.Body, situation: Situation) -> int:
         color = COLORS[body.role]
@@ -243,7 +246,7 @@ class PhysicsWorld:
 
     @property
     def time_ns(self) -> int:
-        """Simulated time since the world was created, ns (monotonic across resets)."""
+        """Simulated time since the world was created, ns (strictly increasing across resets)."""
         return self.periods * self.control_period_ns
 
     def joint_state(self):

@@ -1,0 +1,249 @@
+"""The motion-rate controller's core, without ROS: the QP step on hand-made problems with known
+solutions, joint and velocity limits under an adversarial objective, collision rows against an
+obstacle, convergence with TRIC's value objective, and refused inputs. Units: rad, m, s."""
+
+import coal
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from tric_control.motion_rate import (CONVERGED_MOTION, CONVERGED_WINDOW, DOMAIN_MARGIN, JOINT_MARGIN, SAFETY,
+                                      MotionRateController, Objective, StepQP, ValueObjective)
+from tric_control.objectives import make_objective
+from tric_learning.features import FeatureDefinition, FeatureMap
+from tric_learning.model_file import ModelFile, value_function_arrays
+from tric_learning.value_function import Scaling, ValueFunction
+from tric_sim import situations
+from tric_sim.collision import Proximity, coal_shape
+from tric_sim.robot_model import RobotModel
+
+#: "No bound" for the QP's unused inequality rows, as the controller uses it.
+UNBOUNDED = 1e20
+
+
+@pytest.fixture(scope="module")
+def robot():
+    return RobotModel()
+
+
+# --- the QP step ---------------------------------------------------------------------------------
+
+def unused_rows(rows: int, n: int):
+    """Inequality rows that constrain nothing: C (rows, n) = 0, l = -UNBOUNDED."""
+    return np.zeros((rows, n)), np.full(rows, -UNBOUNDED)
+
+
+def test_step_qp_unconstrained_quadratic():
+    """min 1/2 x^T H x + c^T x with every bound inactive: x = -H^-1 c."""
+    hessian, linear = np.array([[2.0, 1.0], [1.0, 2.0]]), np.array([-4.0, 0.0])
+    step = StepQP(2, 1).solve(hessian, linear, *unused_rows(1, 2), np.full(2, -10.0), np.full(2, 10.0))
+    assert np.allclose(step, [8 / 3, -4 / 3], atol=1e-6)
+
+
+def test_step_qp_active_box_bound_after_a_warm_start():
+    """The same problem with x0 <= 1: x0 = 1 and x1 minimizes what is left, 1/2 (2 x1^2 + 2 x1) so
+    x1 = -1/2 (KKT: the multiplier of x0 <= 1 is 4 - 2 x0 - x1 = 3/2 > 0). The QP object solves the
+    unconstrained problem first, so the second solve goes through update() and the warm start."""
+    qp = StepQP(2, 1)
+    hessian, linear = np.array([[2.0, 1.0], [1.0, 2.0]]), np.array([-4.0, 0.0])
+    qp.solve(hessian, linear, *unused_rows(1, 2), np.full(2, -10.0), np.full(2, 10.0))
+    step = qp.solve(hessian, linear, *unused_rows(1, 2), np.full(2, -10.0), np.array([1.0, 10.0]))
+    assert np.allclose(step, [1.0, -0.5], atol=1e-6)
+
+
+def test_step_qp_active_inequality_row():
+    """min 1/2 |x - a|^2 s.t. r^T x >= b with r^T a < b: the projection x = a + (b - r^T a) r / |r|^2;
+    a second row that constrains nothing stays inactive."""
+    a, row, bound = np.array([1.0, -2.0, 0.5]), np.array([1.0, 1.0, 0.0]), 0.5
+    rows = np.array([row, np.zeros(3)])
+    step = StepQP(3, 2).solve(np.eye(3), -a, rows, np.array([bound, -UNBOUNDED]), np.full(3, -10.0), np.full(3, 10.0))
+    assert np.allclose(step, a + (bound - row @ a) * row / (row @ row), atol=1e-6)
+    assert np.allclose(step, [1.75, -1.25, 0.5], atol=1e-6)
+
+
+# --- limits under an adversarial objective -------------------------------------------------------
+
+class NoPairs:
+    """A proximity that reports no close pairs: the controller without collision rows."""
+
+    def near(self, q, object_poses, influence):
+        return []
+
+
+class Push:
+    """An adversarial objective: a huge linear term pushing every joint along direction (n,) of
+    +-1, past its limit; no curvature, no domain rows."""
+
+    def __init__(self, direction: np.ndarray, strength: float = 1e6):
+        self.direction, self.strength = direction, strength
+
+    def __call__(self, q, object_poses) -> Objective:
+        n = len(self.direction)
+        return Objective(hessian=np.zeros((n, n)), linear=-self.strength * self.direction, value=0.0,
+                         gradient_norm=self.strength * np.sqrt(n))
+
+
+def measured(mode: str, target: np.ndarray, q: np.ndarray, rng) -> np.ndarray:
+    """The joint positions the controller reads next: the target itself ("exact"), half-way from q
+    to it ("lagging"), or the target with 0.05 rad of noise, unclipped: at times outside the joint
+    limits ("noisy")."""
+    if mode == "exact":
+        return target.copy()
+    if mode == "lagging":
+        return q + 0.5 * (target - q)
+    return target + rng.normal(0.0, 0.05, len(target))
+
+
+@pytest.mark.parametrize("mode", ["exact", "lagging", "noisy"])
+def test_targets_stay_within_joint_and_velocity_limits_under_an_adversarial_objective(robot, mode):
+    """From random configurations, each joint pushed hard past one limit for PUSH_TICKS ticks and
+    then past the other: no target leaves the joint limits, no target moves more than
+    velocity_limits * period from the previous one, and (unless the readings are noisy) the targets
+    end each push JOINT_MARGIN inside the limit pushed against."""
+    period, push_ticks = 0.01, 500  # the widest joint range takes 495 full steps
+    max_step = robot.velocity_limits * period
+    rng = np.random.default_rng(7)
+    for _ in range(3):
+        direction = rng.choice([-1.0, 1.0], robot.n_joints)
+        objective = Push(direction)
+        controller = MotionRateController(robot, NoPairs(), objective, period)
+        q = rng.uniform(robot.lower, robot.upper)
+        previous = q.copy()
+        for sign in (1.0, -1.0):
+            objective.direction = sign * direction
+            for _ in range(push_ticks):
+                target = controller.tick(q, {}).target
+                assert np.all(target >= robot.lower) and np.all(target <= robot.upper), target
+                assert np.all(np.abs(target - previous) <= max_step * (1 + 1e-12)), target - previous
+                previous, q = target, measured(mode, target, q, rng)
+            if mode != "noisy":
+                pushed_limit = np.where(sign * direction > 0, robot.upper - JOINT_MARGIN, robot.lower + JOINT_MARGIN)
+                assert np.allclose(target, pushed_limit, atol=1e-9)
+
+
+# --- collision rows ----------------------------------------------------------------------------
+
+#: A plate 20 cm under the hand at its home configuration (palm centre at about (0.30, 0, 0.75)).
+PLATE = situations.Obstacle("box", (0.3, 0.4, 0.03), (0.40, 0.0, 0.50))
+
+
+class PullPalm:
+    """An objective pulling the palm centre towards a point (3,): the linear term gain * (gradient
+    of the palm's distance to it); no curvature, no domain rows."""
+
+    def __init__(self, robot: RobotModel, point, gain: float):
+        self.model, self.data = robot.model, robot.model.createData()
+        self.frame, self.point, self.gain = robot.frame_id("palm_center"), np.asarray(point, dtype=float), gain
+
+    def __call__(self, q, object_poses) -> Objective:
+        pin.computeJointJacobians(self.model, self.data, q)
+        pin.updateFramePlacements(self.model, self.data)
+        towards = self.point - self.data.oMf[self.frame].translation
+        jacobian = pin.getFrameJacobian(self.model, self.data, self.frame, pin.LOCAL_WORLD_ALIGNED)[:3]
+        gradient = -jacobian.T @ towards / np.linalg.norm(towards)
+        n = self.model.nq
+        return Objective(hessian=np.zeros((n, n)), linear=self.gain * gradient, value=float(np.linalg.norm(towards)),
+                         gradient_norm=float(np.linalg.norm(gradient)))
+
+
+def clearance(robot: RobotModel, q: np.ndarray, obstacle: situations.Obstacle) -> float:
+    """The smallest signed distance (m) between any robot geometry and the obstacle at q, computed
+    with coal directly on every geometry (not through Proximity's pre-selection)."""
+    data, geometry_data = robot.model.createData(), pin.GeometryData(robot.collision_model)
+    pin.updateGeometryPlacements(robot.model, data, robot.collision_model, geometry_data, q)
+    shape = coal_shape(obstacle.shape, obstacle.dimensions)
+    x, y, z, w = obstacle.orientation
+    placement = coal.Transform3s(pin.Quaternion(w, x, y, z).matrix(), np.array(obstacle.position))
+    request, result = coal.DistanceRequest(), coal.DistanceResult()
+    distances = []
+    for geometry, world in zip(robot.collision_model.geometryObjects, geometry_data.oMg):
+        result.clear()
+        distances.append(coal.distance(geometry.geometry, coal.Transform3s(world.rotation, world.translation),
+                                       shape, placement, request, result))
+    return min(distances)
+
+
+@pytest.mark.parametrize("point", [(0.42, 0.0, 0.40), (0.35, 0.0, 0.20)])
+def test_collision_rows_keep_the_hand_off_an_obstacle(robot, point):
+    """The palm pulled to a point under the plate, the target integrated as the measured q: with
+    collision rows the robot presses on the plate and stays within SAFETY less 3 mm of
+    linearization error of it; without them the hand goes through."""
+    situation = situations.Situation(name="plate", task="grasp", object_kind="sphere", object_dimensions=(0.04,),
+                                     object_position=(0.6, -0.5, 0.1), obstacles=(PLATE,)).validate()
+    poses = {"object": (situation.object_position, situation.object_orientation)}
+    closest = {}
+    for name, proximity in (("rows", Proximity(robot, situation)), ("none", NoPairs())):
+        controller = MotionRateController(robot, proximity, PullPalm(robot, point, gain=50.0))
+        q, distances, touched = robot.home.copy(), [], False
+        for _ in range(300):
+            tick = controller.tick(q, poses)
+            q = tick.target
+            distances.append(clearance(robot, q, PLATE))
+            touched |= any(pair.endswith("/obstacle_0") for pair in tick.active)
+        closest[name] = min(distances)
+        if name == "rows":
+            assert touched and distances[-1] < SAFETY + 0.002, "the hand should press on the plate"
+    assert closest["rows"] >= SAFETY - 0.003, closest
+    assert closest["none"] < -0.001, closest
+
+
+# --- convergence with TRIC's objective -----------------------------------------------------------
+
+def palm_distance_value(definition: FeatureDefinition, low: float, high: float) -> ValueFunction:
+    """A linear value function f = u = (d[palm,object] - low) / (high - low): the one kept feature is
+    the palm's distance to the object, scaled as if the demonstrations spanned [low, high] m."""
+    kept = np.array([definition.feature_names.index("d[palm,object]")])
+    return ValueFunction(Scaling(kept, np.array([low]), np.array([high]), definition.size),
+                         np.zeros((0, 1)), np.zeros(0), np.array([1.0]))
+
+
+def test_value_objective_descends_at_delta_and_converges_at_rest(robot):
+    """f falls by delta per tick while the palm approaches the sphere; the model's domain stops the
+    palm (u >= -DOMAIN_MARGIN, i.e. 16 cm from the object's centre), the robot comes to rest, and the
+    tick says converged exactly when its joints have moved less than CONVERGED_MOTION over the
+    last CONVERGED_WINDOW ticks."""
+    definition = FeatureDefinition.for_task("grasp", robot)
+    situation = situations.sphere("sphere", (0.55, 0.0, 0.45))
+    poses = {"object": (situation.object_position, situation.object_orientation)}
+    delta = 0.002
+    value_function = palm_distance_value(definition, 0.2, 1.0)
+    objective = ValueObjective(FeatureMap(definition, robot), value_function, delta, rho=100.0)
+    controller = MotionRateController(robot, Proximity(robot, situation), objective)
+    q, history, ticks = robot.home.copy(), [], []
+    while len(ticks) < 600 and not (ticks and ticks[-1].converged):
+        history.append(q)
+        ticks.append(controller.tick(q, poses))
+        q = ticks[-1].target
+    values = [tick.value for tick in ticks]
+    assert (values[0] - values[100]) / 100 == pytest.approx(delta, rel=0.1)
+    assert ticks[-1].converged, f"not at rest after {len(ticks)} ticks"
+    for k, tick in enumerate(ticks):
+        motion = np.linalg.norm(history[k] - history[k - CONVERGED_WINDOW]) if k >= CONVERGED_WINDOW else np.inf
+        assert tick.converged == (motion < CONVERGED_MOTION), k
+    assert "feature_range:d[palm,object]" in ticks[-1].active
+    assert values[-1] >= -DOMAIN_MARGIN - 1e-3
+
+
+# --- refused inputs ------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("delta, rho", [(0.0, 1.0), (-0.01, 1.0), (float("nan"), 1.0), (0.01, 0.0), (0.01, -1.0)])
+def test_value_objective_refuses_non_positive_delta_or_rho(robot, delta, rho):
+    definition = FeatureDefinition.for_task("grasp", robot)
+    with pytest.raises(ValueError, match="delta and rho must be positive"):
+        ValueObjective(FeatureMap(definition, robot), palm_distance_value(definition, 0.0, 1.0), delta, rho)
+
+
+def test_make_objective_runs_tric_models_and_refuses_the_others(robot):
+    definition = FeatureDefinition.for_task("grasp", robot)
+    arrays = value_function_arrays(palm_distance_value(definition, 0.0, 1.0))
+    objective = make_objective(ModelFile("tric", definition, arrays, {"delta": 0.002, "rho": 50.0}), robot)
+    assert isinstance(objective, ValueObjective) and (objective.delta, objective.rho) == (0.002, 50.0)
+    assert objective.kept_names == ["d[palm,object]"]
+
+    with pytest.raises(ValueError, match=r"model kind 'dpl_joint' cannot be run by this controller "
+                                         r"\(runnable kinds: tric\)"):
+        make_objective(ModelFile("dpl_joint", definition, {"w": np.zeros(3)}), robot)
+    with pytest.raises(ValueError, match="no usable 'delta'"):
+        make_objective(ModelFile("tric", definition, arrays, {"rho": 50.0}), robot)
+    with pytest.raises(ValueError, match="delta must be finite and positive"):
+        make_objective(ModelFile("tric", definition, arrays, {"delta": -0.002, "rho": 50.0}), robot)

@@ -1,0 +1,168 @@
+"""tric-demo: the main job. Record sphere demonstrations, train TRIC, run it against the teacher.
+
+    tric-demo [--reuse [BAGS]] [--out DIR] [--iterations N] [--check]
+
+1. Record the paper's 27 sphere-grid demonstrations with the teacher through the real nodes
+   (simulator in lockstep, teacher, recorder) into DIR/demo/bags, or, with --reuse, take the bags
+   in BAGS (default: the reference set bags/sphere).
+2. Train TRIC on them with the paper's defaults (K = 30, M = 60, alpha = 1, 1, 0.001).
+3. Evaluate the teacher and the learned controller on the 15 test situations (paper Table 1),
+   through the simulator, teacher and controller nodes, judged by the hidden metrics.
+4. Print the Table 1 comparison; write DIR/demo.json (teacher_cost_mean, tric_cost_mean,
+   tric_cost_max, tric_lift_passed, episodes, train_s, total_s, and the per-episode records),
+   DIR/demo.png (grasp costs per test situation) and DIR/demo_grasp.png (one TRIC grasp).
+
+The targets (design.md): TRIC's mean grasp cost within 0.03 of the teacher's and every TRIC grasp
+below 0.25. They are printed as met or not; --check makes the exit code 1 when one is not met.
+"""
+
+import argparse
+import json
+import math
+import pathlib
+import shutil
+import sys
+import time
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+from tqdm import tqdm  # noqa: E402
+
+from tric_control.evaluate_cli import evaluate  # noqa: E402
+from tric_control.evaluation import GOOD_GRASP, summarize, write_json  # noqa: E402
+from tric_learning.record_cli import demonstrate_all, private_domain_id  # noqa: E402
+from tric_learning.training import TrainingConfig, train_from_bags  # noqa: E402
+from tric_sim.robot_model import RobotModel  # noqa: E402
+from tric_sim.situations import dataset  # noqa: E402
+
+#: Paper Table 1 (mean grasp cost on the 15 test situations) and the margin TRIC must keep to our teacher.
+PAPER_TEACHER, PAPER_TRIC = 0.06, 0.08
+MARGIN_TO_TEACHER = 0.03
+
+
+def record(out: pathlib.Path, domain_id: int) -> pathlib.Path:
+    """Demonstrate the sphere grid into out/bags (emptied first); the folder, or RuntimeError."""
+    bags = out / "bags"
+    if bags.exists():
+        shutil.rmtree(bags)
+    rows = demonstrate_all(dataset("sphere_train"), bags, 0.125, 0.0, domain_id=domain_id)
+    failed = [s.name for s, result, path in rows if not (result.success and path)]
+    if failed:
+        raise RuntimeError(f"the teacher failed to demonstrate {', '.join(failed)}")
+    return bags
+
+
+def train(bags: pathlib.Path, model: pathlib.Path, config: TrainingConfig):
+    """Train TRIC on the bags with a progress bar; the BagTraining."""
+    bar = tqdm(total=100, desc="training", unit="%")
+
+    def progress(stage, fraction, losses):
+        bar.set_description(f"training ({stage})")
+        bar.n = round(100 * fraction)
+        if losses and "iteration" in losses:
+            bar.set_postfix_str(f"L_n {losses['n']:.3f} L_g {losses['g']:.3f} |w| {losses['w']:.0f}")
+        bar.refresh()
+
+    try:
+        return train_from_bags([bags], model, config, RobotModel(), progress)
+    finally:
+        bar.close()
+
+
+def comparison_table(teacher, tric) -> str:
+    """Paper Table 1 beside ours: the grasp cost of every test situation, then the means."""
+    lines = [f"{'test situation':18s} {'teacher':>8s} {'TRIC':>8s} {'TRIC lift':>9s}"]
+    for t, r in zip(teacher, tric):
+        lines.append(f"{r.situation:18s} {t.grasp_cost:8.3f} {r.grasp_cost:8.3f} "
+                     f"{'yes' if r.lift_passed else 'no':>9s}")
+    ts, rs = summarize(teacher), summarize(tric)
+    lines.append("-" * len(lines[0]))
+    lines.append(f"{'mean (ours)':18s} {ts['grasp_cost_mean']:8.3f} {rs['grasp_cost_mean']:8.3f} "
+                 f"{rs['lift_passed']:>5d}/{len(tric)}")
+    lines.append(f"{'mean (paper)':18s} {PAPER_TEACHER:8.3f} {PAPER_TRIC:8.3f} {'-':>9s}")
+    return "\n".join(lines)
+
+
+def plot(teacher, tric, snapshot: pathlib.Path, out: pathlib.Path):
+    """demo.png: teacher and TRIC grasp costs per test situation; demo_grasp.png: one TRIC grasp."""
+    x = np.arange(len(tric))
+    figure, axis = plt.subplots(figsize=(9, 3.6))
+    axis.bar(x - 0.2, [r.grasp_cost for r in teacher], 0.4, label="teacher")
+    axis.bar(x + 0.2, [r.grasp_cost for r in tric], 0.4, label="TRIC")
+    axis.axhline(GOOD_GRASP, color="grey", linestyle="--", linewidth=1, label=f"good grasp < {GOOD_GRASP}")
+    axis.set_xticks(x, [r.situation.replace("sphere_test_", "") for r in tric])
+    axis.set_xlabel("sphere test situation")
+    axis.set_ylabel("grasp cost (lower is better)")
+    axis.set_title("Table 1: grasping a sphere at unseen positions")
+    axis.legend()
+    figure.tight_layout()
+    figure.savefig(out / "demo.png", dpi=110)
+    plt.close(figure)
+    if snapshot.is_file():
+        shutil.copy(snapshot, out / "demo_grasp.png")
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(prog="tric-demo", description=__doc__.splitlines()[0])
+    parser.add_argument("--reuse", nargs="?", const="bags/sphere", default=None, metavar="BAGS",
+                        help="train on recorded bags instead of recording (default folder: bags/sphere)")
+    parser.add_argument("--out", default="results", help="results folder (default: results)")
+    parser.add_argument("--iterations", type=int, default=TrainingConfig.max_iterations,
+                        help="L-BFGS iterations (default: the paper's 100)")
+    parser.add_argument("--check", action="store_true", help="exit 1 when TRIC misses its targets")
+    args = parser.parse_args(argv)
+    started = time.monotonic()
+    out = pathlib.Path(args.out)
+    work = out / "demo"
+    work.mkdir(parents=True, exist_ok=True)
+    domain_id = private_domain_id()
+    try:
+        config = TrainingConfig(max_iterations=args.iterations).validate()
+        if args.reuse:
+            bags = pathlib.Path(args.reuse)
+            print(f"[1/4] reusing the demonstrations in {bags}")
+        else:
+            print("[1/4] recording the 27 sphere-grid demonstrations with the teacher")
+            bags = record(work, domain_id)
+        print("[2/4] training TRIC (K = 30, M = 60, the paper's alphas)")
+        trained = train(bags, work / "tric_sphere.safetensors", config)
+        result = trained.result
+        print(f"      {trained.path}: {result.selected_features} selected features, "
+              f"L_n {result.losses['n']:.3f}, L_g {result.losses['g']:.3f}, trained in {result.train_time_s:.1f} s")
+        print("[3/4] the teacher on the 15 test situations")
+        tests = dataset("sphere_test")
+        teacher = evaluate(tests, None, domain_id=domain_id, desc="teacher")
+        print("[4/4] TRIC on the 15 test situations")
+        snapshots = work / "snapshots"
+        tric = evaluate(tests, trained.path, snapshots=snapshots, domain_id=domain_id, desc="TRIC")
+    except (ValueError, RuntimeError) as error:
+        print(f"tric-demo: {error}", file=sys.stderr)
+        return 2
+    print("\nTable 1: sphere grasp cost on the 15 test situations\n")
+    print(comparison_table(teacher, tric))
+    ts, rs = summarize(teacher), summarize(tric)
+    total = time.monotonic() - started
+    best = min(tric, key=lambda r: r.grasp_cost if math.isfinite(r.grasp_cost) else math.inf)
+    plot(teacher, tric, snapshots / f"{best.situation}.png", out)
+    summary = {"teacher_cost_mean": ts["grasp_cost_mean"], "tric_cost_mean": rs["grasp_cost_mean"],
+               "tric_cost_max": rs["grasp_cost_max"], "tric_lift_passed": rs["lift_passed"],
+               "episodes": len(teacher) + len(tric), "train_s": result.train_time_s, "total_s": total}
+    write_json(out / "demo.json", tric, {**summary, "model": str(trained.path), "bags": str(bags),
+                                          "teacher_episodes": [r.__dict__ for r in teacher],
+                                          "training": {"losses": result.losses,
+                                                       "selected_features": result.selected_features}})
+    within = rs["grasp_cost_mean"] <= ts["grasp_cost_mean"] + MARGIN_TO_TEACHER
+    all_good = rs["good_grasps"] == len(tric)
+    print(f"\nTRIC mean within {MARGIN_TO_TEACHER} of the teacher: {'met' if within else 'NOT met'}; "
+          f"every TRIC grasp below {GOOD_GRASP}: {'met' if all_good else 'NOT met'}")
+    print(f"wrote {out / 'demo.json'}, {out / 'demo.png'} and {out / 'demo_grasp.png'} "
+          f"({best.situation}); total {total:.0f} s")
+    print(json.dumps(summary, indent=2))
+    return 1 if args.check and not (within and all_good) else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,228 @@
+"""tric-eval: run a model (or the teacher) on situations through the real nodes, and judge it.
+
+    tric-eval (--model MODEL | --teacher) (DATASET | --situations-file FILE) [--json OUT]
+              [--max-steps N] [--snapshots DIR] [--domain-id N]
+
+Runs the simulator (lockstep), the teacher and the controller nodes in one process. For each
+situation: reset the scene (/simulator/reset_scene); the teacher demonstrates it
+(/teacher/demonstrate) or the controller runs the loaded model for one episode (/controller/execute);
+then the simulator judges the final state with the hidden metrics (/simulator/evaluate_task, with
+the lift test for grasps). Prints a table, and writes the per-episode records and their summary to
+the --json file. DATASET is a built-in data set (sphere_test, cylinder_test, obstacle_test,
+box_test, ...); any YAML/JSON situations file of one task works too. --snapshots DIR writes a PNG
+of each final state (before the lift test). The nodes run in a private DDS domain unless --domain-id
+names one. Exits 0 when every episode ran (whatever its score), 1
+when one could not be run, 2 on bad arguments.
+"""
+
+import argparse
+import math
+import pathlib
+import sys
+import time
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+from rclpy.action import ActionClient  # noqa: E402
+from rclpy.node import Node  # noqa: E402
+from rclpy.parameter import Parameter  # noqa: E402
+from tqdm import tqdm  # noqa: E402
+from tric_msgs.action import Demonstrate, Execute  # noqa: E402
+from tric_msgs.srv import EvaluateTask, LoadModel, RenderScene, ResetScene  # noqa: E402
+
+from tric_control.controller_node import ControllerNode  # noqa: E402
+from tric_control.evaluation import EpisodeRecord, table, write_json  # noqa: E402
+from tric_learning.record_cli import InProcessGraph, private_domain_id, wait  # noqa: E402
+from tric_sim import messages  # noqa: E402
+from tric_sim.simulator_node import SimulatorNode  # noqa: E402
+from tric_sim.situations import DATASETS, dataset, load_situations  # noqa: E402
+from tric_sim.teacher_node import TeacherNode  # noqa: E402
+
+#: Wall seconds to wait for a service answer, and for an episode to end.
+SERVICE_TIMEOUT = 60.0
+EPISODE_TIMEOUT = 900.0
+
+
+class Evaluator:
+    """The evaluation graph: simulator, teacher, controller and a client node, spun in-process.
+
+    model: a model file for the controller, or None to evaluate the teacher; domain_id: the DDS
+    domain of the graph (None: the environment's)."""
+
+    def __init__(self, task: str, model: str = None, max_steps: int = 0, domain_id: int = None):
+        self.task, self.model, self.max_steps = task, model, max_steps
+        self.graph = InProcessGraph(domain_id)
+        try:
+            self.graph.add(SimulatorNode(context=self.graph.context,
+                                         parameter_overrides=[Parameter("mode", value="lockstep")]))
+            if model is None:
+                self.graph.add(TeacherNode(context=self.graph.context))
+            else:
+                self.controller = self.graph.add(ControllerNode(context=self.graph.context, parameter_overrides=[
+                    Parameter("task", value=task), Parameter("mode", value="lockstep")]))
+            self.client = self.graph.add(Node("tric_eval", context=self.graph.context))
+            self.graph.start()
+            self.reset_scene = self._service(ResetScene, "/simulator/reset_scene")
+            self.evaluate_task = self._service(EvaluateTask, "/simulator/evaluate_task")
+            self.render_scene = self._service(RenderScene, "/simulator/render_scene")
+            if model is None:
+                self.action = self._action(Demonstrate, "/teacher/demonstrate")
+            else:
+                self.action = self._action(Execute, "/controller/execute")
+                loaded = self._call(self._service(LoadModel, "/controller/load_model"),
+                                    LoadModel.Request(model_path=str(model)), "loading the model")
+                if not loaded.success:
+                    raise ValueError(loaded.message)
+        except BaseException:
+            self.graph.close()
+            raise
+
+    @property
+    def agent(self) -> str:
+        return "teacher" if self.model is None else self.controller.model.kind
+
+    def close(self):
+        self.graph.close()
+
+    def _service(self, srv_type, name):
+        client = self.client.create_client(srv_type, name)
+        if not client.wait_for_service(timeout_sec=30.0):
+            raise RuntimeError(f"service {name} did not come up")
+        return client
+
+    def _action(self, action_type, name):
+        client = ActionClient(self.client, action_type, name)
+        if not client.wait_for_server(timeout_sec=30.0):
+            raise RuntimeError(f"action {name} did not come up")
+        return client
+
+    def _call(self, client, request, what: str):
+        return wait(client.call_async(request), SERVICE_TIMEOUT, what)
+
+    def _run_goal(self, goal, what: str):
+        handle = wait(self.action.send_goal_async(goal), SERVICE_TIMEOUT, f"{what} to be accepted")
+        if not handle.accepted:
+            raise RuntimeError(f"{what} was refused")
+        return wait(handle.get_result_async(), EPISODE_TIMEOUT, what).result
+
+    def run(self, situation, snapshot: pathlib.Path = None) -> EpisodeRecord:
+        """One episode of the agent on situation, judged by the hidden metrics."""
+        started = time.monotonic()
+        grasp = situation.task == "grasp"
+        record = dict(situation=situation.name, task=situation.task, agent=self.agent, success=False,
+                      grasp_cost=math.nan, lift_passed=None, lid_angle=math.nan, min_distance=math.nan,
+                      collided=False, min_joint_margin=math.nan, steps=0)
+        situation_msg = messages.situation_to_msg(situation)
+        if self.model is None:
+            result = self._run_goal(Demonstrate.Goal(situation=situation_msg, episode_id=situation.name),
+                                    f"the demonstration of '{situation.name}'")
+            if not result.metrics.task:  # the teacher could not run it (no metrics were computed)
+                return EpisodeRecord(**record, wall_time_s=time.monotonic() - started, outcome="failed",
+                                     message=result.message)
+            metrics, steps, outcome = result.metrics, result.steps, "demonstrated"
+        else:
+            reset = self._call(self.reset_scene, ResetScene.Request(situation=situation_msg), "the scene reset")
+            if not reset.success:
+                return EpisodeRecord(**record, wall_time_s=time.monotonic() - started, outcome="failed",
+                                     message=reset.message)
+            self._wait_for_scene(situation)
+            result = self._run_goal(Execute.Goal(max_steps=self.max_steps, episode_id=situation.name),
+                                    f"the episode on '{situation.name}'")
+            if result.outcome == "failed":
+                return EpisodeRecord(**record, wall_time_s=time.monotonic() - started, outcome="failed",
+                                     message=result.message)
+            if snapshot is not None:
+                self._snapshot(snapshot / f"{situation.name}.png")
+            evaluation = self._call(self.evaluate_task, EvaluateTask.Request(run_lift_test=grasp),
+                                    "the metrics")
+            metrics, steps, outcome = evaluation.metrics, result.steps, result.outcome
+            record["min_joint_margin"] = result.min_joint_limit_margin
+        if snapshot is not None and self.model is None:
+            self._snapshot(snapshot / f"{situation.name}.png")  # after the lift test: the teacher judges itself
+        record.update(success=bool(metrics.success), min_distance=metrics.min_distance,
+                      collided=bool(metrics.collided), steps=int(steps))
+        if grasp:
+            record.update(grasp_cost=metrics.grasp_cost, lift_passed=bool(metrics.lift_passed))
+        else:
+            record["lid_angle"] = metrics.lid_angle
+        return EpisodeRecord(**record, wall_time_s=time.monotonic() - started, outcome=outcome)
+
+    def _wait_for_scene(self, situation):
+        """Wait until the controller has taken the new scene from /situation (latched, asynchronous)."""
+        deadline = time.monotonic() + SERVICE_TIMEOUT
+        while True:
+            scene = self.controller.scene
+            if scene is not None and scene.situation == situation:
+                return
+            if time.monotonic() > deadline:
+                raise RuntimeError(f"the controller never received the situation '{situation.name}'")
+            time.sleep(0.002)
+
+    def _snapshot(self, path: pathlib.Path):
+        answer = self._call(self.render_scene, RenderScene.Request(width=480, height=360), "a snapshot")
+        if answer.success:
+            image = np.frombuffer(bytes(answer.image.data), dtype=np.uint8)
+            path.parent.mkdir(parents=True, exist_ok=True)
+            plt.imsave(path, image.reshape(answer.image.height, answer.image.width, 3))
+
+
+def evaluate(situations, model=None, max_steps: int = 0, snapshots=None, progress=True, desc="evaluating",
+             domain_id: int = None):
+    """Run the agent (model file, or the teacher if None) on every situation; [EpisodeRecord]."""
+    tasks = {s.task for s in situations}
+    if len(tasks) != 1:
+        raise ValueError(f"the situations mix tasks ({', '.join(sorted(tasks))}): evaluate one task at a time")
+    evaluator = Evaluator(tasks.pop(), model, max_steps, domain_id)
+    records = []
+    try:
+        bar = tqdm(situations, desc=desc, unit="episode", disable=not progress)
+        for situation in bar:
+            bar.set_postfix_str(situation.name)
+            records.append(evaluator.run(situation, pathlib.Path(snapshots) if snapshots else None))
+    finally:
+        evaluator.close()
+    return records
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(prog="tric-eval", description=__doc__.splitlines()[0])
+    agent = parser.add_mutually_exclusive_group(required=True)
+    agent.add_argument("--model", help="a model file (from tric-train or the trainer node)")
+    agent.add_argument("--teacher", action="store_true", help="evaluate the teacher instead of a model")
+    parser.add_argument("dataset", nargs="?", choices=sorted(DATASETS), help="a built-in data set")
+    parser.add_argument("--situations-file", help="a YAML/JSON situations file instead of DATASET")
+    parser.add_argument("--json", help="write the per-episode records and the summary to this file")
+    parser.add_argument("--max-steps", type=int, default=0,
+                        help="control ticks per episode at most (default: the controller's, 800)")
+    parser.add_argument("--snapshots", help="write a PNG of each final state into this folder")
+    parser.add_argument("--domain-id", type=int, default=None,
+                        help="DDS domain of the in-process nodes (default: a private one, 1 + pid %% 100)")
+    args = parser.parse_args(argv)
+    if bool(args.dataset) == bool(args.situations_file):
+        parser.error("give either DATASET or --situations-file")
+    if args.max_steps < 0:
+        parser.error("--max-steps must not be negative")
+    domain_id = private_domain_id() if args.domain_id is None else args.domain_id
+    if not 0 <= domain_id <= 232:
+        parser.error("--domain-id must be in [0, 232]")
+    try:
+        situations = load_situations(args.situations_file) if args.situations_file else dataset(args.dataset)
+        if args.model and not pathlib.Path(args.model).is_file():
+            raise ValueError(f"model file {args.model} does not exist")
+        records = evaluate(situations, None if args.teacher else args.model, args.max_steps, args.snapshots,
+                           domain_id=domain_id)
+    except ValueError as error:
+        print(f"tric-eval: {error}", file=sys.stderr)
+        return 2
+    name = "teacher" if args.teacher else args.model
+    print(table(records, f"\n{name} on {args.dataset or args.situations_file}"))
+    if args.json:
+        print(f"wrote {write_json(args.json, records, {'agent': name})}")
+    return 1 if any(r.failed for r in records) else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

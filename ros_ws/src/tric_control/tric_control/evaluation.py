@@ -1,0 +1,143 @@
+"""Evaluation records, summaries and tables. ROS-free.
+
+An evaluation runs one agent (the teacher, or a model file run by the controller) on a list of
+situations and judges each episode with the hidden task metrics (tric_sim.metrics): the grasp cost
+and lift test for grasps, the lid angle for boxes, the closest approach to the avoided geometry and
+the smallest joint-limit margin. This module holds what that produces: one EpisodeRecord per episode,
+their summary, the table printed to stdout and the JSON file.
+"""
+
+import json
+import math
+import pathlib
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+#: A grasp is good below this cost (the paper's convention); a box is open beyond this lid angle, rad.
+GOOD_GRASP = 0.25
+OPEN_LID = 0.3
+
+
+@dataclass
+class EpisodeRecord:
+    """One evaluated episode. Distances in m, angles and margins in rad, times in s.
+
+    grasp_cost, lift_passed: grasps only (NaN / None otherwise); lid_angle: boxes only (NaN otherwise).
+    min_distance: the smallest signed distance between the robot and the table, obstacles and box
+    body over the episode, as the simulator measured it (negative: penetration); collided: it went
+    below zero. min_joint_margin: the smallest distance of a joint to its limit (NaN for the
+    teacher, whose episodes the controller does not see). outcome: how the episode ended
+    ("converged", "step_budget", "demonstrated", "failed", ...). message: why, when it failed.
+    """
+
+    situation: str
+    task: str
+    agent: str
+    success: bool
+    grasp_cost: float
+    lift_passed: object
+    lid_angle: float
+    min_distance: float
+    collided: bool
+    min_joint_margin: float
+    steps: int
+    wall_time_s: float
+    outcome: str
+    message: str = ""
+
+    @property
+    def failed(self) -> bool:
+        """The episode could not be run to its end (as opposed to ending badly)."""
+        return self.outcome == "failed"
+
+
+def _mean(values) -> float:
+    values = [v for v in values if v is not None and math.isfinite(v)]
+    return float(np.mean(values)) if values else math.nan
+
+
+def _max(values) -> float:
+    values = [v for v in values if v is not None and math.isfinite(v)]
+    return float(np.max(values)) if values else math.nan
+
+
+def summarize(records) -> dict:
+    """Means, extremes and counts over the records (NaN where a quantity does not apply)."""
+    grasps = [r for r in records if r.task == "grasp"]
+    boxes = [r for r in records if r.task == "open_box"]
+    distances = [r.min_distance for r in records if math.isfinite(r.min_distance)]
+    margins = [r.min_joint_margin for r in records if math.isfinite(r.min_joint_margin)]
+    return {
+        "episodes": len(records),
+        "failed_runs": sum(r.failed for r in records),
+        "successes": sum(bool(r.success) for r in records),
+        "grasp_cost_mean": _mean(r.grasp_cost for r in grasps),
+        "grasp_cost_max": _max(r.grasp_cost for r in grasps),
+        "good_grasps": sum(r.grasp_cost < GOOD_GRASP for r in grasps),
+        "lift_passed": sum(r.lift_passed is True for r in grasps),
+        "boxes_opened": sum(r.lid_angle > OPEN_LID for r in boxes),
+        "lid_angle_mean": _mean(r.lid_angle for r in boxes),
+        "collisions": sum(bool(r.collided) for r in records),
+        "min_distance": float(min(distances)) if distances else math.nan,
+        "min_joint_margin": float(min(margins)) if margins else math.nan,
+        "steps_mean": _mean(r.steps for r in records),
+        "wall_time_s_mean": _mean(r.wall_time_s for r in records),
+    }
+
+
+def _cell(value, fmt: str) -> str:
+    if value is None:
+        return "-"
+    if isinstance(value, bool):
+        return "yes" if value else "no"
+    if isinstance(value, float) and not math.isfinite(value):
+        return "-"
+    return format(value, fmt)
+
+
+def table(records, title: str = "") -> str:
+    """A fixed-width table of the records, with a summary line."""
+    header = (f"{'situation':22s} {'agent':10s} {'ok':>3s} {'cost':>6s} {'lift':>4s} {'lid':>5s} "
+              f"{'min d (mm)':>10s} {'margin':>6s} {'steps':>5s} {'wall s':>6s}  outcome")
+    lines = [title] if title else []
+    lines += [header, "-" * len(header)]
+    for r in records:
+        lines.append(
+            f"{r.situation[:22]:22s} {r.agent[:10]:10s} {_cell(bool(r.success), ''):>3s} "
+            f"{_cell(r.grasp_cost, '.3f'):>6s} {_cell(r.lift_passed, ''):>4s} {_cell(r.lid_angle, '.2f'):>5s} "
+            f"{_cell(r.min_distance * 1e3, '.1f'):>10s} {_cell(r.min_joint_margin, '.3f'):>6s} "
+            f"{r.steps:5d} {r.wall_time_s:6.1f}  {r.outcome}{': ' + r.message if r.failed else ''}")
+    s = summarize(records)
+    lines.append("-" * len(header))
+    parts = [f"{s['successes']}/{s['episodes']} succeeded"]
+    if math.isfinite(s["grasp_cost_mean"]):
+        parts.append(f"grasp cost mean {s['grasp_cost_mean']:.3f}, max {s['grasp_cost_max']:.3f}, "
+                     f"{s['good_grasps']} below {GOOD_GRASP}, lift passed {s['lift_passed']}")
+    if math.isfinite(s["lid_angle_mean"]):
+        parts.append(f"{s['boxes_opened']} boxes opened (lid mean {s['lid_angle_mean']:.2f} rad)")
+    parts.append(f"{s['collisions']} collisions (closest {_cell(s['min_distance'] * 1e3, '.1f')} mm)")
+    if s["failed_runs"]:
+        parts.append(f"{s['failed_runs']} runs failed")
+    lines.append("; ".join(parts))
+    return "\n".join(lines)
+
+
+def _json_safe(value):
+    """NaN/inf become null, so the file is strict JSON."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    if isinstance(value, dict):
+        return {k: _json_safe(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_json_safe(v) for v in value]
+    return value
+
+
+def write_json(path, records, extra: dict = None) -> pathlib.Path:
+    """Write {"summary": ..., "episodes": [...], **extra} to path (strict JSON: NaN as null)."""
+    path = pathlib.Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    data = {"summary": summarize(records), "episodes": [asdict(r) for r in records], **(extra or {})}
+    path.write_text(json.dumps(_json_safe(data), indent=2) + "\n")
+    return path

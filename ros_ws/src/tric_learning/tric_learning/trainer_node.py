@@ -1,0 +1,177 @@
+"""The trainer node ("trainer"): trains models from demonstration bags on request.
+
+A thin ROS shell around tric_learning.training.train_from_bags, the job tric-train runs too.
+
+Services:
+- ~/train (tric_msgs/srv/Train): bags + hyper-parameters -> model file, final loss terms, kept and
+  selected feature counts, times. Refused with success false and a message saying why (nothing is
+  written) when the model kind is not "tric", a hyper-parameter is out of range (see
+  training.TrainingConfig), a bag path does not exist or is not a finished TRIC recording of the
+  same feature definition as the others, or the output path is not a writable .safetensors path.
+  Request fields are taken as given (the .srv's defaults are the paper's), except hidden_units -1
+  (the default, 30) and an empty output_path (model.safetensors next to the first bag); so 0 is a
+  value: hidden_units 0 is the linear model, noisy_samples 0 is refused. The training runs in a
+  worker thread while the executor keeps spinning; a request that comes meanwhile is answered at
+  once with success false and a message starting "busy".
+  The DPL kinds ("dpl_joint", "dpl_finger") are not trained by this node yet.
+
+Topics:
+- publishes ~/progress (tric_msgs/TrainingProgress) during a training: stage ("loading",
+  "sampling", "optimizing", "saving", then "done" or "failed"), overall fraction, optimizer
+  iteration, and the current loss terms (NaN before optimization starts; L_n and L_g per
+  demonstration step, as training.train reports them). Every stage change is published, and within
+  a stage at most one message per progress_period_s.
+
+Parameters: progress_period_s (0.2): least wall seconds between two progress messages of a stage.
+"""
+
+import functools
+import math
+import sys
+import threading
+import time
+
+import rclpy
+from rclpy.callback_groups import ReentrantCallbackGroup
+from rclpy.executors import ExternalShutdownException
+from rclpy.node import Node
+from rcl_interfaces.msg import ParameterDescriptor
+from tric_msgs.msg import TrainingProgress
+from tric_msgs.srv import Train
+
+from tric_learning.model_file import KINDS
+from tric_learning.training import TrainingConfig, train_from_bags
+from tric_sim import messages
+from tric_sim.lockstep import run_in_thread
+from tric_sim.robot_model import RobotModel
+
+#: Overall progress spanned by each stage of a training: (start, end) fractions.
+STAGE_SPANS = {"loading": (0.0, 0.05), "sampling": (0.05, 0.35), "optimizing": (0.35, 0.95),
+               "saving": (0.95, 1.0)}
+STAGE_DETAILS = {"loading": "reading the bags", "sampling": "drawing noisy joint samples around the demonstrations",
+                 "optimizing": "L-BFGS on the loss of Eq. 11", "saving": "writing the model file"}
+NO_LOSSES = {"total": math.nan, "n": math.nan, "g": math.nan, "w": math.nan}
+
+
+def training_config(request: Train.Request) -> TrainingConfig:
+    """The TrainingConfig of a Train request; ValueError for a model kind this node cannot train or
+    a value out of range."""
+    if request.model_kind not in KINDS:
+        raise ValueError(f"unknown model_kind '{request.model_kind}' (known: {', '.join(KINDS)})")
+    if request.model_kind != "tric":
+        raise ValueError(f"model_kind '{request.model_kind}' cannot be trained yet: only 'tric' is available")
+    hidden_units = TrainingConfig.hidden_units if request.hidden_units == -1 else request.hidden_units
+    return TrainingConfig(hidden_units=hidden_units, noisy_samples=request.noisy_samples, sigma=request.sigma,
+                          alpha_n=request.alpha_n, alpha_g=request.alpha_g, alpha_w=request.alpha_w,
+                          max_iterations=request.max_iterations,
+                          correlation_threshold=request.correlation_threshold, seed=request.seed).validate()
+
+
+class TrainerNode(Node):
+    """Serves ~/train and publishes ~/progress (see the module docstring)."""
+
+    def __init__(self, **kwargs):
+        super().__init__("trainer", **kwargs)
+        self.progress_period = float(self.declare_parameter(
+            "progress_period_s", 0.2, ParameterDescriptor(
+                description="least wall seconds between two progress messages of a stage")).value)
+        if not self.progress_period >= 0:
+            raise ValueError("progress_period_s must be >= 0")
+        self.robot = RobotModel()
+        self._busy = threading.Lock()
+        self._last_report = (None, 0.0)  # (stage, monotonic time) of the last progress message
+        self.progress_pub = self.create_publisher(TrainingProgress, "~/progress", 10)
+        # reentrant: a second request is taken (and answered "busy") while the first one awaits its worker
+        self.create_service(Train, "~/train", self._on_train, callback_group=ReentrantCallbackGroup())
+        self.get_logger().info("ready to train on ~/train")
+
+    async def _on_train(self, request: Train.Request, response: Train.Response) -> Train.Response:
+        if not self._busy.acquire(blocking=False):
+            response.success = False
+            response.message = "busy: another training is running; call again when it has finished"
+            return response
+        try:
+            return await self._train(request, response)
+        finally:
+            self._busy.release()
+
+    async def _train(self, request: Train.Request, response: Train.Response) -> Train.Response:
+        start = time.monotonic()
+        self._last_report = (None, 0.0)
+        try:
+            config = training_config(request)
+            run = await run_in_thread(self, train_from_bags, list(request.bag_paths), request.output_path,
+                                      config, self.robot, functools.partial(self._report, config.max_iterations))
+        except (ValueError, OSError) as error:
+            return self._fail(response, str(error))
+        except Exception as error:  # a bug: still an answer, not a traceback
+            self.get_logger().error(f"training failed: {error!r}")
+            return self._fail(response, f"internal error: {type(error).__name__}: {error}")
+        result, losses = run.result, run.result.losses
+        response.success = True
+        response.model_path = str(run.path)
+        response.loss_total, response.loss_n, response.loss_g, response.loss_w = (
+            losses["total"], losses["n"], losses["g"], losses["w"])
+        response.input_features = len(result.model.scaling.kept)
+        response.selected_features = result.selected_features
+        response.sampling_time_s = result.sampling_time_s
+        response.optimization_time_s = result.optimization_time_s
+        response.train_time_s = result.train_time_s
+        response.message = (f"trained on {len(run.dataset.demos)} demonstrations in {time.monotonic() - start:.1f} s: "
+                            f"loss {losses['total']:.4f} (L_n {losses['n']:.4f}, L_g {losses['g']:.4f}, "
+                            f"|w|_1 {losses['w']:.2f}), {response.input_features} features kept, "
+                            f"{result.selected_features} selected; wrote {run.path}")
+        self._publish("done", 1.0, losses, message=response.message, iteration=result.iterations,
+                      max_iterations=config.max_iterations)
+        self.get_logger().info(response.message)
+        return response
+
+    def _fail(self, response: Train.Response, message: str) -> Train.Response:
+        response.success, response.message = False, message
+        self._publish("failed", 0.0, None, message=message)
+        self.get_logger().warning(f"no model trained: {message}")
+        return response
+
+    def _report(self, max_iterations: int, stage: str, fraction: float, losses) -> None:
+        """train_from_bags' progress callback (in the worker thread): publish stage changes at once,
+        the rest at most every progress_period_s."""
+        last_stage, last_time = self._last_report
+        now = time.monotonic()
+        if stage == last_stage and now - last_time < self.progress_period:
+            return
+        low, high = STAGE_SPANS[stage]
+        iteration = int(losses["iteration"]) if losses and "iteration" in losses else 0
+        self._publish(stage, low + (high - low) * fraction, losses, message=STAGE_DETAILS[stage],
+                      iteration=iteration, max_iterations=max_iterations)
+
+    def _publish(self, stage: str, fraction: float, losses, message: str = "", iteration: int = 0,
+                 max_iterations: int = 0) -> None:
+        losses = losses or NO_LOSSES
+        msg = TrainingProgress(stage=stage, iteration=iteration, max_iterations=max_iterations,
+                               fraction=float(fraction), loss_total=losses["total"], loss_n=losses["n"],
+                               loss_g=losses["g"], loss_w=losses["w"], message=message)
+        msg.header.stamp = messages.time_msg(time.time_ns())
+        self._last_report = (stage, time.monotonic())
+        self.progress_pub.publish(msg)
+
+
+def main(args=None):
+    rclpy.init(args=args)
+    try:
+        node = TrainerNode()
+    except ValueError as error:
+        print(f"trainer: {error}", file=sys.stderr)
+        rclpy.try_shutdown()
+        return 2
+    try:
+        rclpy.spin(node)
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        node.destroy_node()
+        rclpy.try_shutdown()
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,176 @@
+"""The trainer node in-process (~/train round trip, ~/progress, the busy answer, refused requests) and
+the tric-train and tric-analyze commands, on three recorded sphere demonstrations."""
+
+import contextlib
+import io
+import math
+
+import numpy as np
+import pytest
+from rclpy.node import Node
+from rclpy.qos import QoSProfile, ReliabilityPolicy
+from tric_msgs.msg import TrainingProgress
+from tric_msgs.srv import Train
+
+from conftest import call, wait_for
+from tric_learning import analysis, train_cli
+from tric_learning.features import FeatureDefinition
+from tric_learning.model_file import ModelFile, value_function
+from tric_learning.record_cli import demonstrate_all
+from tric_learning.trainer_node import TrainerNode, training_config
+from tric_learning.training import TrainingConfig
+from tric_sim import situations
+from tric_sim.robot_model import RobotModel
+
+#: A training of a few seconds: not a useful model, but every stage of a real one.
+TINY = {"hidden_units": 5, "noisy_samples": 10, "max_iterations": 20}
+KEEP_ALL = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
+
+
+@pytest.fixture(scope="module")
+def bag_dir(tmp_path_factory):
+    """Three sphere demonstrations recorded through the simulator, teacher and recorder nodes."""
+    out = tmp_path_factory.mktemp("bags")
+    rows = demonstrate_all(situations.sphere_grid()[12:15], out, 0.125, 0.0, progress=False)
+    assert all(result.success and path for _, result, path in rows)
+    return out
+
+
+@pytest.fixture(scope="module")
+def cli_run(bag_dir, tmp_path_factory):
+    """tric-train on the bags: (exit status, what it printed, the model path)."""
+    model = tmp_path_factory.mktemp("cli") / "tiny.safetensors"
+    printed = io.StringIO()
+    with contextlib.redirect_stdout(printed):
+        status = train_cli.main([str(bag_dir), "--out", str(model), "--hidden-units", "5", "--noisy-samples", "10",
+                                 "--iterations", "20", "--seed", "3", "--quiet"])
+    return status, printed.getvalue(), model
+
+
+def train_request(bags, output, **overrides) -> Train.Request:
+    return Train.Request(bag_paths=[str(path) for path in bags], output_path=str(output), **dict(TINY, **overrides))
+
+
+class ProgressListener(Node):
+    """Keeps every message of /trainer/progress."""
+
+    def __init__(self, context):
+        super().__init__("test_progress_listener", context=context)
+        self.messages = []
+        self.create_subscription(TrainingProgress, "/trainer/progress", self.messages.append, KEEP_ALL)
+
+
+def test_request_defaults_are_the_training_defaults():
+    assert training_config(Train.Request()) == TrainingConfig()
+    assert training_config(Train.Request(hidden_units=0)).hidden_units == 0
+
+
+def test_train_round_trip_with_progress_and_a_busy_answer(ros_context, spin, bag_dir, tmp_path):
+    listener = spin(TrainerNode(context=ros_context), ProgressListener(ros_context))[1]
+    client = listener.create_client(Train, "/trainer/train")
+    assert client.wait_for_service(timeout_sec=10.0)
+    out = tmp_path / "models" / "tiny.safetensors"
+    first = client.call_async(train_request([bag_dir], out))
+    wait_for(lambda: listener.messages, 60.0, "the first progress message")
+    busy = call(listener, Train, "/trainer/train", train_request([bag_dir], tmp_path / "second.safetensors"), 10.0)
+    assert not busy.success and busy.message.startswith("busy"), busy.message
+    response = wait_for(lambda: first.result() if first.done() else None, 120.0, "the training's answer")
+    assert response.success, response.message
+    assert not (tmp_path / "second.safetensors").exists()
+
+    assert response.model_path == str(out) and str(out) in response.message
+    loaded = ModelFile.load(out, expected=FeatureDefinition.for_task("grasp", RobotModel()))
+    model = value_function(loaded)
+    assert response.input_features == len(model.scaling.kept) == len(loaded.info["kept_features"])
+    assert 0 < response.selected_features <= response.input_features
+    assert loaded.info["hyperparameters"] == TrainingConfig(**TINY).to_dict()
+    assert loaded.info["losses"] == {"n": response.loss_n, "g": response.loss_g, "w": response.loss_w,
+                                     "total": response.loss_total}
+    assert response.loss_total == pytest.approx(response.loss_n + response.loss_g + 0.001 * response.loss_w)
+    assert -1.0 <= response.loss_g < 0 < response.loss_n and response.loss_w > 0
+    assert 0 < response.sampling_time_s and 0 < response.optimization_time_s
+    assert response.train_time_s == pytest.approx(response.sampling_time_s + response.optimization_time_s)
+
+    wait_for(lambda: listener.messages[-1].stage == "done", 10.0, "the 'done' progress message")
+    stages = [m.stage for m in listener.messages]
+    assert [s for k, s in enumerate(stages) if k == 0 or s != stages[k - 1]] == [
+        "loading", "sampling", "optimizing", "saving", "done"]
+    fractions = [m.fraction for m in listener.messages]
+    assert fractions == sorted(fractions) and fractions[-1] == 1.0
+    optimizing = [m for m in listener.messages if m.stage == "optimizing"]
+    assert all(m.max_iterations == 20 and 0 <= m.iteration <= 20 for m in optimizing)
+    assert all(np.isfinite([m.loss_total, m.loss_n, m.loss_g, m.loss_w]).all() for m in optimizing)
+    assert math.isnan(listener.messages[0].loss_total)
+    assert listener.messages[-1].loss_total == response.loss_total
+
+
+def test_bad_requests_are_refused_and_write_nothing(ros_context, spin, bag_dir, tmp_path):
+    listener = spin(TrainerNode(context=ros_context), ProgressListener(ros_context))[1]
+    inputs = tmp_path / "inputs"
+    (inputs / "empty").mkdir(parents=True)
+    foreign = inputs / "notes.mcap"
+    foreign.write_text("not a bag")
+    good = sorted(bag_dir.glob("*.mcap"))[0]
+    truncated = inputs / "truncated.mcap"
+    truncated.write_bytes(good.read_bytes()[: good.stat().st_size // 2])
+    out = tmp_path / "model.safetensors"
+    refusals = [
+        (train_request([inputs / "missing.mcap"], out), f"{inputs / 'missing.mcap'} does not exist"),
+        (train_request([inputs / "empty"], out), "holds no .mcap bags"),
+        (train_request([], out), "no bags given"),
+        (train_request([good, foreign], out), "notes.mcap"),
+        (train_request([good, truncated], out), "truncated.mcap"),
+        (train_request([bag_dir], out, sigma=0.0), "sigma must be in (0, 1] rad"),
+        (train_request([bag_dir], out, noisy_samples=0), "noisy_samples must be in [1, 10000]"),
+        (train_request([bag_dir], out, hidden_units=-2), "hidden_units must be in [0, 1000]"),
+        (train_request([bag_dir], out, alpha_w=math.nan), "alpha_n, alpha_g and alpha_w must be finite and >= 0"),
+        (train_request([bag_dir], out, max_iterations=0), "max_iterations must be in [1, 100000]"),
+        (train_request([bag_dir], out, correlation_threshold=1.5), "correlation_threshold must be in (0, 1]"),
+        (train_request([bag_dir], out, model_kind="dpl_joint"), "model_kind 'dpl_joint' cannot be trained yet"),
+        (train_request([bag_dir], out, model_kind="svm"), "unknown model_kind 'svm'"),
+        (train_request([bag_dir], tmp_path / "model.txt"), "must end in .safetensors"),
+        (train_request([bag_dir], inputs), "must end in .safetensors"),
+    ]
+    for request, reason in refusals:
+        response = call(listener, Train, "/trainer/train", request, 30.0)
+        assert not response.success and reason in response.message, (reason, response.message)
+        assert response.model_path == ""
+    assert sorted(p.name for p in tmp_path.rglob("*") if p.is_file()) == ["notes.mcap", "truncated.mcap"]
+    failed = lambda: [m for m in listener.messages if m.stage == "failed"]  # noqa: E731
+    wait_for(lambda: len(failed()) == len(refusals), 10.0, "a 'failed' message per refusal")
+    assert [m.message for m in failed()][-1].endswith("must end in .safetensors")
+    assert {m.stage for m in listener.messages} == {"loading", "failed"}  # bad bags are found while loading
+
+
+def test_tric_train_writes_a_loadable_model(cli_run):
+    status, printed, model = cli_run
+    assert status == 0
+    for expected in (f"model      {model}", "kept", "selected", "sampling", "optimization", "delta", "rho"):
+        assert expected in printed
+    loaded = ModelFile.load(model)
+    assert loaded.info["hyperparameters"]["seed"] == 3 and loaded.info["hyperparameters"]["hidden_units"] == 5
+    assert value_function(loaded).hidden_units == 5
+
+
+@pytest.mark.parametrize("arguments, message", [
+    (["{tmp}/missing.mcap"], "tric-train: {tmp}/missing.mcap does not exist"),
+    (["{bags}", "--sigma", "0"], "tric-train: sigma must be in (0, 1] rad"),
+    (["{bags}", "--out", "{tmp}/model.json"], "tric-train: the model path {tmp}/model.json must end in .safetensors"),
+])
+def test_tric_train_refuses_bad_input_with_one_line(bag_dir, tmp_path, capsys, arguments, message):
+    fill = lambda text: text.format(tmp=tmp_path, bags=bag_dir)  # noqa: E731
+    status = train_cli.main([fill(a) for a in arguments] + ([] if "--out" in arguments
+                                                              else ["--out", str(tmp_path / "m.safetensors")]))
+    assert status == 2
+    assert capsys.readouterr().err == fill(message) + "\n"
+    assert not list(tmp_path.iterdir())
+
+
+def test_tric_analyze_writes_both_figures(cli_run, bag_dir, tmp_path, capsys):
+    _, _, model = cli_run
+    assert analysis.main([str(model), str(bag_dir), "--out", str(tmp_path / "figures"), "--top", "12"]) == 0
+    for name in (analysis.VALUE_FIGURE, analysis.SCORES_FIGURE):
+        assert (tmp_path / "figures" / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert "f decreases on" in capsys.readouterr().out
+    assert analysis.main([str(tmp_path / "none.safetensors"), str(bag_dir), "--out", str(tmp_path / "x")]) == 2
+    assert "does not exist" in capsys.readouterr().err and not (tmp_path / "x").exists()
