@@ -49,6 +49,12 @@ def test_a_five_second_demonstration_is_forty_samples(recorded):
     info = bags.bag_info(out / "sphere_grid_03.mcap")
     assert info.complete and info.custom_data["tric.task"] == "grasp" and "tric.outcome" in info.custom_data
     assert info.topics["/joint_states"].message_count >= 499  # every control period of the 5 s
+    # nothing after the episode's END (the lift test that follows it moves the robot on)
+    stamps = {topic: [m.stamp_ns for m in bags.read_bag(out / "sphere_grid_04.mcap", topics=[topic])]
+              for topic in ("/episode", "/joint_states", "/object_poses", SAMPLES_TOPIC)}
+    end_ns = stamps["/episode"][1]
+    assert max(stamps["/joint_states"] + stamps["/object_poses"]) <= end_ns
+    assert max(stamps[SAMPLES_TOPIC]) < end_ns
 
 
 def test_rosbags_reads_the_same_samples(recorded, tmp_path):

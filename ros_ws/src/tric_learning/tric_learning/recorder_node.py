@@ -4,9 +4,10 @@ Listens to /episode (tric_msgs/EpisodeEvent): on START from a recorded source it
 `<output_dir>/<episode_id>.mcap.part`; it then writes every /joint_states and /object_poses of the
 episode and, every `sample_period_s` of simulated time, a tric_msgs/FeatureSample with
 y = phi(q) and dphi/dq; on END it stops, on OUTCOME (or after `outcome_timeout_s` without one) it
-writes the outcome and renames the bag to `<episode_id>.mcap`; on ABORT it deletes it. The states are
-read by a thread of the node's own, which may lag behind the events: a bag is closed only once that
-thread has seen the episode's last state (or `outcome_timeout_s` passed), so no sample is lost.
+writes the outcome and renames the bag to `<episode_id>.mcap`; on ABORT it deletes it. Events, states
+and poses are read by one thread of the node's own and applied in the order of their stamps, so that
+an END is never overtaken by the states that follow it (a lift test's), and a bag is closed only
+once that thread has seen the episode's last state (or `outcome_timeout_s` passed).
 
 Parameters: output_dir ("recordings"), sample_period_s (0.125), sources (["teacher"]: the episode
 sources to record), outcome_timeout_s (30).
@@ -63,9 +64,9 @@ class RecorderNode(Node):
         self._outcome = None
         self._backlog = deque(maxlen=BACKLOG)
         self._stop = threading.Event()
-        self.create_subscription(EpisodeEvent, "/episode", self._on_event, EVENT_QOS)
         self._poller = TopicPoller(self.context, "recorder_streams", {
-            "state": (JointState, "/joint_states", STATE_QOS), "poses": (ObjectPoses, "/object_poses", STATE_QOS)})
+            "state": (JointState, "/joint_states", STATE_QOS), "poses": (ObjectPoses, "/object_poses", STATE_QOS),
+            "event": (EpisodeEvent, "/episode", EVENT_QOS)})
         self._thread = threading.Thread(target=self._stream, daemon=True, name="recorder_streams")
         self._thread.start()
         self.create_timer(1.0, self._check_outcome_timeout)
@@ -86,16 +87,23 @@ class RecorderNode(Node):
         return self._recorder is not None
 
     def _stream(self):
+        """The recording thread: events and states in the order of their stamps (at one stamp: START,
+        poses, state, then END, OUTCOME or ABORT), so that an episode's END is applied before the
+        states that follow it (a lift test's, the next scene's)."""
         while not self._stop.is_set() and self.context.ok():
             received = self._poller.poll(0.05)
-            if not received["state"] and not received["poses"]:
+            batch = [(messages.time_ns(msg.header.stamp), _order(kind, msg), k, kind, msg)
+                     for kind, msgs in received.items() for k, msg in enumerate(msgs)]
+            if not batch:
                 continue
             with self._lock:
-                for kind in ("poses", "state"):
-                    for msg in received[kind]:
-                        self._backlog.append((kind, msg))
-                        if self._recorder is not None:
-                            self._write(kind, msg)
+                for _, _, _, kind, msg in sorted(batch, key=lambda entry: entry[:3]):
+                    if kind == "event":
+                        self._on_event(msg)
+                        continue
+                    self._backlog.append((kind, msg))
+                    if self._recorder is not None:
+                        self._write(kind, msg)
                 if self._outcome is not None and self._recorder.reached_end:
                     self._close(self._outcome)
 
@@ -109,28 +117,28 @@ class RecorderNode(Node):
             self.get_logger().warning(f"skipped a malformed {kind} message: {error}", throttle_duration_sec=1.0)
 
     def _on_event(self, event: EpisodeEvent):
-        with self._lock:
-            if event.event == EpisodeEvent.START:
-                if event.source not in self.sources:
-                    return
-                if self._recorder is not None:
-                    self.get_logger().warning(f"episode '{event.episode_id}' started before the previous one "
-                                              "finished; closing the previous bag")
-                    self._close(None)
-                self._start(event)
-            elif self._recorder is None or event.episode_id != self._episode_id:
+        """Apply an episode event (called by the recording thread, holding the lock)."""
+        if event.event == EpisodeEvent.START:
+            if event.source not in self.sources:
                 return
-            elif event.event == EpisodeEvent.END:
-                self._recorder.end(event)
-                self._ended_at = time.monotonic()
-            elif event.event == EpisodeEvent.OUTCOME:
-                self._outcome = event
-                if self._recorder.reached_end:
-                    self._close(event)
-            elif event.event == EpisodeEvent.ABORT:
-                self._recorder.abort()
-                self.get_logger().info(f"episode '{event.episode_id}' aborted: bag discarded")
-                self._recorder = None
+            if self._recorder is not None:
+                self.get_logger().warning(f"episode '{event.episode_id}' started before the previous one "
+                                          "finished; closing the previous bag")
+                self._close(None)
+            self._start(event)
+        elif self._recorder is None or event.episode_id != self._episode_id:
+            return
+        elif event.event == EpisodeEvent.END:
+            self._recorder.end(event)
+            self._ended_at = time.monotonic()
+        elif event.event == EpisodeEvent.OUTCOME:
+            self._outcome = event
+            if self._recorder.reached_end:
+                self._close(event)
+        elif event.event == EpisodeEvent.ABORT:
+            self._recorder.abort()
+            self.get_logger().info(f"episode '{event.episode_id}' aborted: bag discarded")
+            self._recorder = None
 
     def _start(self, event):
         try:
@@ -172,6 +180,13 @@ class RecorderNode(Node):
                     self.get_logger().warning(f"the last state of '{self._episode_id}' never arrived: "
                                               "closing its bag with the states it has")
                 self._close(self._outcome)
+
+
+def _order(kind: str, msg) -> int:
+    """Rank of a message among those of the same stamp (see RecorderNode._stream)."""
+    if kind == "event":
+        return 0 if msg.event == EpisodeEvent.START else 3
+    return 1 if kind == "poses" else 2
 
 
 def main(args=None):
