@@ -4,6 +4,7 @@ import math
 
 import numpy as np
 import pinocchio as pin
+import matplotlib.pyplot as plt
 import pytest
 
 from tric_sim import metrics, scene, situations as S
@@ -79,3 +80,13 @@ def test_approach_comes_from_the_robots_side_and_above():
 def test_teachers_refuse_the_wrong_task(robot):
     with pytest.raises(ValueError, match="GraspTeacher"):
         GraspTeacher(robot, S.dataset("box_test")[0])
+
+
+def test_snapshot_strip_of_a_demonstration(tmp_path):
+    from tric_sim import snapshot
+
+    assert snapshot.main(["sphere_grid_13", "--strip", "3", "--size", "64", "48", "--out", str(tmp_path)]) == 0
+    image = plt.imread(tmp_path / "sphere_grid_13_strip.png")
+    assert image.shape[1] > image.shape[0] > 0 and image[..., :3].std() > 0.05  # three frames, not blank
+    with pytest.raises(SystemExit):
+        snapshot.main(["sphere_grid_13", "--strip", "1", "--out", str(tmp_path)])
