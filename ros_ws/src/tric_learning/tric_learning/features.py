@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
-from tric_sim.robot_model import RobotModel
+from tric_sim.robot_model import RobotModel, point_jacobians
 
 #: Landmarks of each task: (name, source).
 TASK_LANDMARKS = {
@@ -140,48 +140,43 @@ class FeatureMap:
         pairs = np.array(definition.pairs)
         self._first, self._second = pairs[:, 0], pairs[:, 1]
         self._count = len(definition.landmark_names)
-        n = robot.n_joints
-        self._positions = np.zeros((self._count, 3))
-        self._rotations = np.zeros((self._count, 3, 3))
-        self._linear = np.zeros((self._count, 3, n))
-        self._angular = np.zeros((self._count, 3, n))
-        self._skew = np.zeros((len(pairs), 3, 3))
+        self._robot_indices = [k for k, _ in self.robot_landmarks]
+        self._placements = np.zeros((self._count, 4, 4))  # landmark poses, homogeneous
+        # the columns of data.J (see RobotModel.joint_supports) that move each landmark (zero for
+        # objects), and for each pair those that move j relative to i: +1 moving j, -1 moving i
+        supports = np.zeros((self._count, robot.joint_supports.shape[1]))
+        for k, fid in self.robot_landmarks:
+            supports[k] = robot.joint_supports[robot.model.frames[fid].parentJoint]
+        self._relative_columns = supports[self._second] - supports[self._first]   # (P, E)
 
     @property
     def size(self) -> int:
         return self.definition.size
 
     def _landmarks(self, q, object_poses: dict, jacobians: bool):
-        """Landmark positions (L, 3), rotations (L, 3, 3) and, if asked, world-aligned linear and
-        angular Jacobians (L, 3, n) (zero for objects). The arrays are buffers reused by the next call."""
-        positions, rotations = self._positions, self._rotations
-        linear, angular = self._linear, self._angular
+        """Landmark positions (L, 3) and rotations (L, 3, 3), views of a buffer reused by the next
+        call; with jacobians, robot.data.J holds the world-frame spatial Jacobian afterwards."""
         model, data = self.robot.model, self.robot.data
         if jacobians:
-            pin.computeJointJacobians(model, data, q)
-            pin.updateFramePlacements(model, data)
+            pin.computeJointJacobians(model, data, q)  # and the joint placements
         else:
-            pin.framesForwardKinematics(model, data, q)
-        for k, fid in self.robot_landmarks:
-            placement = data.oMf[fid]
-            positions[k] = placement.translation
-            rotations[k] = placement.rotation
-            if jacobians:
-                jac = pin.getFrameJacobian(model, data, fid, pin.LOCAL_WORLD_ALIGNED)
-                linear[k] = jac[:3]
-                angular[k] = jac[3:]
+            pin.forwardKinematics(model, data, q)
+        placements = self._placements
+        if self.robot_landmarks:
+            placements[self._robot_indices] = [pin.updateFramePlacement(model, data, fid).homogeneous
+                                               for _, fid in self.robot_landmarks]
         for k, name in self.object_landmarks:
             pose = object_poses.get(name)
             if pose is None:
                 raise ValueError(f"object '{name}' is missing from the object poses "
                                  f"(have: {', '.join(sorted(object_poses)) or 'none'})")
-            positions[k] = pose[0]
-            rotations[k] = _rotation(pose[1])
-        return positions, rotations, linear, angular
+            placements[k, :3, 3] = pose[0]
+            placements[k, :3, :3] = _rotation(pose[1])
+        return placements[:, :3, 3], placements[:, :3, :3]
 
     def __call__(self, q, object_poses: dict) -> np.ndarray:
         """Features y (d,) at joint positions q (n,) with objects at object_poses {name: (p, xyzw)}."""
-        positions, rotations, _, _ = self._landmarks(np.asarray(q, dtype=float), object_poses, False)
+        positions, rotations = self._landmarks(np.asarray(q, dtype=float), object_poses, False)
         return self._features(positions, rotations)[0]
 
     def batch(self, configurations: np.ndarray, object_poses) -> np.ndarray:
@@ -213,30 +208,32 @@ class FeatureMap:
         return out.reshape(batch, -1)
 
     def with_jacobian(self, q, object_poses: dict):
-        """(y (d,), dy/dq (d, n)) at q (n,)."""
-        positions, rotations, linear, angular = self._landmarks(np.asarray(q, dtype=float), object_poses, True)
-        y, local, rotations_i, offsets, distances = self._features(positions, rotations)
-        i, j = self._first, self._second
-        d_linear = linear[j] - linear[i]                                  # (P, 3, n), world
-        rotated = np.matmul(rotations_i.transpose(0, 2, 1), d_linear)    # R_i^T (Jv_j - Jv_i)
-        # R_i^T [x_j - x_i]_x Jw_i = p_ij x (R_i^T Jw_i): the cross product, column by column
-        w = np.matmul(rotations.transpose(0, 2, 1), angular)[i]           # (P, 3, n), frame i
-        skew = self._skew
-        skew[:, 0, 1], skew[:, 0, 2], skew[:, 1, 2] = -local[:, 2], local[:, 1], -local[:, 0]
-        skew[:, 1, 0], skew[:, 2, 0], skew[:, 2, 1] = local[:, 2], -local[:, 1], local[:, 0]
-        jp = rotated + np.matmul(skew, w)
-        jd = np.matmul(offsets[:, None, :], d_linear)[:, 0] / np.maximum(distances, 1e-12)[:, None]
-        jacobian = np.concatenate([jp, jd[:, None, :]], axis=1).reshape(-1, self.robot.n_joints)
-        return y, jacobian
+        """(y (d,), dy/dq (d, n)) at q (n,).
+
+        With V_j = Jv + Jw x x_j, the velocity Jacobian of the point x_j fixed to any joint's body
+        (every column of data.J), the joints moving both landmarks move them rigidly and cancel:
+
+            dp_ij/dq = R_i^T V_j * (columns moving j) - R_i^T V_j * (columns moving i),
+            dd_ij/dq = p_ij^T dp_ij/dq / d_ij.
+        """
+        positions, rotations = self._landmarks(np.asarray(q, dtype=float), object_poses, True)
+        y, local, distances = self._features(positions, rotations)
+        count, columns = self._count, self._relative_columns.shape[1]
+        points = point_jacobians(self.robot.data.J, positions).reshape(3, count * columns)
+        in_frames = (rotations.transpose(0, 2, 1).reshape(3 * count, 3) @ points).reshape(count, 3, count, columns)
+        rows = np.empty((len(self._first), 4, columns))                        # (P, 4, E)
+        np.multiply(in_frames[self._first, :, self._second], self._relative_columns[:, None, :], out=rows[:, :3])
+        np.matmul(local[:, None, :], rows[:, :3], out=rows[:, 3:])
+        rows[:, 3] /= np.maximum(distances, 1e-12)[:, None]
+        return y, rows.reshape(-1, columns) @ self.robot.extended_to_q
 
     def _features(self, positions, rotations):
-        i, j = self._first, self._second
-        offsets = positions[j] - positions[i]                                # (P, 3) world
-        rotations_i = rotations[i]
-        local = np.matmul(rotations_i.transpose(0, 2, 1), offsets[:, :, None])[:, :, 0]  # R_i^T (x_j - x_i)
-        distances = np.sqrt(np.sum(offsets * offsets, axis=1))
-        y = np.concatenate([local, distances[:, None]], axis=1).reshape(-1)
-        return y, local, rotations_i, offsets, distances
+        """(y (d,), p_ij (P, 3), d_ij (P,)) of landmark positions (L, 3) and rotations (L, 3, 3)."""
+        offsets = positions[self._second] - positions[self._first]           # (P, 3) world
+        out = np.empty((len(self._first), 4))
+        np.matmul(offsets[:, None, :], rotations[self._first], out=out[:, None, :3])  # R_i^T (x_j - x_i)
+        out[:, 3] = np.sqrt(np.einsum("pa,pa->p", offsets, offsets))
+        return out.reshape(-1), out[:, :3], out[:, 3]
 
 
 def _rotation(quaternion) -> np.ndarray:

@@ -62,10 +62,12 @@ class InProcessGraph:
         self._thread.start()
 
     def close(self):
-        for node in reversed(self.nodes):
-            self.executor.remove_node(node)
-            node.destroy_node()
+        """Stop spinning (waiting for the executor thread), then destroy the nodes and the context."""
         self.executor.shutdown()
+        if self._thread is not None:
+            self._thread.join(timeout=10.0)
+        for node in reversed(self.nodes):
+            node.destroy_node()
         self.context.try_shutdown()
 
 

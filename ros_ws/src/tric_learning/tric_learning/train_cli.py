@@ -1,21 +1,27 @@
-"""tric-train: train a TRIC value function from demonstration bags into a model file.
+"""tric-train: train a TRIC value function (or a DPL baseline policy) from demonstration bags into a model file.
 
-    tric-train BAGS... [--out MODEL] [--hidden-units K] [--noisy-samples M] [--sigma RAD]
-               [--alpha-n A] [--alpha-g A] [--alpha-w A] [--iterations N]
-               [--correlation-threshold C] [--seed S]
+    tric-train BAGS... [--kind {tric,dpl_joint,dpl_finger}] [--out MODEL] [--hidden-units K]
+               [--noisy-samples M] [--sigma RAD] [--alpha-n A] [--alpha-g A] [--alpha-w A] [--l2 W]
+               [--iterations N] [--correlation-threshold C] [--seed S]
 
 BAGS are MCAP bags written by tric-record or the recorder node, or folders of them. MODEL defaults to
 model.safetensors next to the first bag; the hyper-parameters default to the paper's (Sec. 5.2).
+--kind dpl_joint / dpl_finger trains the DPL baseline instead (tric_learning.dpl, Sec. 5.3.2): it
+takes --hidden-units, --l2, --iterations, --correlation-threshold and --seed; the other
+hyper-parameters are TRIC's and ignored.
 Shows the progress of loading, sampling and optimization (with the loss terms), then a summary.
 Exit status 0 on success, 2 when a bag, value or path is refused (one line on stderr, nothing
 written), 130 when interrupted.
 """
 
 import argparse
+import functools
 import sys
 
 from tqdm import tqdm
 
+from tric_learning.dpl import DPL_KINDS, DplConfig, train_dpl_from_bags
+from tric_learning.model_file import KINDS
 from tric_learning.recording import bag_paths
 from tric_learning.training import SELECTED_FRACTION, TrainingConfig, train_from_bags
 from tric_sim.robot_model import RobotModel
@@ -45,7 +51,9 @@ class StageBars:
         total = self.totals[stage][0]
         done = losses["iteration"] if stage == "optimizing" else round(fraction * total)
         self.bar.update(min(done, total) - self.bar.n)
-        if stage == "optimizing":
+        if stage == "optimizing" and "n" not in losses:  # DPL: one objective
+            self.bar.set_postfix_str(f"L {losses['total']:.4f}", refresh=False)
+        elif stage == "optimizing":
             self.bar.set_postfix_str(f"L {losses['total']:.4f}  L_n {losses['n']:.4f}  L_g {losses['g']:.4f}  "
                                      f"|w|_1 {losses['w']:.1f}", refresh=False)
 
@@ -56,13 +64,16 @@ class StageBars:
 
 
 def parse_arguments(argv):
-    defaults = TrainingConfig()
+    defaults, dpl_defaults = TrainingConfig(), DplConfig()
     parser = argparse.ArgumentParser(prog=PROG, description=__doc__.splitlines()[0])
     parser.add_argument("bags", nargs="+", metavar="BAGS", help="MCAP bags, or folders of them")
+    parser.add_argument("--kind", choices=KINDS, default="tric",
+                        help="the model: TRIC's value function or a DPL policy (default %(default)s)")
     parser.add_argument("--out", default="", metavar="MODEL",
                         help="model file to write (.safetensors; default: model.safetensors next to the first bag)")
-    parser.add_argument("--hidden-units", metavar="K", type=int, default=defaults.hidden_units,
-                        help="sigmoid units K of f (0: linear model; default %(default)s)")
+    parser.add_argument("--hidden-units", metavar="K", type=int,
+                        help=f"sigmoid units K of f (0: linear model; default {defaults.hidden_units}) "
+                             f"or of the DPL network (default {dpl_defaults.hidden_units})")
     parser.add_argument("--noisy-samples", metavar="M", type=int, default=defaults.noisy_samples,
                         help="noisy samples M per demonstration step (default %(default)s)")
     parser.add_argument("--sigma", metavar="RAD", type=float, default=defaults.sigma,
@@ -73,8 +84,11 @@ def parse_arguments(argv):
                         help="weight of L_g (default %(default)s)")
     parser.add_argument("--alpha-w", metavar="A", type=float, default=defaults.alpha_w,
                         help="weight of |w|_1 (default %(default)s)")
-    parser.add_argument("--iterations", metavar="N", type=int, default=defaults.max_iterations,
-                        help="L-BFGS iterations at most (default %(default)s)")
+    parser.add_argument("--l2", metavar="W", type=float, default=dpl_defaults.l2,
+                        help="DPL: weight of the L2 penalty on the network's weights (default %(default)s)")
+    parser.add_argument("--iterations", metavar="N", type=int,
+                        help=f"L-BFGS iterations at most (default {defaults.max_iterations}, "
+                             f"DPL {dpl_defaults.max_iterations})")
     parser.add_argument("--correlation-threshold", metavar="C", type=float, default=defaults.correlation_threshold,
                         help="drop features correlated above this with an earlier one, in (0, 1] (default %(default)s)")
     parser.add_argument("--seed", metavar="S", type=int, default=defaults.seed,
@@ -103,17 +117,42 @@ def summary(run) -> str:
     ])
 
 
+def dpl_summary(run) -> str:
+    """The lines printed after a DPL training."""
+    result, scaling = run.result, run.result.policy.scaling
+    steps = sum(demo.length - 1 for demo in run.dataset.demos)
+    unit = "rad" if result.kind == "dpl_joint" else "m"
+    return "\n".join([
+        f"model      {run.path} ({result.kind})",
+        f"data       {len(run.dataset.demos)} demonstrations, {steps} steps of {result.sample_period_s * 1e3:.0f} ms",
+        f"losses     training MSE {result.losses['mse']:.4g} {unit}^2 per output, mean |error| "
+        f"{result.losses['mean_abs_error']:.4g} {unit} (targets' RMS {result.target_rms:.4g} {unit})",
+        f"features   {scaling.size} -> {len(scaling.kept)} kept",
+        f"time       optimization {result.optimization_time_s:.2f} s ({result.iterations} iterations)",
+    ])
+
+
 def main(argv=None) -> int:
     args = parse_arguments(argv)
-    config = TrainingConfig(hidden_units=args.hidden_units, noisy_samples=args.noisy_samples, sigma=args.sigma,
-                            alpha_n=args.alpha_n, alpha_g=args.alpha_g, alpha_w=args.alpha_w,
-                            max_iterations=args.iterations, correlation_threshold=args.correlation_threshold,
-                            seed=args.seed)
+    if args.kind in DPL_KINDS:
+        dpl_defaults = DplConfig()
+        config = DplConfig(hidden_units=dpl_defaults.hidden_units if args.hidden_units is None else args.hidden_units,
+                           l2=args.l2, correlation_threshold=args.correlation_threshold, seed=args.seed,
+                           max_iterations=dpl_defaults.max_iterations if args.iterations is None else args.iterations)
+        job = functools.partial(train_dpl_from_bags, kind=args.kind)
+    else:
+        defaults = TrainingConfig()
+        config = TrainingConfig(hidden_units=defaults.hidden_units if args.hidden_units is None else args.hidden_units,
+                                noisy_samples=args.noisy_samples, sigma=args.sigma, alpha_n=args.alpha_n,
+                                alpha_g=args.alpha_g, alpha_w=args.alpha_w,
+                                max_iterations=defaults.max_iterations if args.iterations is None else args.iterations,
+                                correlation_threshold=args.correlation_threshold, seed=args.seed)
+        job = train_from_bags
     try:
         config.validate()
         bars = StageBars(len(bag_paths(args.bags)), config.max_iterations, enabled=not args.quiet)
         try:
-            run = train_from_bags(args.bags, args.out, config, RobotModel(), bars)
+            run = job(args.bags, args.out, config, RobotModel(), bars)
         finally:
             bars.close()
     except (ValueError, OSError) as error:
@@ -122,7 +161,7 @@ def main(argv=None) -> int:
     except KeyboardInterrupt:
         print(f"{PROG}: interrupted", file=sys.stderr)
         return 130
-    print(summary(run))
+    print(dpl_summary(run) if args.kind in DPL_KINDS else summary(run))
     return 0
 
 

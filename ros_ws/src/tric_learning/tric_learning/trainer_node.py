@@ -1,25 +1,29 @@
 """The trainer node ("trainer"): trains models from demonstration bags on request.
 
-A thin ROS shell around tric_learning.training.train_from_bags, the job tric-train runs too.
+A thin ROS shell around tric_learning.training.train_from_bags (model kind "tric") and
+tric_learning.dpl.train_dpl_from_bags (the DPL kinds), the jobs tric-train runs too.
 
 Services:
 - ~/train (tric_msgs/srv/Train): bags + hyper-parameters -> model file, final loss terms, kept and
   selected feature counts, times. Refused with success false and a message saying why (nothing is
-  written) when the model kind is not "tric", a hyper-parameter is out of range (see
-  training.TrainingConfig), a bag path does not exist or is not a finished TRIC recording of the
+  written) when the model kind is unknown, a hyper-parameter is out of range (see
+  training.TrainingConfig, dpl.DplConfig), a bag path does not exist or is not a finished TRIC recording of the
   same feature definition as the others, or the output path is not a writable .safetensors path.
   Request fields are taken as given (the .srv's defaults are the paper's), except hidden_units -1
-  (the default, 30) and an empty output_path (model.safetensors next to the first bag); so 0 is a
-  value: hidden_units 0 is the linear model, noisy_samples 0 is refused. The training runs in a
-  worker thread while the executor keeps spinning; a request that comes meanwhile is answered at
-  once with success false and a message starting "busy".
-  The DPL kinds ("dpl_joint", "dpl_finger") are not trained by this node yet.
+  (the kind's default: 30 for tric, 60 for DPL) and an empty output_path (model.safetensors next to
+  the first bag); so 0 is a value: hidden_units 0 is the linear model, noisy_samples 0 is refused. The
+  DPL kinds ("dpl_joint", "dpl_finger": Sec. 5.3.2) take hidden_units, max_iterations,
+  correlation_threshold and seed (the others are TRIC's and ignored; the L2 weight is DplConfig's);
+  their answer has loss_total = the minimized least-squares objective, loss_n, loss_g, loss_w NaN,
+  selected_features 0 and the training MSE in the message. The training runs in a worker thread
+  while the executor keeps spinning; a request that comes meanwhile is answered at once with success
+  false and a message starting "busy".
 
 Topics:
 - publishes ~/progress (tric_msgs/TrainingProgress) during a training: stage ("loading",
   "sampling", "optimizing", "saving", then "done" or "failed"), overall fraction, optimizer
   iteration, and the current loss terms (NaN before optimization starts; L_n and L_g per
-  demonstration step, as training.train reports them). Every stage change is published, and within
+  demonstration step, as training.train reports them; DPL: the total only, no "sampling" stage). Every stage change is published, and within
   a stage at most one message per progress_period_s.
 
 Parameters: progress_period_s (0.2): least wall seconds between two progress messages of a stage.
@@ -39,6 +43,7 @@ from rcl_interfaces.msg import ParameterDescriptor
 from tric_msgs.msg import TrainingProgress
 from tric_msgs.srv import Train
 
+from tric_learning.dpl import DPL_KINDS, DplConfig, train_dpl_from_bags
 from tric_learning.model_file import KINDS
 from tric_learning.training import TrainingConfig, train_from_bags
 from tric_sim import messages
@@ -49,17 +54,19 @@ from tric_sim.robot_model import RobotModel
 STAGE_SPANS = {"loading": (0.0, 0.05), "sampling": (0.05, 0.35), "optimizing": (0.35, 0.95),
                "saving": (0.95, 1.0)}
 STAGE_DETAILS = {"loading": "reading the bags", "sampling": "drawing noisy joint samples around the demonstrations",
-                 "optimizing": "L-BFGS on the loss of Eq. 11", "saving": "writing the model file"}
+                 "optimizing": "L-BFGS on the training loss (TRIC: Eq. 11, DPL: Eq. 2)", "saving": "writing the model file"}
 NO_LOSSES = {"total": math.nan, "n": math.nan, "g": math.nan, "w": math.nan}
 
 
-def training_config(request: Train.Request) -> TrainingConfig:
-    """The TrainingConfig of a Train request; ValueError for a model kind this node cannot train or
-    a value out of range."""
+def training_config(request: Train.Request):
+    """The TrainingConfig (kind "tric") or DplConfig (a DPL kind) of a Train request; ValueError for
+    an unknown model kind or a value out of range."""
     if request.model_kind not in KINDS:
         raise ValueError(f"unknown model_kind '{request.model_kind}' (known: {', '.join(KINDS)})")
-    if request.model_kind != "tric":
-        raise ValueError(f"model_kind '{request.model_kind}' cannot be trained yet: only 'tric' is available")
+    if request.model_kind in DPL_KINDS:
+        hidden_units = DplConfig.hidden_units if request.hidden_units == -1 else request.hidden_units
+        return DplConfig(hidden_units=hidden_units, max_iterations=request.max_iterations,
+                         correlation_threshold=request.correlation_threshold, seed=request.seed).validate()
     hidden_units = TrainingConfig.hidden_units if request.hidden_units == -1 else request.hidden_units
     return TrainingConfig(hidden_units=hidden_units, noisy_samples=request.noisy_samples, sigma=request.sigma,
                           alpha_n=request.alpha_n, alpha_g=request.alpha_g, alpha_w=request.alpha_w,
@@ -100,27 +107,35 @@ class TrainerNode(Node):
         self._last_report = (None, 0.0)
         try:
             config = training_config(request)
-            run = await run_in_thread(self, train_from_bags, list(request.bag_paths), request.output_path,
+            job = (train_from_bags if request.model_kind == "tric"
+                   else functools.partial(train_dpl_from_bags, kind=request.model_kind))
+            run = await run_in_thread(self, job, list(request.bag_paths), request.output_path,
                                       config, self.robot, functools.partial(self._report, config.max_iterations))
         except (ValueError, OSError) as error:
             return self._fail(response, str(error))
         except Exception as error:  # a bug: still an answer, not a traceback
             self.get_logger().error(f"training failed: {error!r}")
             return self._fail(response, f"internal error: {type(error).__name__}: {error}")
-        result, losses = run.result, run.result.losses
+        result, losses = run.result, dict(NO_LOSSES, **run.result.losses)
         response.success = True
         response.model_path = str(run.path)
         response.loss_total, response.loss_n, response.loss_g, response.loss_w = (
             losses["total"], losses["n"], losses["g"], losses["w"])
-        response.input_features = len(result.model.scaling.kept)
-        response.selected_features = result.selected_features
-        response.sampling_time_s = result.sampling_time_s
         response.optimization_time_s = result.optimization_time_s
         response.train_time_s = result.train_time_s
-        response.message = (f"trained on {len(run.dataset.demos)} demonstrations in {time.monotonic() - start:.1f} s: "
-                            f"loss {losses['total']:.4f} (L_n {losses['n']:.4f}, L_g {losses['g']:.4f}, "
-                            f"|w|_1 {losses['w']:.2f}), {response.input_features} features kept, "
-                            f"{result.selected_features} selected; wrote {run.path}")
+        summary = f"trained on {len(run.dataset.demos)} demonstrations in {time.monotonic() - start:.1f} s"
+        if request.model_kind == "tric":
+            response.input_features = len(result.model.scaling.kept)
+            response.selected_features = result.selected_features
+            response.sampling_time_s = result.sampling_time_s
+            response.message = (f"{summary}: loss {losses['total']:.4f} (L_n {losses['n']:.4f}, "
+                                f"L_g {losses['g']:.4f}, |w|_1 {losses['w']:.2f}), {response.input_features} "
+                                f"features kept, {result.selected_features} selected; wrote {run.path}")
+        else:
+            response.input_features = len(result.policy.scaling.kept)
+            response.message = (f"{request.model_kind} {summary}: training MSE {losses['mse']:.3g} per output "
+                                f"(mean |error| {losses['mean_abs_error']:.3g}), {response.input_features} "
+                                f"features kept; wrote {run.path}")
         self._publish("done", 1.0, losses, message=response.message, iteration=result.iterations,
                       max_iterations=config.max_iterations)
         self.get_logger().info(response.message)
@@ -146,7 +161,7 @@ class TrainerNode(Node):
 
     def _publish(self, stage: str, fraction: float, losses, message: str = "", iteration: int = 0,
                  max_iterations: int = 0) -> None:
-        losses = losses or NO_LOSSES
+        losses = dict(NO_LOSSES, **(losses or {}))
         msg = TrainingProgress(stage=stage, iteration=iteration, max_iterations=max_iterations,
                                fraction=float(fraction), loss_total=losses["total"], loss_n=losses["n"],
                                loss_g=losses["g"], loss_w=losses["w"], message=message)

@@ -110,6 +110,7 @@ class RobotModel:
         self.arm_indices = np.array([self.joint_names.index(j) for j in ARM_JOINTS])
         self.hand_indices = np.array([self.joint_names.index(j) for j in HAND_JOINTS])
         self._chain = self._kinematic_chain()
+        self.joint_supports, self.extended_to_q = self._jacobian_columns()
 
     def copy(self) -> "RobotModel":
         """The same model with its own Pinocchio data (for use from another thread)."""
@@ -155,6 +156,20 @@ class RobotModel:
             chain.append((index, self.model.parents[index], None if np.allclose(rotation, np.eye(3)) else rotation,
                           placement.translation.copy(), axes[name], source, multiplier, offset))
         return chain
+
+    def _jacobian_columns(self) -> tuple:
+        """How to read data.J, the world-frame spatial Jacobian (6, E) that pin.computeJointJacobians
+        leaves: one column per moving joint, mimic joints included (E = model.nvExtended), each per
+        unit velocity of the q entry that drives it. Returns joint_supports (njoints, E), 1 where a
+        column moves the joint's body, and extended_to_q (E, n), which sums the columns into q's."""
+        model = self.model
+        columns = model.idx_vExtendeds
+        supports = np.zeros((model.njoints, model.nvExtended))
+        to_q = np.zeros((model.nvExtended, model.nv))
+        for joint in range(1, model.njoints):
+            supports[joint, [columns[j] for j in model.supports[joint][1:]]] = 1.0
+            to_q[columns[joint], model.idx_vs[joint]] = 1.0
+        return supports, to_q
 
     def batch_joint_placements(self, configurations: np.ndarray) -> tuple:
         """Vectorized forward kinematics (the same as Pinocchio's) of configurations (B, n):
@@ -240,6 +255,22 @@ class RobotModel:
             step = jac.T @ np.linalg.solve(jac @ jac.T + damping * np.eye(6), error)
             q[joints] = np.clip(q[joints] + step, self.lower[joints], self.upper[joints])
         return q
+
+
+#: point_jacobians' table: the rows of the spatial Jacobian (linear 0-2, angular 3-5) and their signs
+#: that give, for each axis a, [Jv_a, (e_x x Jw)_a, (e_y x Jw)_a, (e_z x Jw)_a] (a zero sign: 0).
+_CROSS_ROWS = np.array([[0, 0, 5, 4], [1, 5, 0, 3], [2, 4, 3, 0]])
+_CROSS_SIGNS = np.array([[1.0, 0.0, 1.0, -1.0], [1.0, -1.0, 0.0, 1.0], [1.0, 1.0, -1.0, 0.0]])
+
+
+def point_jacobians(spatial: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """Linear velocity Jacobians (3, k, E) of world points (k, 3), each as if fixed to the body every
+    column moves: Jv + Jw x p, from a world-frame spatial Jacobian (6, E) (Pinocchio's data.J). Mask
+    with RobotModel.joint_supports to keep the joints that move a given body."""
+    lever = np.empty((len(points), 4))
+    lever[:, 0] = 1.0
+    np.negative(points, out=lever[:, 1:])
+    return lever @ (spatial[_CROSS_ROWS] * _CROSS_SIGNS[:, :, None])   # Jv - sum_c p_c (e_c x Jw)
 
 
 def _rotate_about(rotations: np.ndarray, axis: np.ndarray, angles: np.ndarray) -> np.ndarray:

@@ -103,6 +103,9 @@ class TeacherNode(Node):
         except RuntimeError as error:
             self._event(EpisodeEvent.ABORT, episode_id, reset_ns)
             return self._abort(goal_handle, result, str(error))
+        except Exception as error:  # the teacher cannot handle this situation: an answer, not a traceback
+            self._event(EpisodeEvent.ABORT, episode_id, reset_ns)
+            return self._abort(goal_handle, result, f"the teacher failed: {type(error).__name__}: {error}")
         self._event(EpisodeEvent.END, episode_id, end_ns)
         evaluation = await self.evaluate_client.call_async(
             EvaluateTask.Request(run_lift_test=situation.task == "grasp"))

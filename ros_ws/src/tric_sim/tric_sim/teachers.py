@@ -92,7 +92,9 @@ def approach_direction(centre: np.ndarray) -> np.ndarray:
 def cylinder_grasp_point(centre: np.ndarray, axis: np.ndarray, height: float):
     """(point on the axis, approach direction across the axis) for a cylinder: the direction points
     away from the robot and not upwards, the point lies within the middle of the cylinder, and the
-    pair puts the wrist closest to COMFORTABLE_WRIST_DISTANCE from the shoulder."""
+    pair puts the wrist closest to COMFORTABLE_WRIST_DISTANCE from the shoulder. A cylinder whose
+    axis points at the robot has no direction across it that points away: then the direction may
+    point across (down onto the cylinder, or sideways)."""
     e1 = np.cross(axis, [0.0, 0.0, 1.0])
     if np.linalg.norm(e1) < 1e-6:
         e1 = np.cross(axis, [1.0, 0.0, 0.0])
@@ -100,16 +102,19 @@ def cylinder_grasp_point(centre: np.ndarray, axis: np.ndarray, height: float):
     e2 = np.cross(axis, e1)
     outward = np.array([centre[0], centre[1], 0.0]) / np.linalg.norm(centre[:2])
     best, best_cost = None, math.inf
-    for offset in np.linspace(-0.3, 0.3, 7) * height:
-        point = centre + offset * axis
-        for angle in np.radians(np.arange(0.0, 360.0, 5.0)):
-            n = math.cos(angle) * e1 + math.sin(angle) * e2
-            if n @ outward < 0.2 or n[2] > 0.1:
-                continue
-            cost = _wrist_discomfort(point, n) + 0.05 * abs(offset) / height
-            if cost < best_cost:
-                best, best_cost = (point, n), cost
-    return best
+    for least_outward in (0.2, -0.2):
+        for offset in np.linspace(-0.3, 0.3, 7) * height:
+            point = centre + offset * axis
+            for angle in np.radians(np.arange(0.0, 360.0, 5.0)):
+                n = math.cos(angle) * e1 + math.sin(angle) * e2
+                if n @ outward < least_outward or n[2] > 0.1:
+                    continue
+                cost = _wrist_discomfort(point, n) + 0.05 * abs(offset) / height
+                if cost < best_cost:
+                    best, best_cost = (point, n), cost
+        if best is not None:
+            return best
+    raise ValueError("no direction across the cylinder's axis points away from the robot or down")
 
 
 def frame_from(normal: np.ndarray, x_hint: np.ndarray) -> np.ndarray:
