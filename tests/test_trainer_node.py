@@ -126,7 +126,8 @@ def test_bad_requests_are_refused_and_write_nothing(ros_context, spin, bag_dir, 
         (train_request([bag_dir], out, alpha_w=math.nan), "alpha_n, alpha_g and alpha_w must be finite and >= 0"),
         (train_request([bag_dir], out, max_iterations=0), "max_iterations must be in [1, 100000]"),
         (train_request([bag_dir], out, correlation_threshold=1.5), "correlation_threshold must be in (0, 1]"),
-        (train_request([bag_dir], out, model_kind="dpl_joint"), "model_kind 'dpl_joint' cannot be trained yet"),
+        (train_request([bag_dir], out, model_kind="dpl_finger"), "dpl_finger needs the 'box' landmark"),
+        (train_request([bag_dir], out, model_kind="dpl_joint", hidden_units=0), "hidden_units must be in [1, 1000]"),
         (train_request([bag_dir], out, model_kind="svm"), "unknown model_kind 'svm'"),
         (train_request([bag_dir], tmp_path / "model.txt"), "must end in .safetensors"),
         (train_request([bag_dir], inputs), "must end in .safetensors"),
@@ -140,6 +141,21 @@ def test_bad_requests_are_refused_and_write_nothing(ros_context, spin, bag_dir, 
     wait_for(lambda: len(failed()) == len(refusals), 10.0, "a 'failed' message per refusal")
     assert [m.message for m in failed()][-1].endswith("must end in .safetensors")
     assert {m.stage for m in listener.messages} == {"loading", "failed"}  # bad bags are found while loading
+
+
+def test_dpl_kinds_are_routed_to_dpl_training(ros_context, spin, bag_dir, tmp_path):
+    listener = spin(TrainerNode(context=ros_context), ProgressListener(ros_context))[1]
+    out = tmp_path / "dpl.safetensors"
+    request = Train.Request(bag_paths=[str(bag_dir)], output_path=str(out), model_kind="dpl_joint", max_iterations=20)
+    response = call(listener, Train, "/trainer/train", request, 60.0)
+    assert response.success, response.message
+    assert response.message.startswith("dpl_joint trained on 3 demonstrations") and "training MSE" in response.message
+    loaded = ModelFile.load(out)
+    assert loaded.kind == "dpl_joint" and loaded.info["hyperparameters"]["hidden_units"] == 60
+    assert response.loss_total == loaded.info["losses"]["total"] and math.isnan(response.loss_n)
+    assert response.input_features == len(loaded.arrays["kept"]) > 0
+    wait_for(lambda: listener.messages and listener.messages[-1].stage == "done", 10.0, "the 'done' message")
+    assert {m.stage for m in listener.messages} == {"loading", "optimizing", "saving", "done"}
 
 
 def test_tric_train_writes_a_loadable_model(cli_run):
@@ -156,6 +172,10 @@ def test_tric_train_writes_a_loadable_model(cli_run):
     (["{tmp}/missing.mcap"], "tric-train: {tmp}/missing.mcap does not exist"),
     (["{bags}", "--sigma", "0"], "tric-train: sigma must be in (0, 1] rad"),
     (["{bags}", "--out", "{tmp}/model.json"], "tric-train: the model path {tmp}/model.json must end in .safetensors"),
+    (["{bags}", "--kind", "dpl_finger", "--quiet"],
+     "tric-train: dpl_finger needs the 'box' landmark and fingertip* landmarks "
+     "(the open_box task); the feature definition of task 'grasp' has object, fingertip_1, fingertip_2, "
+     "fingertip_3, finger_mid_1, finger_mid_2, finger_mid_3, palm"),
 ])
 def test_tric_train_refuses_bad_input_with_one_line(bag_dir, tmp_path, capsys, arguments, message):
     fill = lambda text: text.format(tmp=tmp_path, bags=bag_dir)  # noqa: E731

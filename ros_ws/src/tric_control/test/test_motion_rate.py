@@ -199,14 +199,15 @@ def palm_distance_value(definition: FeatureDefinition, low: float, high: float) 
 
 def test_value_objective_descends_at_delta_and_converges_at_rest(robot):
     """f falls by delta per tick while the palm approaches the sphere; the model's domain stops the
-    palm (u >= -DOMAIN_MARGIN, i.e. 16 cm from the object's centre), the robot comes to rest, and the
-    tick says converged exactly when its joints have moved less than CONVERGED_MOTION over the
+    palm (u >= -DOMAIN_MARGIN, i.e. 21 cm from the object's centre, before the fingers touch it), the
+    robot comes to rest, and the tick says converged exactly when its joints have moved less than
+    CONVERGED_MOTION over the
     last CONVERGED_WINDOW ticks."""
     definition = FeatureDefinition.for_task("grasp", robot)
     situation = situations.sphere("sphere", (0.55, 0.0, 0.45))
     poses = {"object": (situation.object_position, situation.object_orientation)}
     delta = 0.002
-    value_function = palm_distance_value(definition, 0.2, 1.0)
+    value_function = palm_distance_value(definition, 0.25, 1.0)
     objective = ValueObjective(FeatureMap(definition, robot), value_function, delta, rho=100.0)
     controller = MotionRateController(robot, Proximity(robot, situation), objective)
     q, history, ticks = robot.home.copy(), [], []
@@ -240,9 +241,9 @@ def test_make_objective_runs_tric_models_and_refuses_the_others(robot):
     assert isinstance(objective, ValueObjective) and (objective.delta, objective.rho) == (0.002, 50.0)
     assert objective.kept_names == ["d[palm,object]"]
 
-    with pytest.raises(ValueError, match=r"model kind 'dpl_joint' cannot be run by this controller "
-                                         r"\(runnable kinds: tric\)"):
-        make_objective(ModelFile("dpl_joint", definition, {"w": np.zeros(3)}), robot)
+    with pytest.raises(ValueError, match=r"model kind 'svm' cannot be run by this controller "
+                                         r"\(runnable kinds: tric, dpl_joint, dpl_finger\)"):
+        make_objective(ModelFile("svm", definition, {"w": np.zeros(3)}), robot)
     with pytest.raises(ValueError, match="no usable 'delta'"):
         make_objective(ModelFile("tric", definition, arrays, {"rho": 50.0}), robot)
     with pytest.raises(ValueError, match="delta must be finite and positive"):

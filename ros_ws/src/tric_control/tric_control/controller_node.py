@@ -16,7 +16,7 @@ Topics:
 Services and actions:
 - ~/load_model (tric_msgs/srv/LoadModel): load a model file. Refused, keeping the current model, when
   the file is unreadable, was trained on another feature definition than this controller's task, is
-  of a kind the controller cannot run (only "tric" for now, see tric_control.objectives), or while an
+  of a kind the controller cannot run (see tric_control.objectives.RUNNABLE_KINDS), or while an
   episode runs.
 - ~/execute (tric_msgs/action/Execute): one episode from the current state, until the controller
   converges (the robot came to rest), the step budget is spent, the goal is canceled, or something
@@ -238,7 +238,7 @@ class ControllerNode(Node):
             raise ValueError("no model path given")
         try:
             model_file = ModelFile.load(path, self.definition)
-            objective = make_objective(model_file, self.robot)
+            objective = make_objective(model_file, self.robot, self.period)
         except ValueError:
             raise
         except Exception as error:  # anything else a damaged file provokes: still a clear refusal

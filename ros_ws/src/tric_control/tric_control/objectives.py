@@ -66,18 +66,19 @@ def _dpl_objective(model_file: ModelFile, robot: RobotModel, period: float) -> "
     period to the control period."""
     if not (math.isfinite(period) and period > 0):
         raise ValueError(f"the control period must be finite and positive, got {period!r}")
-    sample_period = model_file.info.get("sample_period_s")
     try:
-        sample_period = float(sample_period)
-    except (TypeError, ValueError):
-        raise ValueError(f"the {model_file.kind} model has no usable 'sample_period_s' in its info "
-                         f"({sample_period!r})") from None
-    if not (math.isfinite(sample_period) and sample_period > 0):
-        raise ValueError(f"the {model_file.kind} model's sample_period_s must be finite and positive, "
-                         f"got {sample_period!r}")
-    rows = dpl.finger_rows(model_file.definition) if model_file.kind == "dpl_finger" else None
-    return DplObjective(FeatureMap(model_file.definition, robot), dpl.load_policy(model_file),
-                        period / sample_period, rows)
+        sample_period = model_file.info.get("sample_period_s")
+        try:
+            sample_period = float(sample_period)
+        except (TypeError, ValueError):
+            raise ValueError(f"it has no usable 'sample_period_s' in its info ({sample_period!r})") from None
+        if not (math.isfinite(sample_period) and sample_period > 0):
+            raise ValueError(f"its sample_period_s must be finite and positive, got {sample_period!r}")
+        rows = dpl.finger_rows(model_file.definition) if model_file.kind == "dpl_finger" else None
+        return DplObjective(FeatureMap(model_file.definition, robot), dpl.load_policy(model_file),
+                            period / sample_period, rows)
+    except ValueError as error:
+        raise ValueError(f"the {model_file.kind} model cannot be run: {error}") from None
 
 
 class DplObjective:

@@ -23,8 +23,8 @@ Topics:
 - publishes ~/progress (tric_msgs/TrainingProgress) during a training: stage ("loading",
   "sampling", "optimizing", "saving", then "done" or "failed"), overall fraction, optimizer
   iteration, and the current loss terms (NaN before optimization starts; L_n and L_g per
-  demonstration step, as training.train reports them; DPL: the total only, no "sampling" stage). Every stage change is published, and within
-  a stage at most one message per progress_period_s.
+  demonstration step, as training.train reports them; DPL: the total only, no "sampling" stage).
+  Every stage change is published, and within a stage at most one message per progress_period_s.
 
 Parameters: progress_period_s (0.2): least wall seconds between two progress messages of a stage.
 """
@@ -54,7 +54,8 @@ from tric_sim.robot_model import RobotModel
 STAGE_SPANS = {"loading": (0.0, 0.05), "sampling": (0.05, 0.35), "optimizing": (0.35, 0.95),
                "saving": (0.95, 1.0)}
 STAGE_DETAILS = {"loading": "reading the bags", "sampling": "drawing noisy joint samples around the demonstrations",
-                 "optimizing": "L-BFGS on the training loss (TRIC: Eq. 11, DPL: Eq. 2)", "saving": "writing the model file"}
+                 "optimizing": "L-BFGS on the training loss (TRIC: Eq. 11, DPL: Eq. 2)",
+                 "saving": "writing the model file"}
 NO_LOSSES = {"total": math.nan, "n": math.nan, "g": math.nan, "w": math.nan}
 
 
