@@ -34,6 +34,7 @@ MAX_LEAD, so that fingers held back by an object keep squeezing it, and a blocke
 Units: rad, m, s.
 """
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -81,6 +82,11 @@ class Tick:
     converged: bool = False
 
 
+#: The solver outcomes whose step is used.
+_SOLVED = (proxsuite.proxqp.QPSolverOutput.PROXQP_SOLVED,
+           proxsuite.proxqp.QPSolverOutput.PROXQP_SOLVED_CLOSEST_PRIMAL_FEASIBLE)
+
+
 class StepQP:
     """min 1/2 dq^T H dq + c^T dq over dq (n,) with box bounds and `rows` inequality rows
     l <= C dq; solve() returns None when the solver finds no solution."""
@@ -95,17 +101,16 @@ class StepQP:
         self.qp.settings.primal_infeasibility_solving = True
         self.qp.settings.initial_guess = proxsuite.proxqp.InitialGuess.WARM_START_WITH_PREVIOUS_RESULT
         self.initialized = False
+        self._upper = np.full(rows, 1e20)
 
     def solve(self, hessian, linear, rows, lower, box_low, box_high) -> np.ndarray:
-        upper = np.full(self.rows, 1e20)
         if self.initialized:
-            self.qp.update(H=hessian, g=linear, C=rows, l=lower, u=upper, l_box=box_low, u_box=box_high)
+            self.qp.update(H=hessian, g=linear, C=rows, l=lower, u=self._upper, l_box=box_low, u_box=box_high)
         else:
-            self.qp.init(hessian, linear, None, None, rows, lower, upper, box_low, box_high)
+            self.qp.init(hessian, linear, None, None, rows, lower, self._upper, box_low, box_high)
             self.initialized = True
         self.qp.solve()
-        if self.qp.results.info.status not in (proxsuite.proxqp.QPSolverOutput.PROXQP_SOLVED,
-                                               proxsuite.proxqp.QPSolverOutput.PROXQP_SOLVED_CLOSEST_PRIMAL_FEASIBLE):
+        if self.qp.results.info.status not in _SOLVED:
             return None
         return np.clip(self.qp.results.x, box_low, box_high)
 
@@ -123,6 +128,10 @@ class MotionRateController:
         self.reference = None
         self.values = []
         self.history = []
+        self._step_metric = 2.0 * np.eye(robot.n_joints)        # the |dq|^2 term's Hessian
+        self._max_step = robot.velocity_limits * period
+        self._lowest = robot.lower + JOINT_MARGIN                 # the box's joint limits
+        self._highest = robot.upper - JOINT_MARGIN
 
     def reset(self, q: np.ndarray) -> None:
         self.reference = np.array(q, dtype=float)
@@ -138,8 +147,8 @@ class MotionRateController:
         previous = self.reference
         self.reference = q + np.clip(self.reference - q, -MAX_LEAD, MAX_LEAD)
         model = self.objective(q, object_poses)
-        hessian = model.hessian + 2.0 * np.eye(robot.n_joints)
-        linear = model.linear.copy()
+        hessian = model.hessian + self._step_metric
+        linear = model.linear
         pairs = self.proximity.near(q, object_poses, INFLUENCE)[:COLLISION_ROWS]
         for pair in pairs:
             # the soft part of the touch prior: the hand is pushed back from the object within
@@ -147,20 +156,23 @@ class MotionRateController:
             if pair.role == "touch" and pair.distance < TOUCH_SOFT:
                 weight = TOUCH_WEIGHT / max(pair.row @ pair.row, 1e-9)
                 hessian += 2.0 * weight * np.outer(pair.row, pair.row)
-                linear += 2.0 * weight * (pair.distance - TOUCH_SOFT) * pair.row
+                linear = linear + 2.0 * weight * (pair.distance - TOUCH_SOFT) * pair.row
+        max_step = self._max_step
+        # each row: the gradient of a margin that must stay >= 0 and the margin now; never ask for
+        # more than half of what a step within the bounds can give. Unused rows: 0 >= -1e20.
         rows = np.zeros((COLLISION_ROWS + DOMAIN_ROWS, robot.n_joints))
-        lower = np.full(COLLISION_ROWS + DOMAIN_ROWS, -1e20)
-        max_step = robot.velocity_limits * self.period
-        # each row: (gradient of a margin that must stay >= 0, the margin now); never ask for more
-        # than half of what a step within the bounds can give
-        margins = [(pair.row, pair.distance - SAFETY_BY_ROLE.get(pair.role, SAFETY)) for pair in pairs]
-        margins += [None] * (COLLISION_ROWS - len(pairs)) + model.domain_rows[:DOMAIN_ROWS]
-        for k, entry in enumerate(margins):
-            if entry is not None:
-                rows[k] = entry[0]
-                lower[k] = min(-DAMPING * entry[1], 0.5 * np.abs(entry[0]) @ max_step)
-        box_low = np.maximum(robot.lower + JOINT_MARGIN - self.reference, -max_step)
-        box_high = np.minimum(robot.upper - JOINT_MARGIN - self.reference, max_step)
+        margins = np.full(COLLISION_ROWS + DOMAIN_ROWS, np.nan)
+        if pairs:
+            rows[:len(pairs)] = [pair.row for pair in pairs]
+            margins[:len(pairs)] = [pair.distance - SAFETY_BY_ROLE.get(pair.role, SAFETY) for pair in pairs]
+        domain = len(model.domain_margins[:DOMAIN_ROWS])
+        if domain:
+            rows[COLLISION_ROWS:COLLISION_ROWS + domain] = model.domain_rows[:domain]
+            margins[COLLISION_ROWS:COLLISION_ROWS + domain] = model.domain_margins[:domain]
+        used = ~np.isnan(margins)
+        lower = np.where(used, np.minimum(-DAMPING * margins, (0.5 * np.abs(rows)) @ max_step), -1e20)
+        box_low = np.maximum(self._lowest - self.reference, -max_step)
+        box_high = np.minimum(self._highest - self.reference, max_step)
         box_low, box_high = np.minimum(box_low, 0.0), np.maximum(box_high, 0.0)
         step = self.qp.solve(hessian, linear, rows, lower, box_low, box_high)
         if step is None:  # the solver found no step: hold still this tick
@@ -168,9 +180,10 @@ class MotionRateController:
         # the command moves by at most one velocity-bounded step per tick, within the joint limits
         target = previous + np.clip(self.reference + step - previous, -max_step, max_step)
         self.reference = np.clip(target, robot.lower, robot.upper)
-        active = [pair.name for k, pair in enumerate(pairs) if rows[k] @ step <= lower[k] + 1e-7]
-        active += [f"feature_range:{name}" for name, k in zip(model.domain_names, range(COLLISION_ROWS, len(rows)))
-                   if rows[k] @ step <= lower[k] + 1e-7]
+        binding = (rows @ step <= lower + 1e-7).tolist()
+        active = [pair.name for pair, hit in zip(pairs, binding) if hit]
+        active += [f"feature_range:{name}" for name, hit in zip(model.domain_names[:domain], binding[COLLISION_ROWS:])
+                   if hit]
         active += [f"joint_limit:{robot.joint_names[i]}" for i in
                    np.flatnonzero((step <= box_low + 1e-9) & (box_low > -max_step + 1e-9)
                                   | (step >= box_high - 1e-9) & (box_high < max_step - 1e-9))]
@@ -186,26 +199,28 @@ class MotionRateController:
 @dataclass
 class Objective:
     """An objective's quadratic model at q: 1/2 dq^T hessian dq + linear^T dq, the cost's value and
-    gradient norm, and the domain rows: (gradient (n,), margin) pairs, nearest their bound first, with
-    the names of their features."""
+    gradient norm, and the domain rows: the gradients (k, n) of margins (k,) that must stay >= 0,
+    nearest their bound first, with the names of their features."""
 
     hessian: np.ndarray
     linear: np.ndarray
     value: float
     gradient_norm: float
-    domain_rows: list = field(default_factory=list)
+    domain_rows: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
+    domain_margins: np.ndarray = field(default_factory=lambda: np.zeros(0))
     domain_names: list = field(default_factory=list)
 
 
-def domain_rows(scaling, y: np.ndarray, jacobian: np.ndarray, count: int):
-    """The count kept features nearest the bounds of their training range (+-DOMAIN_MARGIN) as
-    (gradient of the margin (n,), margin) rows and their indices into the kept features."""
-    u = scaling.transform(y)
-    du = jacobian[scaling.kept] * scaling.factor[:, None]                # (s, n)
+def domain_rows(u: np.ndarray, du_dq: np.ndarray, count: int):
+    """The count kept features nearest the bounds of their training range (+-DOMAIN_MARGIN), from
+    the scaled kept features u (s,) and their Jacobian du_dq (s, n): the gradients of their margins
+    (count, n), the margins (count,) and the features' indices into the kept features."""
     to_low, to_high = u + DOMAIN_MARGIN, 1.0 + DOMAIN_MARGIN - u
-    nearest = np.argsort(np.minimum(to_low, to_high))[:count]
-    rows = [(du[k], to_low[k]) if to_low[k] <= to_high[k] else (-du[k], to_high[k]) for k in nearest]
-    return rows, nearest
+    margins = np.minimum(to_low, to_high)
+    nearest = np.argsort(margins)[:count]
+    rows = du_dq[nearest]
+    rows[~(to_low[nearest] <= to_high[nearest])] *= -1.0   # the upper bound's margin falls as u rises
+    return rows, margins[nearest], nearest
 
 
 class ValueObjective:
@@ -220,9 +235,12 @@ class ValueObjective:
 
     def __call__(self, q, object_poses) -> Objective:
         y, jacobian = self.features.with_jacobian(q, object_poses)
-        value, df_dy = self.value_function.gradient(y)
-        g = df_dy @ jacobian
-        rows, nearest = domain_rows(self.value_function.scaling, y, jacobian, DOMAIN_ROWS)
+        scaling = self.value_function.scaling
+        u = scaling.transform(y)
+        value, df_du = self.value_function.scaled_gradient(u)
+        du_dq = jacobian[scaling.kept] * scaling.factor[:, None]               # (s, n)
+        g = df_du @ du_dq
+        rows, margins, nearest = domain_rows(u, du_dq, DOMAIN_ROWS)
         return Objective(hessian=2.0 * self.rho * np.outer(g, g), linear=2.0 * self.rho * self.delta * g,
-                         value=value, gradient_norm=float(np.linalg.norm(g)), domain_rows=rows,
+                         value=value, gradient_norm=math.sqrt(g @ g), domain_rows=rows, domain_margins=margins,
                          domain_names=[self.kept_names[k] for k in nearest])

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
-from tric_sim.robot_model import RobotModel, point_jacobians
+from tric_sim.robot_model import RobotModel
 
 #: Landmarks of each task: (name, source).
 TASK_LANDMARKS = {
@@ -117,7 +117,11 @@ def robot_description(robot: RobotModel) -> str:
 
 
 class FeatureMap:
-    """y = phi(q; object poses) and its Jacobian for a feature definition on the shared robot model."""
+    """y = phi(q; object poses) and its Jacobian for a feature definition on the shared robot model.
+
+    One evaluation works on all (i, j) of the L landmarks at once, with few numpy operations (their
+    per-call overhead is most of the time): see with_jacobian.
+    """
 
     def __init__(self, definition: FeatureDefinition, robot: RobotModel):
         if definition.robot_model != robot_description(robot):
@@ -138,24 +142,54 @@ class FeatureMap:
                 raise ValueError(f"landmark source '{source}' is neither robot/<frame> nor object/<name>")
         self.object_names = tuple(name for _, name in self.object_landmarks)
         pairs = np.array(definition.pairs)
-        self._first, self._second = pairs[:, 0], pairs[:, 1]
-        self._count = len(definition.landmark_names)
+        self._first, self._second = first, second = pairs[:, 0], pairs[:, 1]
+        self._count = count = len(definition.landmark_names)
         self._robot_indices = [k for k, _ in self.robot_landmarks]
-        self._placements = np.zeros((self._count, 4, 4))  # landmark poses, homogeneous
-        # the columns of data.J (see RobotModel.joint_supports) that move each landmark (zero for
-        # objects), and for each pair those that move j relative to i: +1 moving j, -1 moving i
-        supports = np.zeros((self._count, robot.joint_supports.shape[1]))
+        self._placements = np.zeros((count, 4, 4))  # landmark poses, homogeneous
+        # Rows of the directions (world, unit) that with_jacobian projects the point Jacobians on:
+        # 3 i + a: axis a of landmark i (row a of R_i^T); 3 L + 3 i + a: its opposite;
+        # 6 L + L i + j: from x_i towards x_j (zero for i = j); the last row: zero.
+        self._directions = np.zeros((6 * count + count * count + 1, 3))
+        self._axes = self._directions[:3 * count].reshape(count, 3, 3)
+        self._pair = first * count + second
+        # R_i^T (x_j - x_k) for all i, (k, j) is (3 L, L L); y's p_ij is at [3 i + a, L i + j]
+        self._local_index = ((3 * first[:, None] + np.arange(3)) * count * count + self._pair[:, None])
+        self._jacobian_index = self._jacobian_indices(robot)
+
+    def _jacobian_indices(self, robot: RobotModel) -> np.ndarray:
+        """Flat indices (T, P, 4, n) into with_jacobian's projections (rows of _directions, E columns
+        of data.J, L points): entry [t, pair, row, c] is the t-th extended column summed into q's
+        column c (RobotModel.extended_to_q), projected on the row's direction with the sign of its
+        relative motion, or the zero row."""
+        count, first, second = self._count, self._first, self._second
+        columns = robot.joint_supports.shape[1]
+        # the columns of data.J that move each landmark (none for objects), and for each pair those
+        # that move j relative to i: +1 moving j only, -1 moving i only (the others move both rigidly)
+        supports = np.zeros((count, columns))
         for k, fid in self.robot_landmarks:
             supports[k] = robot.joint_supports[robot.model.frames[fid].parentJoint]
-        self._relative_columns = supports[self._second] - supports[self._first]   # (P, E)
+        relative = supports[second] - supports[first]                          # (P, E)
+        moving_j = np.concatenate([3 * first[:, None] + np.arange(3),
+                                   (6 * count + count * first + second)[:, None]], axis=1)   # (P, 4)
+        moving_i = np.concatenate([3 * count + 3 * first[:, None] + np.arange(3),
+                                   (6 * count + count * second + first)[:, None]], axis=1)
+        zero_row = 6 * count + count * count
+        sources = [np.flatnonzero(robot.extended_to_q[:, c]) for c in range(robot.n_joints)]
+        index = np.full((max(map(len, sources)), len(first), 4, robot.n_joints), zero_row * columns * count)
+        for c, extended in enumerate(sources):
+            for term, e in enumerate(extended):
+                sign = relative[:, e, None]
+                row = np.where(sign > 0, moving_j, np.where(sign < 0, moving_i, zero_row))
+                index[term, :, :, c] = (row * columns + e) * count + second[:, None]
+        return index
 
     @property
     def size(self) -> int:
         return self.definition.size
 
-    def _landmarks(self, q, object_poses: dict, jacobians: bool):
-        """Landmark positions (L, 3) and rotations (L, 3, 3), views of a buffer reused by the next
-        call; with jacobians, robot.data.J holds the world-frame spatial Jacobian afterwards."""
+    def _landmarks(self, q, object_poses: dict, jacobians: bool) -> np.ndarray:
+        """Landmark positions (L, 3) (a view of a buffer reused by the next call); writes the
+        rotations' transposes into self._axes. With jacobians, robot.data.J is up to date after."""
         model, data = self.robot.model, self.robot.data
         if jacobians:
             pin.computeJointJacobians(model, data, q)  # and the joint placements
@@ -172,12 +206,13 @@ class FeatureMap:
                                  f"(have: {', '.join(sorted(object_poses)) or 'none'})")
             placements[k, :3, 3] = pose[0]
             placements[k, :3, :3] = _rotation(pose[1])
-        return placements[:, :3, 3], placements[:, :3, :3]
+        np.copyto(self._axes, placements[:, :3, :3].transpose(0, 2, 1))
+        return placements[:, :3, 3]
 
     def __call__(self, q, object_poses: dict) -> np.ndarray:
         """Features y (d,) at joint positions q (n,) with objects at object_poses {name: (p, xyzw)}."""
-        positions, rotations = self._landmarks(np.asarray(q, dtype=float), object_poses, False)
-        return self._features(positions, rotations)[0]
+        positions = self._landmarks(np.asarray(q, dtype=float), object_poses, False)
+        return self._features(positions)[0]
 
     def batch(self, configurations: np.ndarray, object_poses) -> np.ndarray:
         """Features (B, d) of configurations (B, n) (vectorized); object_poses is one dict
@@ -210,30 +245,37 @@ class FeatureMap:
     def with_jacobian(self, q, object_poses: dict):
         """(y (d,), dy/dq (d, n)) at q (n,).
 
-        With V_j = Jv + Jw x x_j, the velocity Jacobian of the point x_j fixed to any joint's body
-        (every column of data.J), the joints moving both landmarks move them rigidly and cancel:
+        With V_j = Jv + Jw x x_j, the velocity Jacobian of the point x_j as if fixed to the body each
+        column of data.J moves, the columns moving both landmarks move them rigidly and cancel:
 
-            dp_ij/dq = R_i^T V_j * (columns moving j) - R_i^T V_j * (columns moving i),
-            dd_ij/dq = p_ij^T dp_ij/dq / d_ij.
+            dp_ij/dq = s R_i^T V_j,    dd_ij/dq = s (x_j - x_i)^T V_j / d_ij
+
+        column by column, with s = +1 where the column moves j only, -1 where it moves i only, 0
+        elsewhere. One product projects every V_j on every direction of _directions; the Jacobian's
+        entries are then taken out of it (with the sign, and summed into q's columns) by index.
         """
-        positions, rotations = self._landmarks(np.asarray(q, dtype=float), object_poses, True)
-        y, local, distances = self._features(positions, rotations)
-        count, columns = self._count, self._relative_columns.shape[1]
-        points = point_jacobians(self.robot.data.J, positions).reshape(3, count * columns)
-        in_frames = (rotations.transpose(0, 2, 1).reshape(3 * count, 3) @ points).reshape(count, 3, count, columns)
-        rows = np.empty((len(self._first), 4, columns))                        # (P, 4, E)
-        np.multiply(in_frames[self._first, :, self._second], self._relative_columns[:, None, :], out=rows[:, :3])
-        np.matmul(local[:, None, :], rows[:, :3], out=rows[:, 3:])
-        rows[:, 3] /= np.maximum(distances, 1e-12)[:, None]
-        return y, rows.reshape(-1, columns) @ self.robot.extended_to_q
+        positions = self._landmarks(np.asarray(q, dtype=float), object_poses, True)
+        y, offsets, distances = self._features(positions)
+        count, directions = self._count, self._directions
+        np.negative(directions[:3 * count], out=directions[3 * count:6 * count])
+        np.divide(offsets.reshape(-1, 3), np.maximum(distances, 1e-12).reshape(-1, 1),
+                  out=directions[6 * count:-1])
+        projections = directions @ self.robot.point_jacobians(positions).reshape(3, -1)   # (rows, E L)
+        jacobian = projections.take(self._jacobian_index[0])
+        for index in self._jacobian_index[1:]:
+            jacobian += projections.take(index)
+        return y, jacobian.reshape(-1, self.robot.n_joints)
 
-    def _features(self, positions, rotations):
-        """(y (d,), p_ij (P, 3), d_ij (P,)) of landmark positions (L, 3) and rotations (L, 3, 3)."""
-        offsets = positions[self._second] - positions[self._first]           # (P, 3) world
-        out = np.empty((len(self._first), 4))
-        np.matmul(offsets[:, None, :], rotations[self._first], out=out[:, None, :3])  # R_i^T (x_j - x_i)
-        out[:, 3] = np.sqrt(np.einsum("pa,pa->p", offsets, offsets))
-        return out.reshape(-1), out[:, :3], out[:, 3]
+    def _features(self, positions):
+        """(y (d,), x_j - x_i (L, L, 3), d_ij (L, L)) of landmark positions (L, 3), for all (i, j),
+        with the landmarks' R_i^T in self._axes."""
+        offsets = positions[None, :, :] - positions[:, None, :]                   # [i, j]: x_j - x_i
+        y = np.empty((len(self._first), 4))
+        local = self._directions[:3 * self._count] @ offsets.reshape(-1, 3).T      # R_i^T (x_j - x_k)
+        local.take(self._local_index, out=y[:, :3])
+        distances = np.sqrt(np.einsum("ija,ija->ij", offsets, offsets))
+        distances.take(self._pair, out=y[:, 3])
+        return y.reshape(-1), offsets, distances
 
 
 def _rotation(quaternion) -> np.ndarray:

@@ -80,15 +80,19 @@ class ValueFunction:
 
     def gradient(self, y: np.ndarray):
         """(f, df/dy) at raw features y (d,): a scalar and (d,), zero on dropped features."""
-        u = self.scaling.transform(y)
-        value, du = float(u @ self.w3), self.w3.copy()
-        if self.hidden_units:
-            z = _sigmoid(self.w1 @ u)
-            value += float(z @ self.w2)
-            du += self.w1.T @ (self.w2 * z * (1.0 - z))
+        value, du = self.scaled_gradient(self.scaling.transform(y))
         full = np.zeros(self.scaling.size)
         full[self.scaling.kept] = du * self.scaling.factor
         return value, full
+
+    def scaled_gradient(self, u: np.ndarray):
+        """(f, df/du) at scaled kept features u (s,): a scalar and (s,)."""
+        value = float(u @ self.w3)
+        if not self.hidden_units:
+            return value, self.w3.copy()
+        z = _sigmoid(self.w1 @ u)
+        value += float(z @ self.w2)
+        return value, self.w3 + self.w1.T @ (self.w2 * z * (1.0 - z))
 
     def scores(self) -> np.ndarray:
         """Each kept feature's contribution s(y) = |W1^T| |W2| + |W3| (Sec. 5.5.1), (s,)."""

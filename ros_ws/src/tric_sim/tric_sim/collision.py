@@ -89,11 +89,11 @@ class SceneCollision:
         self._request = coal.DistanceRequest()
         self._result = coal.DistanceResult()
 
-    def body_placements(self, object_poses: dict) -> list:
-        """World placement of each scene body's geometry; the object and lid follow object_poses
-        (name -> (position, xyzw)) where given."""
+    def body_placements(self, object_poses: dict, bodies=None) -> list:
+        """World placement of each scene body's geometry (of bodies, default all); the object and lid
+        follow object_poses (name -> (position, xyzw)) where given."""
         placements = []
-        for body in self.bodies:
+        for body in self.bodies if bodies is None else bodies:
             pose = object_poses.get(body.name, (body.position, body.orientation))
             placement = scene.se3(*pose)
             if body.role == "lid":
@@ -207,6 +207,10 @@ class Proximity:
     Every robot geometry is checked against every scene body; pairs of the hand (palm and fingers)
     with the grasp target or the lid get the role "touch" (the hand may press them). Pairs inside the
     hand are left to its joint limits (fingers touching each other do no harm).
+
+    The scene bodies are added to a copy of the robot's collision model (fixed to the world), with
+    one collision pair per (moving robot geometry, body) and per self pair, so that Pinocchio places
+    every geometry and runs coal on a pair in one call each.
     """
 
     def __init__(self, robot: RobotModel, situation: Situation):
@@ -219,60 +223,91 @@ class Proximity:
         self.bound = np.array([max(np.linalg.norm(c) + r for c, r in _bounding_spheres(shape))
                                for _, _, shape in self.scene.robot_geometries])
         self.self_pairs = np.array([(a, b) for a, b in self.scene.self_pairs if not (self.hand[a] and self.hand[b])])
-        self._request = coal.DistanceRequest()
-        self._result = coal.DistanceResult()
-        self._functors = {}
+        count, bodies = len(objects), len(self.scene.bodies)
+        self.geometry_model = pin.GeometryModel()
+        for geometry in objects:
+            self.geometry_model.addGeometryObject(geometry)
+        self._body_placements = self.scene.body_placements({})
+        self._body_poses = [None] * bodies  # the object_poses entry each placement was made from
+        for body, shape, placement in zip(self.scene.bodies, self.scene.body_shapes, self._body_placements):
+            self.geometry_model.addGeometryObject(pin.GeometryObject(f"scene/{body.name}", 0, 0, placement, shape))
+        # collision pairs: (robot geometry k, body b) for every k (pair k * bodies + b), then the self
+        # pairs; their names, roles, and the joints moving their two sides (0: the world)
+        self._names, self._roles, joints = [], [], []
+        for k in range(count):
+            for b, body in enumerate(self.scene.bodies):
+                self.geometry_model.addCollisionPair(pin.CollisionPair(k, count + b))
+                self._names.append(f"{self.names[k]}/{body.name}")
+                self._roles.append("touch" if body.role in ("target", "lid") and self.hand[k] else body.role)
+                joints.append((objects[k].parentJoint, 0))
+        for a, b in self.self_pairs.tolist():
+            self.geometry_model.addCollisionPair(pin.CollisionPair(a, b))
+            self._names.append(f"{self.names[a]}/{self.names[b]}")
+            self._roles.append("self")
+            joints.append((objects[a].parentJoint, objects[b].parentJoint))
+        self.geometry_data = pin.GeometryData(self.geometry_model)
+        for pair in range(len(self.geometry_model.collisionPairs)):
+            # coal's default request (Pinocchio's warm-starts GJK from the pair's previous call)
+            self.geometry_data.distanceRequests[pair] = coal.DistanceRequest()
+        self._geometry_count, self._body_count = count, bodies
+        self._supports = robot.joint_supports[np.array(joints)]   # (pairs, 2, E): data.J's columns moving each side
+
+    def _update_bodies(self, object_poses: dict) -> None:
+        """Move the bodies that object_poses (name -> (position, xyzw)) places elsewhere than before."""
+        for b, body in enumerate(self.scene.bodies):
+            pose = object_poses.get(body.name)
+            if pose is None:
+                continue
+            key = (tuple(pose[0]), tuple(pose[1]))
+            if key != self._body_poses[b]:
+                placement = self.scene.body_placements({body.name: pose}, [body])[0]
+                self._body_placements[b] = placement
+                self.geometry_model.geometryObjects[self._geometry_count + b].placement = placement
+                self._body_poses[b] = key
 
     def near(self, q: np.ndarray, object_poses: dict, influence: float) -> list:
         """ClosePairs within influence (m), closest first."""
-        robot, model, data = self.robot, self.robot.model, self.robot.data
-        geometry_data = robot.collision_data
+        model, data = self.robot.model, self.robot.data
+        self._update_bodies(object_poses)
         pin.computeJointJacobians(model, data, q)
-        pin.updateGeometryPlacements(model, data, robot.collision_model, geometry_data)
-        placements = geometry_data.oMg
-        centres = np.array([placement.translation for placement in placements])
-        pairs = []
-        for body, shape, placement in zip(self.scene.bodies, self.scene.body_shapes,
-                                          self.scene.body_placements(object_poses)):
+        pin.updateGeometryPlacements(model, data, self.geometry_model, self.geometry_data)
+        centres = np.array([placement.translation
+                            for placement in self.geometry_data.oMg.tolist()[:self._geometry_count]])
+        # candidates: pairs whose geometries' bounding spheres come within influence
+        candidates = []
+        for b, (body, placement) in enumerate(zip(self.scene.bodies, self._body_placements)):
             clearance = _body_distance(body, placement, centres) - self.bound
-            for k in np.flatnonzero(self.scene._moving & (clearance < influence)).tolist():
-                joint, _, robot_shape = self.scene.robot_geometries[k]
-                distance, point, away = self._distance(robot_shape, placements[k], shape, placement)
-                if distance < influence:
-                    role = "touch" if body.role in ("target", "lid") and self.hand[k] else body.role
-                    pairs.append(ClosePair(f"{self.names[k]}/{body.name}", distance,
-                                           away @ self._point_jacobian(joint, point), role))
+            candidates += (np.flatnonzero(self.scene._moving & (clearance < influence)) * self._body_count + b).tolist()
         if len(self.self_pairs):
             a, b = self.self_pairs[:, 0], self.self_pairs[:, 1]
-            gaps = np.linalg.norm(centres[a] - centres[b], axis=1) - self.bound[a] - self.bound[b]
-            for a, b in self.self_pairs[gaps < influence].tolist():
-                (joint_a, _, shape_a), (joint_b, _, shape_b) = self.scene.robot_geometries[a], self.scene.robot_geometries[b]
-                distance, point_a, away = self._distance(shape_a, placements[a], shape_b, placements[b])
-                if distance < influence:
-                    point_b = point_a - away * distance
-                    row = away @ (self._point_jacobian(joint_a, point_a) - self._point_jacobian(joint_b, point_b))
-                    pairs.append(ClosePair(f"{self.names[a]}/{self.names[b]}", distance, row, "self"))
-        return sorted(pairs, key=lambda p: p.distance)
+            offsets = centres[a] - centres[b]
+            gaps = np.sqrt(np.einsum("ka,ka->k", offsets, offsets)) - self.bound[a] - self.bound[b]
+            candidates += (np.flatnonzero(gaps < influence) + self._geometry_count * self._body_count).tolist()
+        close, distances, points, normals = [], [], [], []
+        for pair in candidates:
+            result = pin.computeDistance(self.geometry_model, self.geometry_data, pair)
+            if result.min_distance < influence:
+                close.append(pair)
+                distances.append(result.min_distance)
+                points.append(result.getNearestPoint1())
+                normals.append(result.normal)  # from the first geometry towards the second
+        if not close:
+            return []
+        rows = self._rows(close, np.array(distances), np.array(points), -np.array(normals))
+        return sorted((ClosePair(self._names[pair], distance, row, self._roles[pair])
+                       for pair, distance, row in zip(close, distances, rows)), key=lambda p: p.distance)
 
-    def _distance(self, shape_a, placement_a, shape_b, placement_b):
-        """(signed distance, witness point on a (3,), unit direction in which a moves away from b).
-        The shapes must be long-lived objects (the functor cache is keyed by their identity)."""
-        key = (id(shape_a), id(shape_b))
-        functor = self._functors.get(key)
-        if functor is None:
-            functor = self._functors[key] = coal.ComputeDistance(shape_a, shape_b)
-        self._result.clear()
-        distance = functor(coal.Transform3s(placement_a.rotation, placement_a.translation),
-                           coal.Transform3s(placement_b.rotation, placement_b.translation),
-                           self._request, self._result)
-        away = -np.array(self._result.normal)  # coal's normal points from a towards b
-        return float(distance), np.array(self._result.getNearestPoint1()), away
-
-    def _point_jacobian(self, joint: int, point: np.ndarray) -> np.ndarray:
-        """Linear Jacobian (3, n) of a point fixed to a joint's body, world frame."""
-        jac = pin.getJointJacobian(self.robot.model, self.robot.data, joint, pin.LOCAL_WORLD_ALIGNED)
-        offset = point - self.robot.data.oMi[joint].translation
-        return jac[:3] - pin.skew(offset) @ jac[3:]
+    def _rows(self, pairs: list, distances: np.ndarray, points: np.ndarray, aways: np.ndarray) -> np.ndarray:
+        """The rows (k, n) that map a joint step to the change of the pairs' distances (k,): the
+        unit directions aways (k, 3) in which the first sides move away from the second, on the
+        velocities of the witness points (k, 3) on the first sides minus those of the second sides'
+        (at distance along -away), each point fixed to its side's body (the world's does not move)."""
+        others = points - aways * distances[:, None]
+        velocities = self.robot.point_jacobians(np.concatenate([points, others]))      # (3, E, 2 k)
+        along = np.einsum("ka,aek->ke", np.concatenate([aways, -aways]), velocities)    # (2 k, E)
+        supports = self._supports[pairs]                                               # (k, 2, E)
+        count = len(pairs)
+        return (along[:count] * supports[:, 0] + along[count:] * supports[:, 1]) @ self.robot.extended_to_q
 
 
 def _body_distance(body: scene.Body, placement: pin.SE3, points: np.ndarray) -> np.ndarray:

@@ -42,6 +42,11 @@ HAND_JOINTS = ("finger_1_proximal_joint", "finger_1_distal_joint", "finger_2_knu
 HOME = np.array([0.0, -0.23, 0.0, 1.04, 0.0, 1.54, 0.0,
                  -0.45, 0.35, np.pi / 3, -0.45, 0.35, -0.45, 0.35])
 
+#: The rows of the spatial Jacobian (linear 0-2, angular 3-5) and their signs that give, for each
+#: axis a, [Jv_a, (e_x x Jw)_a, (e_y x Jw)_a, (e_z x Jw)_a] (RobotModel.point_jacobians).
+_CROSS_ROWS = np.array([[0, 0, 5, 4], [1, 5, 0, 3], [2, 4, 3, 0]])
+_CROSS_SIGNS = np.array([[1.0, 0.0, 1.0, -1.0], [1.0, -1.0, 0.0, 1.0], [1.0, 1.0, -1.0, 0.0]])[:, None, :]
+
 
 @dataclass(frozen=True)
 class MimicJoint:
@@ -111,6 +116,8 @@ class RobotModel:
         self.hand_indices = np.array([self.joint_names.index(j) for j in HAND_JOINTS])
         self._chain = self._kinematic_chain()
         self.joint_supports, self.extended_to_q = self._jacobian_columns()
+        columns = self.model.nvExtended
+        self._cross_index = _CROSS_ROWS[:, None, :] * columns + np.arange(columns)[:, None]   # (3, E, 4)
 
     def copy(self) -> "RobotModel":
         """The same model with its own Pinocchio data (for use from another thread)."""
@@ -170,6 +177,16 @@ class RobotModel:
             supports[joint, [columns[j] for j in model.supports[joint][1:]]] = 1.0
             to_q[columns[joint], model.idx_vs[joint]] = 1.0
         return supports, to_q
+
+    def point_jacobians(self, points: np.ndarray) -> np.ndarray:
+        """Linear velocity Jacobians (3, E, k) of world points (k, 3), each as if fixed to the body
+        that each column of data.J moves: Jv + Jw x p. Call after pin.computeJointJacobians(model,
+        data, q); mask with joint_supports for the joints that move a given body."""
+        lever = np.empty((4, len(points)))
+        lever[0] = 1.0
+        np.negative(points.T, out=lever[1:])
+        basis = self.data.J.take(self._cross_index) * _CROSS_SIGNS     # (3, E, 4): Jv, e_c x Jw
+        return (basis.reshape(-1, 4) @ lever).reshape(3, -1, len(points))   # Jv - sum_c p_c e_c x Jw
 
     def batch_joint_placements(self, configurations: np.ndarray) -> tuple:
         """Vectorized forward kinematics (the same as Pinocchio's) of configurations (B, n):
@@ -255,22 +272,6 @@ class RobotModel:
             step = jac.T @ np.linalg.solve(jac @ jac.T + damping * np.eye(6), error)
             q[joints] = np.clip(q[joints] + step, self.lower[joints], self.upper[joints])
         return q
-
-
-#: point_jacobians' table: the rows of the spatial Jacobian (linear 0-2, angular 3-5) and their signs
-#: that give, for each axis a, [Jv_a, (e_x x Jw)_a, (e_y x Jw)_a, (e_z x Jw)_a] (a zero sign: 0).
-_CROSS_ROWS = np.array([[0, 0, 5, 4], [1, 5, 0, 3], [2, 4, 3, 0]])
-_CROSS_SIGNS = np.array([[1.0, 0.0, 1.0, -1.0], [1.0, -1.0, 0.0, 1.0], [1.0, 1.0, -1.0, 0.0]])
-
-
-def point_jacobians(spatial: np.ndarray, points: np.ndarray) -> np.ndarray:
-    """Linear velocity Jacobians (3, k, E) of world points (k, 3), each as if fixed to the body every
-    column moves: Jv + Jw x p, from a world-frame spatial Jacobian (6, E) (Pinocchio's data.J). Mask
-    with RobotModel.joint_supports to keep the joints that move a given body."""
-    lever = np.empty((len(points), 4))
-    lever[:, 0] = 1.0
-    np.negative(points, out=lever[:, 1:])
-    return lever @ (spatial[_CROSS_ROWS] * _CROSS_SIGNS[:, :, None])   # Jv - sum_c p_c (e_c x Jw)
 
 
 def _rotate_about(rotations: np.ndarray, axis: np.ndarray, angles: np.ndarray) -> np.ndarray:
