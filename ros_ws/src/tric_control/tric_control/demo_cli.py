@@ -9,7 +9,8 @@
 3. Evaluate the teacher and the learned controller on the 15 test situations (paper Table 1),
    through the simulator, teacher and controller nodes, judged by the hidden metrics.
 4. Print the Table 1 comparison; write DIR/demo.json (teacher_cost_mean, tric_cost_mean,
-   tric_cost_max, tric_lift_passed, episodes, train_s, total_s, and the per-episode records),
+   tric_cost_max, tric_lift_passed, episodes, train_s, total_s; and under "tric" and "teacher"
+   each agent's summary and per-episode records),
    DIR/demo.png (grasp costs per test situation) and DIR/demo_grasp.png (one TRIC grasp).
 
 The targets (design.md): TRIC's mean grasp cost within 0.03 of the teacher's and every TRIC grasp
@@ -32,7 +33,7 @@ import numpy as np  # noqa: E402
 from tqdm import tqdm  # noqa: E402
 
 from tric_control.evaluate_cli import evaluate  # noqa: E402
-from tric_control.evaluation import GOOD_GRASP, summarize, write_json  # noqa: E402
+from tric_control.evaluation import GOOD_GRASP, report, summarize, write_json  # noqa: E402
 from tric_learning.record_cli import demonstrate_all, private_domain_id  # noqa: E402
 from tric_learning.training import TrainingConfig, train_from_bags  # noqa: E402
 from tric_sim.robot_model import RobotModel  # noqa: E402
@@ -150,10 +151,10 @@ def main(argv=None) -> int:
     summary = {"teacher_cost_mean": ts["grasp_cost_mean"], "tric_cost_mean": rs["grasp_cost_mean"],
                "tric_cost_max": rs["grasp_cost_max"], "tric_lift_passed": rs["lift_passed"],
                "episodes": len(teacher) + len(tric), "train_s": result.train_time_s, "total_s": total}
-    write_json(out / "demo.json", tric, {**summary, "model": str(trained.path), "bags": str(bags),
-                                          "teacher_episodes": [r.__dict__ for r in teacher],
-                                          "training": {"losses": result.losses,
-                                                       "selected_features": result.selected_features}})
+    write_json(out / "demo.json", {**summary, "model": str(trained.path), "bags": str(bags),
+                                   "training": {"losses": result.losses,
+                                                "selected_features": result.selected_features},
+                                   "tric": report(tric), "teacher": report(teacher)})
     within = rs["grasp_cost_mean"] <= ts["grasp_cost_mean"] + MARGIN_TO_TEACHER
     all_good = rs["good_grasps"] == len(tric)
     print(f"\nTRIC mean within {MARGIN_TO_TEACHER} of the teacher: {'met' if within else 'NOT met'}; "

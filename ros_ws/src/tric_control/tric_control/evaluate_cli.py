@@ -34,7 +34,7 @@ from tric_msgs.action import Demonstrate, Execute  # noqa: E402
 from tric_msgs.srv import EvaluateTask, LoadModel, RenderScene, ResetScene  # noqa: E402
 
 from tric_control.controller_node import ControllerNode  # noqa: E402
-from tric_control.evaluation import EpisodeRecord, table, write_json  # noqa: E402
+from tric_control.evaluation import EpisodeRecord, report, table, write_json  # noqa: E402
 from tric_learning.record_cli import InProcessGraph, private_domain_id, wait  # noqa: E402
 from tric_sim import messages  # noqa: E402
 from tric_sim.simulator_node import SimulatorNode  # noqa: E402
@@ -220,7 +220,7 @@ def main(argv=None) -> int:
     name = "teacher" if args.teacher else args.model
     print(table(records, f"\n{name} on {args.dataset or args.situations_file}"))
     if args.json:
-        print(f"wrote {write_json(args.json, records, {'agent': name})}")
+        print(f"wrote {write_json(args.json, {'agent': name, **report(records)})}")
     return 1 if any(r.failed for r in records) else 0
 
 

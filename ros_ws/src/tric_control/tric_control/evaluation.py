@@ -134,10 +134,14 @@ def _json_safe(value):
     return value
 
 
-def write_json(path, records, extra: dict = None) -> pathlib.Path:
-    """Write {"summary": ..., "episodes": [...], **extra} to path (strict JSON: NaN as null)."""
+def report(records) -> dict:
+    """{"summary": ..., "episodes": [...]}: the records and their summary, as JSON-ready data."""
+    return {"summary": summarize(records), "episodes": [asdict(r) for r in records]}
+
+
+def write_json(path, data: dict) -> pathlib.Path:
+    """Write data to path as strict JSON (NaN and inf as null); the path."""
     path = pathlib.Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    data = {"summary": summarize(records), "episodes": [asdict(r) for r in records], **(extra or {})}
     path.write_text(json.dumps(_json_safe(data), indent=2) + "\n")
     return path
