@@ -11,10 +11,11 @@ BUILD_STAMP := ros_ws/install/.tric-built
 BUILD_INPUTS := $(shell find ros_ws/src -type f \( -name package.xml -o -name CMakeLists.txt -o -name setup.py \
 	-o -name setup.cfg -o -name '*.msg' -o -name '*.srv' -o -name '*.action' -o -path '*/resource/*' \))
 
-.PHONY: help setup demo test bench constraints clean
+.PHONY: help setup demo experiments test bench constraints clean
 
 help:
 	@echo "make demo         the main job: record sphere demos, train TRIC, evaluate it against the teacher"
+	@echo "make experiments  the paper's experiments (EXPERIMENTS='fig9 table3' for some), results/REPORT.md"
 	@echo "make setup        create .venv, install pinned ROS 2 Jazzy wheels and libraries, colcon build"
 	@echo "make test         run the test suite (unit + in-process integration tests)"
 	@echo "make bench        run the benchmarks, write results/bench.json"
@@ -35,6 +36,9 @@ $(BUILD_STAMP): $(DEPS_STAMP) $(BUILD_INPUTS) scripts/colcon_build.sh
 
 demo: setup
 	$(IN_ENV) ros2 run tric_control tric-demo $(DEMO_ARGS)
+
+experiments: setup
+	$(IN_ENV) ros2 run tric_control tric-experiments $(EXPERIMENTS)
 
 test: setup
 	$(IN_ENV) python -m pytest

@@ -67,3 +67,16 @@ def test_teacher_and_tric_grasp_an_unseen_sphere_through_the_nodes(tmp_path):
     assert record.grasp_cost < 0.25 and record.lift_passed and not record.collided
     assert record.min_joint_margin > -0.05  # fingers squeezed by the contact may give a little
     assert (tmp_path / "snapshots" / f"{chosen[0].name}.png").is_file()
+
+
+def test_experiment_report_from_hand_made_results(tmp_path, capsys):
+    from tric_control import experiments
+
+    (tmp_path / "table3.json").write_text(json.dumps({
+        "table": "agent  cost\nteacher 0.064", "paper": "teacher 0.07", "date": "2026-11-22 12:00", "wall_s": 12.0}))
+    text = experiments.write_report(tmp_path).read_text()
+    assert "## table3: Cylinders" in text and "teacher 0.064" in text and "Paper: teacher 0.07." in text
+    assert "## fig9" not in text  # not run: not reported
+    with pytest.raises(SystemExit):
+        experiments.main(["table9", "--out", str(tmp_path)])
+    assert "unknown experiment(s) table9" in capsys.readouterr().err

@@ -20,5 +20,6 @@ setup(
         "controller = tric_control.controller_node:main",
         "tric-eval = tric_control.evaluate_cli:main",
         "tric-demo = tric_control.demo_cli:main",
+        "tric-experiments = tric_control.experiments:main",
     ]},
 )
