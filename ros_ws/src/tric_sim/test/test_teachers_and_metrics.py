@@ -90,3 +90,12 @@ def test_snapshot_strip_of_a_demonstration(tmp_path):
     assert image.shape[1] > image.shape[0] > 0 and image[..., :3].std() > 0.05  # three frames, not blank
     with pytest.raises(SystemExit):
         snapshot.main(["sphere_grid_13", "--strip", "1", "--out", str(tmp_path)])
+
+
+def test_cylinder_pointing_at_the_robot_still_gets_a_grasp_point():
+    from tric_sim.teachers import cylinder_grasp_point
+
+    centre = np.array([0.6, 0.0, 0.3])
+    point, direction = cylinder_grasp_point(centre, np.array([1.0, 0.0, 0.0]), 0.3)  # axis along x
+    assert abs(direction @ [1.0, 0.0, 0.0]) < 1e-9 and direction[2] <= 0.1  # across the axis, not upwards
+    assert np.linalg.norm(point - centre) <= 0.3 * 0.3 + 1e-9
