@@ -22,6 +22,8 @@ from tric_sim.situations import Situation
 #: Penetration allowed into the bodies the hand may touch (the grasp target, the lid), m: the fingers
 #: of a firm grasp press a few millimetres into it in simulation.
 TOUCH_TOLERANCE = 0.005
+#: The role of a pair of the hand with a scene body the hand may press (see ClosePair).
+HAND_ROLES = {"target": "touch", "lid": "push"}
 
 
 def coal_shape(shape: str, dimensions):
@@ -192,7 +194,8 @@ class ClosePair:
     """A robot geometry near something it must not penetrate: signed distance (m), the row (n,)
     that maps a joint step dq to the change of that distance (n^T J at the witness points), and the
     other's role: a scene body's ("table", "obstacle", "box_body", "target", "lid"), "touch" for the
-    hand against the grasp target or the lid (which it may press), or "self" (another robot part)."""
+    hand against the grasp target (which it may press to grip), "push" for the hand against the lid
+    (which it must push open), or "self" (another robot part)."""
 
     name: str
     distance: float
@@ -205,7 +208,7 @@ class Proximity:
     scene bodies they must avoid, and arm geometries near other robot geometries.
 
     Every robot geometry is checked against every scene body; pairs of the hand (palm and fingers)
-    with the grasp target or the lid get the role "touch" (the hand may press them). Pairs inside the
+    with the grasp target get the role "touch", with the lid "push" (the hand may press them). Pairs inside the
     hand are left to its joint limits (fingers touching each other do no harm).
 
     The scene bodies are added to a copy of the robot's collision model (fixed to the world), with
@@ -238,7 +241,7 @@ class Proximity:
             for b, body in enumerate(self.scene.bodies):
                 self.geometry_model.addCollisionPair(pin.CollisionPair(k, count + b))
                 self._names.append(f"{self.names[k]}/{body.name}")
-                self._roles.append("touch" if body.role in ("target", "lid") and self.hand[k] else body.role)
+                self._roles.append(HAND_ROLES.get(body.role, body.role) if self.hand[k] else body.role)
                 joints.append((objects[k].parentJoint, 0))
         for a, b in self.self_pairs.tolist():
             self.geometry_model.addCollisionPair(pin.CollisionPair(a, b))
