@@ -7,8 +7,9 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from tric_control.motion_rate import (CONVERGED_MOTION, CONVERGED_WINDOW, DOMAIN_MARGIN, JOINT_MARGIN, SAFETY,
-                                      MotionRateController, Objective, StepQP, ValueObjective)
+from tric_control.motion_rate import (CONVERGED_MOTION, CONVERGED_WINDOW, DOMAIN_MARGIN, JOINT_MARGIN, PUSH_DEPTH,
+                                      SAFETY, SAFETY_BY_ROLE, TOUCH_DEPTH, MotionRateController, Objective, StepQP,
+                                      ValueObjective)
 from tric_control.objectives import make_objective
 from tric_learning.features import FeatureDefinition, FeatureMap
 from tric_learning.model_file import ModelFile, value_function_arrays
@@ -248,3 +249,22 @@ def test_make_objective_runs_tric_models_and_refuses_the_others(robot):
         make_objective(ModelFile("tric", definition, arrays, {"rho": 50.0}), robot)
     with pytest.raises(ValueError, match="delta must be finite and positive"):
         make_objective(ModelFile("tric", definition, arrays, {"delta": -0.002, "rho": 50.0}), robot)
+
+
+# --- what the hand may press ---------------------------------------------------------------------
+
+@pytest.mark.parametrize("dataset, body, scene_role, hand_role, hand_safety", [
+    ("sphere_test", "object", "target", "touch", -TOUCH_DEPTH),
+    ("box_test", "lid", "lid", "push", -PUSH_DEPTH),
+    ("box_test", "object", "box_body", "box_body", SAFETY)])
+def test_hand_pairs_get_the_role_of_what_the_hand_may_do_there(robot, dataset, body, scene_role, hand_role,
+                                                               hand_safety):
+    """The hand may press into a grasp target (role "touch") and deeper into a lid ("push"), and keeps
+    SAFETY from a box's body; the arm keeps SAFETY from all of them (the body's own role)."""
+    situation = situations.dataset(dataset)[0]
+    pairs = Proximity(robot, situation).near(robot.home, {}, influence=10.0)
+    roles = {(pair.name.split("/")[0].startswith(("finger_", "palm")), pair.role)
+             for pair in pairs if pair.name.endswith(f"/{body}")}
+    assert roles == {(True, hand_role), (False, scene_role)}
+    assert SAFETY_BY_ROLE.get(hand_role, SAFETY) == hand_safety
+    assert SAFETY_BY_ROLE.get(scene_role, SAFETY) == SAFETY
