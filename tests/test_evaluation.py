@@ -50,6 +50,10 @@ def test_bad_arguments_are_refused(tmp_path, capsys):
     assert "mix tasks" in capsys.readouterr().err
     with pytest.raises(SystemExit):
         evaluate_cli.main(["--teacher"])  # neither a data set nor a file
+    with pytest.raises(SystemExit):
+        evaluate_cli.main(["--teacher", "sphere_test", "--jobs", "0"])
+    with pytest.raises(ValueError, match="jobs must be at least 1"):
+        evaluate_cli.evaluate(situations.sphere_grid()[:1], None, jobs=0, progress=False)
 
 
 @pytest.mark.slow
@@ -69,14 +73,92 @@ def test_teacher_and_tric_grasp_an_unseen_sphere_through_the_nodes(tmp_path):
     assert (tmp_path / "snapshots" / f"{chosen[0].name}.png").is_file()
 
 
+@pytest.mark.slow
+def test_parallel_evaluation_gives_the_serial_records(tmp_path):
+    """jobs = 2: two spawned workers, each with its graph on a domain of its own; the records come back
+    in the situations' order, as the serial run gives them (up to the lockstep's timing)."""
+    chosen = situations.dataset("sphere_test")[5:8]
+    quick = TrainingConfig(noisy_samples=5, max_iterations=20)  # any model will do: both runs must agree
+    model = train_from_bags(sorted(BAGS.glob("*.mcap"))[::9], tmp_path / "quick.safetensors", quick, RobotModel()).path
+    serial = evaluate_cli.evaluate(chosen, model, max_steps=150, progress=False)
+    parallel = evaluate_cli.evaluate(chosen, model, max_steps=150, progress=False, jobs=2)
+    assert [r.situation for r in parallel] == [s.name for s in chosen]
+    for one, other in zip(serial, parallel):
+        assert other.agent == one.agent == "tric" and other.outcome == one.outcome != "failed"
+        assert other.steps == one.steps and other.success == one.success and other.lift_passed == one.lift_passed
+        assert other.grasp_cost == pytest.approx(one.grasp_cost, abs=0.02)
+    with pytest.raises(ValueError, match="missing.safetensors does not exist"):  # raised in a worker
+        evaluate_cli.evaluate(chosen, tmp_path / "missing.safetensors", max_steps=150, progress=False, jobs=2)
+
+
 def test_experiment_report_from_hand_made_results(tmp_path, capsys):
     from tric_control import experiments
 
     (tmp_path / "table3.json").write_text(json.dumps({
-        "table": "agent  cost\nteacher 0.064", "paper": "teacher 0.07", "date": "2026-11-22 12:00", "wall_s": 12.0}))
+        "table": "agent  cost\nteacher 0.064", "paper": "teacher 0.07", "date": "2026-11-22 12:00", "wall_s": 12.0,
+        "discussion": "Our teacher matches."}))
+    (tmp_path / "analysis.json").write_text(json.dumps({
+        "table": "f decreases", "paper": "f decreases", "date": "2026-11-22 12:00", "wall_s": 5.0,
+        "figures": ["analysis/a.png", "analysis/b.png"]}))
     text = experiments.write_report(tmp_path).read_text()
-    assert "## table3: Cylinders" in text and "teacher 0.064" in text and "Paper: teacher 0.07." in text
+    assert "## table3: Cylinders" in text and "teacher 0.064" in text
+    assert "Paper: teacher 0.07.\n\nOur teacher matches.\n\n![table3](table3.png)" in text
+    assert "![analysis](analysis/a.png)\n![analysis](analysis/b.png)" in text
+    assert text.index("## table3") < text.index("## analysis")  # the order of EXPERIMENTS
     assert "## fig9" not in text  # not run: not reported
     with pytest.raises(SystemExit):
         experiments.main(["table9", "--out", str(tmp_path)])
     assert "unknown experiment(s) table9" in capsys.readouterr().err
+
+
+def grasp_row(mean, good=15, lift=15, collisions=0, std=0.01, episodes=15):
+    return {"cost_mean": mean, "cost_std": std, "cost_max": mean + 0.02, "good": good, "lift": lift,
+            "collisions": collisions, "episodes": episodes}
+
+
+def test_discussions_follow_the_numbers():
+    from tric_control import experiments
+
+    close = experiments._table1_discussion({"teacher": grasp_row(0.02), "TRIC K = 30": grasp_row(0.04)})
+    assert "a gap of +0.020 (within the 0.03" in close and "reproduces the paper's result" in close
+    far = experiments._table1_discussion({"teacher": grasp_row(0.02), "TRIC K = 30": grasp_row(0.3, good=9, lift=10)})
+    assert "(beyond the 0.03" in far
+    assert "fall short of the paper in the gap to the teacher, grasps above 0.25, failed lift tests." in far
+
+    def fig8_rows(costs, few_good=15):
+        """Rows of every Fig. 8 setting: costs[(N, M)] for the default variant, 0.1 more for the others."""
+        rows = {}
+        for k, variant in enumerate(experiments.FIG8_VARIANTS):
+            for (demos, samples), cost in costs.items():
+                good = few_good if (demos, k) == (3, 0) else 15
+                rows[f"{variant} {demos} {samples}"] = dict(grasp_row(cost + 0.1 * (k > 0), good=good),
+                                                            variant=variant, demos=demos, samples=samples)
+        return rows
+
+    like_paper = {(27, 5): 0.3, (27, 20): 0.05, (27, 60): 0.05, (3, 60): 0.06, (9, 60): 0.05}
+    text = experiments._fig8_discussion(fig8_rows(like_paper), 27, 60)
+    assert text.count("as in the paper") == 3 and "consistent with the paper's saturation" in text, text
+    assert "L_n only and L_g only are clearly worse" in text
+    unlike = {**like_paper, (3, 60): 0.6, (27, 20): 0.2}
+    text = experiments._fig8_discussion(fig8_rows(unlike, few_good=4), 27, 60)
+    assert "a few demonstrations are not enough" in text and "N matters as much as M or more" in text
+    assert "still a clear gain" in text and "both terms together are best" in text
+    assert "The means of N = 3, M = 60 (4/15 good) are pulled up by their failed grasps" in text
+
+    cylinders = {"teacher": grasp_row(0.06), "TRIC K = 0": grasp_row(0.5, good=1), "TRIC K = 30": grasp_row(0.55, good=0),
+                 "TRIC K = 0, wide": grasp_row(0.3, good=8), "TRIC K = 30, wide": grasp_row(0.08)}
+    text = experiments._table3_discussion(cylinders)
+    assert "the wider samples clearly help" in text and "The better K = 30 model is near the teacher" in text
+    assert "With the wider sigma the linear model is clearly worse than K = 30" in text
+    assert "With the paper's sigma the linear model is not clearly worse" in text
+
+    def boxes(**opened):
+        return {name: {"opened": count, "episodes": 25, "lid_mean": 0.5, "collisions": 0}
+                for name, count in zip(("TRIC", "TRIC, wide", "DPL joint space", "DPL finger space", "teacher"),
+                                       opened.values())}
+    text = experiments._table4_discussion(boxes(tric=3, wide=24, joint=2, finger=9, teacher=25))
+    assert "TRIC, wide 24, DPL joint space 2 (the paper 2)" in text and "TRIC, wide matches the paper" in text
+    assert "Both DPL variants open fewer boxes than TRIC" in text
+    text = experiments._table4_discussion(boxes(tric=3, wide=6, joint=13, finger=0, teacher=25))
+    assert "Even TRIC, wide falls short of the paper by 18 boxes" in text
+    assert "DPL joint space opens 13, not fewer than TRIC" in text

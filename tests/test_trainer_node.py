@@ -186,11 +186,12 @@ def test_tric_train_refuses_bad_input_with_one_line(bag_dir, tmp_path, capsys, a
     assert not list(tmp_path.iterdir())
 
 
-def test_tric_analyze_writes_both_figures(cli_run, bag_dir, tmp_path, capsys):
+def test_tric_analyze_writes_its_figures(cli_run, bag_dir, tmp_path, capsys):
     _, _, model = cli_run
     assert analysis.main([str(model), str(bag_dir), "--out", str(tmp_path / "figures"), "--top", "12"]) == 0
-    for name in (analysis.VALUE_FIGURE, analysis.SCORES_FIGURE):
+    for name in (analysis.VALUE_FIGURE, analysis.COSINES_FIGURE, analysis.SCORES_FIGURE, analysis.GRADIENTS_FIGURE):
         assert (tmp_path / "figures" / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
-    assert "f decreases on" in capsys.readouterr().out
+    printed = capsys.readouterr().out
+    assert "f decreases on" in printed and "mean cosine" in printed and "selected features" in printed
     assert analysis.main([str(tmp_path / "none.safetensors"), str(bag_dir), "--out", str(tmp_path / "x")]) == 2
     assert "does not exist" in capsys.readouterr().err and not (tmp_path / "x").exists()

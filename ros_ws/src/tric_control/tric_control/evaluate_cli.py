@@ -1,7 +1,7 @@
 """tric-eval: run a model (or the teacher) on situations through the real nodes, and judge it.
 
     tric-eval (--model MODEL | --teacher) (DATASET | --situations-file FILE) [--json OUT]
-              [--max-steps N] [--snapshots DIR] [--domain-id N]
+              [--max-steps N] [--snapshots DIR] [--domain-id N] [--jobs N]
 
 Runs the simulator (lockstep), the teacher and the controller nodes in one process. For each
 situation: reset the scene (/simulator/reset_scene); the teacher demonstrates it
@@ -11,12 +11,18 @@ the lift test for grasps). Prints a table, and writes the per-episode records an
 the --json file. DATASET is a built-in data set (sphere_test, cylinder_test, obstacle_test,
 box_test, ...); any YAML/JSON situations file of one task works too. --snapshots DIR writes a PNG
 of each final state (before the lift test). The nodes run in a private DDS domain unless --domain-id
-names one. Exits 0 when every episode ran (whatever its score), 1
-when one could not be run, 2 on bad arguments.
+names one. --jobs N runs N such graphs at once, each in a worker process of its own on its own
+domain (the base one and the N - 1 above it), the situations shared out one at a time; the records
+keep the situations' order. Exits 0 when every episode ran (whatever its score), 1 when one could
+not be run, 2 on bad arguments.
 """
 
 import argparse
+import concurrent.futures
 import math
+import multiprocessing
+import multiprocessing.util
+import os
 import pathlib
 import sys
 import time
@@ -44,6 +50,8 @@ from tric_sim.teacher_node import TeacherNode  # noqa: E402
 #: Wall seconds to wait for a service answer, and for an episode to end.
 SERVICE_TIMEOUT = 60.0
 EPISODE_TIMEOUT = 900.0
+#: The last DDS domain id (Fast DDS: its ports must stay below 65536).
+MAX_DOMAIN_ID = 232
 
 
 class Evaluator:
@@ -170,21 +178,85 @@ class Evaluator:
 
 
 def evaluate(situations, model=None, max_steps: int = 0, snapshots=None, progress=True, desc="evaluating",
-             domain_id: int = None):
-    """Run the agent (model file, or the teacher if None) on every situation; [EpisodeRecord]."""
+             domain_id: int = None, jobs: int = 1):
+    """Run the agent (model file, or the teacher if None) on every situation; [EpisodeRecord] in the
+    situations' order. jobs > 1: that many worker processes (spawned), each with its own Evaluator
+    on DDS domain domain_id + k (domain_id None: the environment's ROS_DOMAIN_ID, else 0)."""
     tasks = {s.task for s in situations}
     if len(tasks) != 1:
         raise ValueError(f"the situations mix tasks ({', '.join(sorted(tasks))}): evaluate one task at a time")
-    evaluator = Evaluator(tasks.pop(), model, max_steps, domain_id)
+    if jobs < 1:
+        raise ValueError(f"jobs must be at least 1, not {jobs}")
+    task = tasks.pop()
+    snapshot = pathlib.Path(snapshots) if snapshots else None
+    bar = tqdm(total=len(situations), desc=desc, unit="episode", disable=not progress)
+    try:
+        if min(jobs, len(situations)) == 1:
+            return _evaluate_here(situations, task, model, max_steps, snapshot, domain_id, bar)
+        return _evaluate_in_workers(situations, task, model, max_steps, snapshot, domain_id,
+                                    min(jobs, len(situations)), bar)
+    finally:
+        bar.close()
+
+
+def _evaluate_here(situations, task, model, max_steps, snapshot, domain_id, bar) -> list:
+    """Every situation in turn on one Evaluator in this process."""
+    evaluator = Evaluator(task, model, max_steps, domain_id)
     records = []
     try:
-        bar = tqdm(situations, desc=desc, unit="episode", disable=not progress)
-        for situation in bar:
+        for situation in situations:
             bar.set_postfix_str(situation.name)
-            records.append(evaluator.run(situation, pathlib.Path(snapshots) if snapshots else None))
+            records.append(evaluator.run(situation, snapshot))
+            bar.update()
     finally:
         evaluator.close()
     return records
+
+
+def _evaluate_in_workers(situations, task, model, max_steps, snapshot, domain_id, jobs, bar) -> list:
+    """The situations shared out over jobs spawned workers (see _start_worker), one at a time."""
+    base = int(os.environ.get("ROS_DOMAIN_ID", "0")) if domain_id is None else domain_id
+    if not 0 <= base <= MAX_DOMAIN_ID - jobs + 1:
+        raise ValueError(f"{jobs} workers from DDS domain {base} on would pass the last domain {MAX_DOMAIN_ID}")
+    spawn = multiprocessing.get_context("spawn")  # never fork a process that may hold rclpy's threads
+    domain_ids = spawn.Queue()
+    for offset in range(jobs):
+        domain_ids.put(base + offset)
+    records = [None] * len(situations)
+    with concurrent.futures.ProcessPoolExecutor(jobs, mp_context=spawn, initializer=_start_worker,
+                                                initargs=(task, model, max_steps, domain_ids)) as pool:
+        futures = {pool.submit(_run_in_worker, situation, snapshot): k for k, situation in enumerate(situations)}
+        try:
+            for future in concurrent.futures.as_completed(futures):
+                records[futures[future]] = future.result()
+                bar.set_postfix_str(situations[futures[future]].name)
+                bar.update()
+        except BaseException:
+            pool.shutdown(wait=True, cancel_futures=True)
+            raise
+    return records
+
+
+#: A worker process's Evaluator, or the error that building it raised (re-raised by each of its runs).
+_worker = {}
+
+
+def _start_worker(task, model, max_steps, domain_ids):
+    """Worker initializer: build this process's Evaluator on the next free domain; closed at exit."""
+    try:
+        evaluator = Evaluator(task, model, max_steps, domain_ids.get(timeout=SERVICE_TIMEOUT))
+    except Exception as error:  # an initializer's exception would only break the pool, without its message
+        _worker["error"] = error
+        return
+    _worker["evaluator"] = evaluator
+    multiprocessing.util.Finalize(None, evaluator.close, exitpriority=10)
+
+
+def _run_in_worker(situation, snapshot) -> EpisodeRecord:
+    """One episode on this worker's Evaluator; its construction's error, if it failed."""
+    if "error" in _worker:
+        raise _worker["error"]
+    return _worker["evaluator"].run(situation, snapshot)
 
 
 def main(argv=None) -> int:
@@ -200,20 +272,24 @@ def main(argv=None) -> int:
     parser.add_argument("--snapshots", help="write a PNG of each final state into this folder")
     parser.add_argument("--domain-id", type=int, default=None,
                         help="DDS domain of the in-process nodes (default: a private one, 1 + pid %% 100)")
+    parser.add_argument("--jobs", type=int, default=1,
+                        help="evaluation graphs run at once, each in a process on its own domain (default 1)")
     args = parser.parse_args(argv)
     if bool(args.dataset) == bool(args.situations_file):
         parser.error("give either DATASET or --situations-file")
     if args.max_steps < 0:
         parser.error("--max-steps must not be negative")
     domain_id = private_domain_id() if args.domain_id is None else args.domain_id
-    if not 0 <= domain_id <= 232:
-        parser.error("--domain-id must be in [0, 232]")
+    if not 1 <= args.jobs <= 64:
+        parser.error("--jobs must be in [1, 64]")
+    if not 0 <= domain_id <= MAX_DOMAIN_ID - args.jobs + 1:
+        parser.error(f"--domain-id must be in [0, {MAX_DOMAIN_ID - args.jobs + 1}] with --jobs {args.jobs}")
     try:
         situations = load_situations(args.situations_file) if args.situations_file else dataset(args.dataset)
         if args.model and not pathlib.Path(args.model).is_file():
             raise ValueError(f"model file {args.model} does not exist")
         records = evaluate(situations, None if args.teacher else args.model, args.max_steps, args.snapshots,
-                           domain_id=domain_id)
+                           domain_id=domain_id, jobs=args.jobs)
     except ValueError as error:
         print(f"tric-eval: {error}", file=sys.stderr)
         return 2
