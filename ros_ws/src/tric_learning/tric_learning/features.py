@@ -144,7 +144,6 @@ class FeatureMap:
         pairs = np.array(definition.pairs)
         self._first, self._second = first, second = pairs[:, 0], pairs[:, 1]
         self._count = count = len(definition.landmark_names)
-        self._robot_indices = [k for k, _ in self.robot_landmarks]
         self._placements = np.zeros((count, 4, 4))  # landmark poses, homogeneous
         # Rows of the directions (world, unit) that with_jacobian projects the point Jacobians on:
         # 3 i + a: axis a of landmark i (row a of R_i^T); 3 L + 3 i + a: its opposite;
@@ -154,13 +153,15 @@ class FeatureMap:
         self._pair = first * count + second
         # R_i^T (x_j - x_k) for all i, (k, j) is (3 L, L L); y's p_ij is at [3 i + a, L i + j]
         self._local_index = ((3 * first[:, None] + np.arange(3)) * count * count + self._pair[:, None])
-        self._jacobian_index = self._jacobian_indices(robot)
+        self._jacobian_index, self._extra_jacobian_indices = self._jacobian_indices(robot)
+        self._object_rotations = {}  # object name -> (its xyzw quaternion, rotation matrix)
 
-    def _jacobian_indices(self, robot: RobotModel) -> np.ndarray:
-        """Flat indices (T, P, 4, n) into with_jacobian's projections (rows of _directions, E columns
-        of data.J, L points): entry [t, pair, row, c] is the t-th extended column summed into q's
+    def _jacobian_indices(self, robot: RobotModel):
+        """Flat indices into with_jacobian's projections (rows of _directions, E columns of data.J,
+        L points): (P, 4, n) whose entry [pair, row, c] is the first extended column summed into q's
         column c (RobotModel.extended_to_q), projected on the row's direction with the sign of its
-        relative motion, or the zero row."""
+        relative motion, or the zero row; and [(c, (P, 4))] the same for the further extended
+        columns of the q columns that have more than one (a coupled joint)."""
         count, first, second = self._count, self._first, self._second
         columns = robot.joint_supports.shape[1]
         # the columns of data.J that move each landmark (none for objects), and for each pair those
@@ -175,13 +176,13 @@ class FeatureMap:
                                    (6 * count + count * second + first)[:, None]], axis=1)
         zero_row = 6 * count + count * count
         sources = [np.flatnonzero(robot.extended_to_q[:, c]) for c in range(robot.n_joints)]
-        index = np.full((max(map(len, sources)), len(first), 4, robot.n_joints), zero_row * columns * count)
-        for c, extended in enumerate(sources):
-            for term, e in enumerate(extended):
-                sign = relative[:, e, None]
-                row = np.where(sign > 0, moving_j, np.where(sign < 0, moving_i, zero_row))
-                index[term, :, :, c] = (row * columns + e) * count + second[:, None]
-        return index
+        def index(e):
+            sign = relative[:, e, None]
+            row = np.where(sign > 0, moving_j, np.where(sign < 0, moving_i, zero_row))
+            return (row * columns + e) * count + second[:, None]
+
+        first_terms = np.stack([index(extended[0]) for extended in sources], axis=-1)
+        return first_terms, [(c, index(e)) for c, extended in enumerate(sources) for e in extended[1:]]
 
     @property
     def size(self) -> int:
@@ -196,16 +197,19 @@ class FeatureMap:
         else:
             pin.forwardKinematics(model, data, q)
         placements = self._placements
-        if self.robot_landmarks:
-            placements[self._robot_indices] = [pin.updateFramePlacement(model, data, fid).homogeneous
-                                               for _, fid in self.robot_landmarks]
+        for k, fid in self.robot_landmarks:
+            placements[k] = pin.updateFramePlacement(model, data, fid).homogeneous
         for k, name in self.object_landmarks:
             pose = object_poses.get(name)
             if pose is None:
                 raise ValueError(f"object '{name}' is missing from the object poses "
                                  f"(have: {', '.join(sorted(object_poses)) or 'none'})")
             placements[k, :3, 3] = pose[0]
-            placements[k, :3, :3] = _rotation(pose[1])
+            quaternion = tuple(pose[1])
+            cached = self._object_rotations.get(name)
+            if cached is None or cached[0] != quaternion:  # objects mostly stand still between calls
+                cached = self._object_rotations[name] = (quaternion, _rotation(quaternion))
+            placements[k, :3, :3] = cached[1]
         np.copyto(self._axes, placements[:, :3, :3].transpose(0, 2, 1))
         return placements[:, :3, 3]
 
@@ -261,9 +265,9 @@ class FeatureMap:
         np.divide(offsets.reshape(-1, 3), np.maximum(distances, 1e-12).reshape(-1, 1),
                   out=directions[6 * count:-1])
         projections = directions @ self.robot.point_jacobians(positions).reshape(3, -1)   # (rows, E L)
-        jacobian = projections.take(self._jacobian_index[0])
-        for index in self._jacobian_index[1:]:
-            jacobian += projections.take(index)
+        jacobian = projections.take(self._jacobian_index)                                 # (P, 4, n)
+        for column, index in self._extra_jacobian_indices:
+            jacobian[:, :, column] += projections.take(index)
         return y, jacobian.reshape(-1, self.robot.n_joints)
 
     def _features(self, positions):
