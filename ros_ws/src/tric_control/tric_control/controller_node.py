@@ -54,10 +54,8 @@ import threading
 import time
 
 import numpy as np
-import rclpy
 from rclpy.action import ActionServer, CancelResponse, GoalResponse
 from rclpy.clock import Clock, ClockType
-from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.task import Future
@@ -72,6 +70,7 @@ from tric_learning.model_file import ModelFile
 from tric_sim import messages
 from tric_sim.collision import Proximity
 from tric_sim.lockstep import StateStream, command_msg, run_in_thread
+from tric_sim.node_main import run_node
 from tric_sim.robot_model import RobotModel
 
 from tric_control.motion_rate import MotionRateController
@@ -562,21 +561,7 @@ class ControllerNode(Node):
 
 
 def main(args=None):
-    rclpy.init(args=args)
-    try:
-        node = ControllerNode()
-    except ValueError as error:
-        print(f"controller: {error}", file=sys.stderr)
-        rclpy.try_shutdown()
-        return 2
-    try:
-        rclpy.spin(node)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    finally:
-        node.destroy_node()
-        rclpy.try_shutdown()
-    return 0
+    return run_node(ControllerNode, "controller", args)
 
 
 if __name__ == "__main__":

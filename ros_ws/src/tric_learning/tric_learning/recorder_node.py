@@ -19,8 +19,6 @@ import threading
 import time
 from collections import deque
 
-import rclpy
-from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from rcl_interfaces.msg import ParameterDescriptor
@@ -31,6 +29,7 @@ from tric_learning import bags
 from tric_learning.recording import SAMPLE_PERIOD, BagRecorder
 from tric_sim import messages
 from tric_sim.lockstep import TopicPoller
+from tric_sim.node_main import run_node
 from tric_sim.robot_model import RobotModel
 
 #: Deep enough to hold a whole 5 s episode at 100 Hz should the recording thread fall behind.
@@ -190,21 +189,7 @@ def _order(kind: str, msg) -> int:
 
 
 def main(args=None):
-    rclpy.init(args=args)
-    try:
-        node = RecorderNode()
-    except ValueError as error:
-        print(f"recorder: {error}", file=sys.stderr)
-        rclpy.try_shutdown()
-        return 2
-    try:
-        rclpy.spin(node)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    finally:
-        node.destroy_node()
-        rclpy.try_shutdown()
-    return 0
+    return run_node(RecorderNode, "recorder", args)
 
 
 if __name__ == "__main__":

@@ -35,9 +35,7 @@ import sys
 import threading
 import time
 
-import rclpy
 from rclpy.callback_groups import ReentrantCallbackGroup
-from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rcl_interfaces.msg import ParameterDescriptor
 from tric_msgs.msg import TrainingProgress
@@ -48,6 +46,7 @@ from tric_learning.model_file import KINDS
 from tric_learning.training import TrainingConfig, train_from_bags
 from tric_sim import messages
 from tric_sim.lockstep import run_in_thread
+from tric_sim.node_main import run_node
 from tric_sim.robot_model import RobotModel
 
 #: Overall progress spanned by each stage of a training: (start, end) fractions.
@@ -172,21 +171,7 @@ class TrainerNode(Node):
 
 
 def main(args=None):
-    rclpy.init(args=args)
-    try:
-        node = TrainerNode()
-    except ValueError as error:
-        print(f"trainer: {error}", file=sys.stderr)
-        rclpy.try_shutdown()
-        return 2
-    try:
-        rclpy.spin(node)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    finally:
-        node.destroy_node()
-        rclpy.try_shutdown()
-    return 0
+    return run_node(TrainerNode, "trainer", args)
 
 
 if __name__ == "__main__":

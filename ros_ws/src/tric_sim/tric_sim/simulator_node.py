@@ -22,10 +22,8 @@ import threading
 import time
 
 import numpy as np
-import rclpy
 from rclpy.callback_groups import MutuallyExclusiveCallbackGroup
 from rclpy.event_handler import PublisherEventCallbacks
-from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rcl_interfaces.msg import ParameterDescriptor
@@ -36,6 +34,7 @@ from tric_msgs.srv import EvaluateTask, RenderScene, ResetScene
 
 from tric_sim import messages, metrics
 from tric_sim.lockstep import TopicPoller
+from tric_sim.node_main import run_node
 from tric_sim.physics import PhysicsWorld
 from tric_sim.robot_model import RobotModel
 from tric_sim.situations import find_situation
@@ -268,21 +267,7 @@ class SimulatorNode(Node):
 
 
 def main(args=None):
-    rclpy.init(args=args)
-    try:
-        node = SimulatorNode()
-    except ValueError as error:
-        print(f"simulator: {error}", file=sys.stderr)
-        rclpy.try_shutdown()
-        return 2
-    try:
-        rclpy.spin(node)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    finally:
-        node.destroy_node()
-        rclpy.try_shutdown()
-    return 0
+    return run_node(SimulatorNode, "simulator", args)
 
 
 if __name__ == "__main__":

@@ -11,9 +11,7 @@ are rejected while one runs.
 import sys
 import threading
 
-import rclpy
 from rclpy.action import ActionServer, CancelResponse, GoalResponse
-from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from rcl_interfaces.msg import ParameterDescriptor
@@ -24,6 +22,7 @@ from tric_msgs.srv import EvaluateTask, ResetScene
 
 from tric_sim import messages
 from tric_sim.lockstep import StateStream, command_msg, run_in_thread
+from tric_sim.node_main import run_node
 from tric_sim.robot_model import RobotModel
 from tric_sim.teachers import make_teacher
 
@@ -163,16 +162,7 @@ class TeacherNode(Node):
 
 
 def main(args=None):
-    rclpy.init(args=args)
-    node = TeacherNode()
-    try:
-        rclpy.spin(node)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    finally:
-        node.destroy_node()
-        rclpy.try_shutdown()
-    return 0
+    return run_node(TeacherNode, "teacher", args)
 
 
 if __name__ == "__main__":

@@ -1,0 +1,27 @@
+"""The body of every node executable's main(), as `ros2 run` runs it: build one node, spin it until
+Ctrl-C or an external shutdown, then destroy it. A node that refuses its parameters (ValueError)
+ends the process with its message on one line and exit status 2; otherwise the status is 0."""
+
+import sys
+
+import rclpy
+from rclpy.executors import ExternalShutdownException
+
+
+def run_node(node_class, prog: str, args=None) -> int:
+    """Run node_class() under rclpy; prog names the executable in the error message."""
+    rclpy.init(args=args)
+    try:
+        node = node_class()
+    except ValueError as error:
+        print(f"{prog}: {error}", file=sys.stderr)
+        rclpy.try_shutdown()
+        return 2
+    try:
+        rclpy.spin(node)
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        node.destroy_node()
+        rclpy.try_shutdown()
+    return 0
