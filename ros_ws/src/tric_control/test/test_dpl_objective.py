@@ -18,7 +18,7 @@ from tric_sim.robot_model import HOME, RobotModel
 
 SPHERE = {"object": (np.array([0.6, 0.0, 0.35]), np.array([0.0, 0.0, 0.0, 1.0]))}
 BOX = {"object": (np.array([0.6, 0.1, 0.1]), np.array([0.0, 0.0, 0.2474, 0.9689])),
-       "lid": (np.array([0.6, 0.1, 0.2]), np.array([0.0, 0.0, 0.2474, 0.9689]))}
+       "lid_edge": (np.array([0.5, 0.1, 0.2]), np.array([0.0, 0.0, 0.2474, 0.9689]))}
 SAMPLE_PERIOD = 0.125
 CONTROL_PERIOD = 0.01
 

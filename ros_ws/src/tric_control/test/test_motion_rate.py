@@ -2,6 +2,8 @@
 solutions, joint and velocity limits under an adversarial objective, collision rows against an
 obstacle, convergence with TRIC's value objective, and refused inputs. Units: rad, m, s."""
 
+from dataclasses import replace
+
 import coal
 import numpy as np
 import pinocchio as pin
@@ -14,7 +16,7 @@ from tric_control.objectives import make_objective
 from tric_learning.features import FeatureDefinition, FeatureMap
 from tric_learning.model_file import ModelFile, value_function_arrays
 from tric_learning.value_function import Scaling, ValueFunction
-from tric_sim import situations
+from tric_sim import scene, situations
 from tric_sim.collision import Proximity, coal_shape
 from tric_sim.robot_model import RobotModel
 
@@ -253,15 +255,24 @@ def test_make_objective_runs_tric_models_and_refuses_the_others(robot):
 
 # --- what the hand may press ---------------------------------------------------------------------
 
-@pytest.mark.parametrize("dataset, body, scene_role, hand_role, hand_safety", [
-    ("sphere_test", "object", "target", "touch", -TOUCH_DEPTH),
-    ("box_test", "lid", "lid", "push", -PUSH_DEPTH),
-    ("box_test", "object", "box_body", "box_body", SAFETY)])
-def test_hand_pairs_get_the_role_of_what_the_hand_may_do_there(robot, dataset, body, scene_role, hand_role,
+def upside_down(situation):
+    """The situation's box turned over about its x axis, in place: its lid's normal points down."""
+    turned = pin.Quaternion(scene.se3((0, 0, 0), situation.object_orientation).rotation
+                            @ pin.utils.rotate("x", np.pi))
+    return replace(situation, object_orientation=(turned.x, turned.y, turned.z, turned.w)).validate()
+
+
+@pytest.mark.parametrize("situation, body, scene_role, hand_role, hand_safety", [
+    (situations.dataset("sphere_test")[0], "object", "target", "touch", -TOUCH_DEPTH),
+    (upside_down(situations.dataset("box_test")[0]), "lid", "lid", "push", -PUSH_DEPTH),
+    (situations.dataset("box_test")[0], "lid", "lid", "lid", SAFETY),
+    (situations.dataset("box_test")[0], "object", "box_body", "box_body", SAFETY)],
+    ids=["target", "lid_from_beneath", "lid_from_above", "box_body"])
+def test_hand_pairs_get_the_role_of_what_the_hand_may_do_there(robot, situation, body, scene_role, hand_role,
                                                                hand_safety):
-    """The hand may press into a grasp target (role "touch") and deeper into a lid ("push"), and keeps
-    SAFETY from a box's body; the arm keeps SAFETY from all of them (the body's own role)."""
-    situation = situations.dataset(dataset)[0]
+    """The hand may press into a grasp target (role "touch") and deeper into a lid from beneath
+    ("push"), and keeps SAFETY from a lid it is above (at home, over a closed box) and from a box's
+    body; the arm keeps SAFETY from all of them (the body's own role)."""
     pairs = Proximity(robot, situation).near(robot.home, {}, influence=10.0)
     roles = {(pair.name.split("/")[0].startswith(("finger_", "palm")), pair.role)
              for pair in pairs if pair.name.endswith(f"/{body}")}

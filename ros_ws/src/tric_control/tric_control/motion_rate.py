@@ -23,7 +23,9 @@ Priors (C_prior of Eq. 9) are constraints:
   come to touch the object (contact is the goal there) and may press into it a few millimetres,
   which makes the grip; the lid is there to be pushed open, so the hand may press deeper and feels no
   soft touch prior (with both, measured on the first 12 test boxes: 0 opened, every episode stalled
-  with a finger under the lip; without: 4).
+  with a finger under the lip; without: 4). Only from beneath, though (Proximity decides): from
+  above, pressing can only shut the lid, and the hand keeps SAFETY from it (without that, measured:
+  fingers pressing the closed lid's top, its hinge forced below 0).
 
 - the model's domain: a learned value function is only known where it was trained. Each kept
   feature u (scaled to [0, 1] over the demonstrations and noisy samples) is kept within
@@ -216,12 +218,15 @@ class Objective:
 
 
 def domain_rows(u: np.ndarray, du_dq: np.ndarray, count: int):
-    """The count kept features nearest the bounds of their training range (+-DOMAIN_MARGIN), from
+    """The count kept features that move with q (the others, such as the box's position seen from
+    the robot's base, no step can change) nearest the bounds of their training range
+    (+-DOMAIN_MARGIN), from
     the scaled kept features u (s,) and their Jacobian du_dq (s, n): the gradients of their margins
     (count, n), the margins (count,) and the features' indices into the kept features."""
     to_low, to_high = u + DOMAIN_MARGIN, 1.0 + DOMAIN_MARGIN - u
     margins = np.minimum(to_low, to_high)
-    nearest = np.argsort(margins)[:count]
+    moving = np.flatnonzero(du_dq.any(axis=1))   # the others (object to object, base to object) stay put
+    nearest = moving[np.argsort(margins[moving])[:count]]
     rows = du_dq[nearest]
     rows[~(to_low[nearest] <= to_high[nearest])] *= -1.0   # the upper bound's margin falls as u rises
     return rows, margins[nearest], nearest

@@ -131,7 +131,7 @@ def test_finger_targets_are_fingertip_steps_in_the_box_frame(robot):
     feature_map = FeatureMap(definition, robot)
     yaw = 0.5
     box = (np.array([0.6, 0.1, 0.1]), np.array([0.0, 0.0, np.sin(yaw / 2), np.cos(yaw / 2)]))
-    poses = {"object": box, "lid": (np.array([0.6, 0.1, 0.2]), box[1])}
+    poses = {"object": box, "lid_edge": (np.array([0.5, 0.1, 0.2]), box[1])}
     q0 = HOME.copy()
     q1 = HOME + np.linspace(-0.05, 0.05, robot.n_joints)
     configurations = [q0, q1, q1]

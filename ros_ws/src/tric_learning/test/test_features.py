@@ -50,7 +50,8 @@ def test_values_on_a_hand_made_configuration(robot):
 
 @pytest.mark.parametrize("task, poses", [
     ("grasp", {"object": ((0.6, 0.1, 0.3), (0.0, 0.2, 0.0, 0.98))}),
-    ("open_box", {"object": ((0.6, 0.0, 0.1), (0.0, 0.0, 0.2, 0.98)), "lid": ((0.7, 0.0, 0.2), (0.0, 0.3, 0.95, 0.1))}),
+    ("open_box", {"object": ((0.6, 0.0, 0.1), (0.0, 0.0, 0.2, 0.98)),
+                  "lid_edge": ((0.5, 0.0, 0.2), (0.0, 0.3, 0.95, 0.1))}),
 ])
 def test_jacobian_matches_finite_differences(robot, task, poses):
     features = FeatureMap(FeatureDefinition.for_task(task, robot), robot)
@@ -79,7 +80,7 @@ def test_batch_matches_single_evaluations(robot):
 def test_missing_object_and_other_robot_are_refused(robot):
     definition = FeatureDefinition.for_task("open_box", robot)
     features = FeatureMap(definition, robot)
-    with pytest.raises(ValueError, match="'lid' is missing"):
+    with pytest.raises(ValueError, match="'lid_edge' is missing"):
         features(robot.home, {"object": ((0.6, 0.0, 0.1), (0.0, 0.0, 0.0, 1.0))})
     other = FeatureDefinition(definition.task, definition.landmark_names, definition.landmark_sources,
                               definition.pairs, definition.joint_names, "another_robot:0000")

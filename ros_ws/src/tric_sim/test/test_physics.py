@@ -57,6 +57,21 @@ def test_lid_rests_closed_and_opens_when_pushed_up(world):
     assert np.allclose(position, hinge.translation, atol=1e-3)  # the hinge does not move
 
 
+def test_lid_edge_pose_is_the_lip_and_turns_with_the_lid(world):
+    situation = S.box("b", 0.2, 0.6, 0.0, 0.3)
+    world.reset(situation)
+    hinge = scene.hinge_placement(situation)
+    lip = hinge.act(np.array([0.2 + scene.LID_OVERHANG, 0.0, 0.0]))
+    position, orientation = world.object_poses()["lid_edge"]
+    assert np.allclose(position, lip, atol=1e-3)
+    assert np.allclose(scene.se3(position, orientation).rotation, hinge.rotation, atol=1e-3)
+    pb.resetJointState(world.bodies["object"], 0, 0.5, physicsClientId=world.client)
+    position, orientation = world.object_poses()["lid_edge"]
+    opened = scene.lid_placement(hinge, 0.5)
+    assert np.allclose(position, opened.act(np.array([0.2 + scene.LID_OVERHANG, 0.0, 0.0])), atol=1e-3)
+    assert position[2] > lip[2] + 0.1  # lifted: 25 cm from the hinge, turned by 0.5 rad
+
+
 def test_servos_respect_velocity_limits(world, robot):
     world.reset(S.sphere("s", (0.6, 0.0, 0.35)))
     target = robot.home.copy()

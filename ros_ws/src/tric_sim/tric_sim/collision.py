@@ -194,7 +194,7 @@ class ClosePair:
     """A robot geometry near something it must not penetrate: signed distance (m), the row (n,)
     that maps a joint step dq to the change of that distance (n^T J at the witness points), and the
     other's role: a scene body's ("table", "obstacle", "box_body", "target", "lid"), "touch" for the
-    hand against the grasp target (which it may press to grip), "push" for the hand against the lid
+    hand against the grasp target (which it may press to grip), "push" for the hand beneath the lid
     (which it must push open), or "self" (another robot part)."""
 
     name: str
@@ -208,8 +208,10 @@ class Proximity:
     scene bodies they must avoid, and arm geometries near other robot geometries.
 
     Every robot geometry is checked against every scene body; pairs of the hand (palm and fingers)
-    with the grasp target get the role "touch", with the lid "push" (the hand may press them). Pairs inside the
-    hand are left to its joint limits (fingers touching each other do no harm).
+    with the grasp target get the role "touch", with the lid "push" (the hand may press them), but
+    only while the hand is beneath the lid: a lid opens upwards, so pressing it from above can only
+    shut it, and there it is a body to keep clear of ("lid"). Pairs inside the hand are left to its
+    joint limits (fingers touching each other do no harm).
 
     The scene bodies are added to a copy of the robot's collision model (fixed to the world), with
     one collision pair per (moving robot geometry, body) and per self pair, so that Pinocchio places
@@ -296,9 +298,22 @@ class Proximity:
                 normals.append(result.normal)  # from the first geometry towards the second
         if not close:
             return []
-        rows = self._rows(close, np.array(distances), np.array(points), -np.array(normals))
-        return sorted((ClosePair(self._names[pair], distance, row, self._roles[pair])
-                       for pair, distance, row in zip(close, distances, rows)), key=lambda p: p.distance)
+        aways = -np.array(normals)
+        rows = self._rows(close, np.array(distances), np.array(points), aways)
+        roles = [self._role(pair, away) for pair, away in zip(close, aways)]
+        return sorted((ClosePair(self._names[pair], distance, row, role)
+                       for pair, distance, row, role in zip(close, distances, rows, roles)),
+                      key=lambda p: p.distance)
+
+    def _role(self, pair: int, away: np.ndarray) -> str:
+        """The role of pair at the moment: a hand-lid pair whose hand side moves away from the lid
+        along the lid's normal (unit away (3,), world frame) is above the lid: "lid", not "push"."""
+        role = self._roles[pair]
+        if role == "push":
+            lid = self._body_placements[pair % self._body_count]
+            if away @ lid.rotation[:, 2] > 0.0:
+                return "lid"
+        return role
 
     def _rows(self, pairs: list, distances: np.ndarray, points: np.ndarray, aways: np.ndarray) -> np.ndarray:
         """The rows (k, n) that map a joint step to the change of the pairs' distances (k,): the

@@ -256,7 +256,7 @@ class PhysicsWorld:
 
     def object_poses(self) -> dict:
         """World pose of every object: name -> (position (3,), xyzw quaternion). The lid's pose is
-        its hinge frame (see scene)."""
+        its hinge frame ("lid", see scene), and "lid_edge" is its lip (scene.lid_edge_offset)."""
         poses = {}
         for name, uid in self.bodies.items():
             if self.body_roles[name] == "table":
@@ -266,6 +266,8 @@ class PhysicsWorld:
             if self.body_roles[name] == "box_body":
                 link = pb.getLinkState(uid, 0, computeForwardKinematics=True, physicsClientId=self.client)
                 poses["lid"] = (tuple(link[4]), tuple(link[5]))
+                edge = scene.se3(link[4], link[5]) * scene.lid_edge_offset(self.situation.object_dimensions[0])
+                poses["lid_edge"] = scene.pose_tuple(edge)
         return poses
 
     def lid_angle(self) -> float:

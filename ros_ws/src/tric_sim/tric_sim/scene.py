@@ -79,6 +79,12 @@ def lid_geometry_offset(side: float) -> pin.SE3:
     return pin.SE3(np.eye(3), np.array([depth / 2, 0.0, thickness / 2]))
 
 
+def lid_edge_offset(side: float) -> pin.SE3:
+    """Placement of the lid's lip (the middle of its free edge, on its underside) in the lid (hinge)
+    frame: where a finger lifts the lid from."""
+    return pin.SE3(np.eye(3), np.array([lid_extents(side)[0], 0.0, 0.0]))
+
+
 def hinge_placement(situation: Situation) -> pin.SE3:
     """World placement of the closed lid's hinge frame: on the body's top edge at local +x, x pointing
     back over the box (towards local -x), z up."""
