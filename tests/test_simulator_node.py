@@ -90,7 +90,7 @@ def test_reset_scene_service_and_latched_situation(ros_context, spin):
     response = call(client, ResetScene, "/simulator/reset_scene",
                     ResetScene.Request(situation=messages.situation_to_msg(box)))
     assert response.success, response.message
-    assert set(response.objects.names) == {"object", "lid"}
+    assert set(response.objects.names) == {"object", "lid", "lid_edge"}
     wait_for(lambda: received[-1].name == box.name, what="the new situation on /situation")
     bad = messages.situation_to_msg(box)
     bad.task = "juggle"
