@@ -36,10 +36,11 @@ def median_call_us(feature_map: FeatureMap, configurations: np.ndarray, object_p
 
 def box_object_poses() -> dict:
     """The box and (closed) lid poses of the first box test situation, as the simulator reports
-    them: the lid's pose is its hinge frame."""
+    them: the lid's pose is its hinge frame, lid_edge its lip."""
     box = situations.dataset("box_test")[0]
-    return {"object": (box.object_position, box.object_orientation),
-            "lid": scene.pose_tuple(scene.hinge_placement(box))}
+    hinge = scene.hinge_placement(box)
+    return {"object": (box.object_position, box.object_orientation), "lid": scene.pose_tuple(hinge),
+            "lid_edge": scene.pose_tuple(hinge * scene.lid_edge_offset(box.object_dimensions[0]))}
 
 
 def run() -> dict:
