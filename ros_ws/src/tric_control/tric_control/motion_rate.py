@@ -195,8 +195,11 @@ class MotionRateController:
                                   | (step >= box_high - 1e-9) & (box_high < max_step - 1e-9))]
         self.values.append(model.value)
         self.history.append(q)
-        converged = (len(self.history) > CONVERGED_WINDOW
-                     and np.linalg.norm(q - self.history[-CONVERGED_WINDOW - 1]) < CONVERGED_MOTION)
+        if len(self.history) > CONVERGED_WINDOW:
+            motion = q - self.history[-CONVERGED_WINDOW - 1]
+            converged = motion @ motion < CONVERGED_MOTION ** 2
+        else:
+            converged = False
         return Tick(target=self.reference.copy(), value=model.value, gradient_norm=model.gradient_norm, step=step,
                     min_distance=pairs[0].distance if pairs else INFLUENCE, active=active,
                     converged=converged)
@@ -217,19 +220,19 @@ class Objective:
     domain_names: list = field(default_factory=list)
 
 
-def domain_rows(u: np.ndarray, du_dq: np.ndarray, count: int):
-    """The count kept features that move with q (the others, such as the box's position seen from
-    the robot's base, no step can change) nearest the bounds of their training range
-    (+-DOMAIN_MARGIN), from
-    the scaled kept features u (s,) and their Jacobian du_dq (s, n): the gradients of their margins
-    (count, n), the margins (count,) and the features' indices into the kept features."""
-    to_low, to_high = u + DOMAIN_MARGIN, 1.0 + DOMAIN_MARGIN - u
+def domain_rows(u: np.ndarray, du_dq: np.ndarray, count: int, moving: np.ndarray):
+    """The count features nearest the bounds of their training range (+-DOMAIN_MARGIN) among the
+    moving ones (indices into the kept features: those a step can change, not, say, the box's
+    position seen from the robot's base), from the scaled kept features u (s,) and their Jacobian
+    du_dq (s, n): the gradients of their margins (count, n), the margins (count,) and the features'
+    indices into the kept features, nearest first."""
+    to_low, to_high = u[moving] + DOMAIN_MARGIN, 1.0 + DOMAIN_MARGIN - u[moving]
     margins = np.minimum(to_low, to_high)
-    moving = np.flatnonzero(du_dq.any(axis=1))   # the others (object to object, base to object) stay put
-    nearest = moving[np.argsort(margins[moving])[:count]]
-    rows = du_dq[nearest]
-    rows[~(to_low[nearest] <= to_high[nearest])] *= -1.0   # the upper bound's margin falls as u rises
-    return rows, margins[nearest], nearest
+    nearest = np.argpartition(margins, count)[:count] if count < len(margins) else np.arange(len(margins))
+    nearest = nearest[np.argsort(margins[nearest])]
+    # the upper bound's margin falls as u rises
+    rows = du_dq[moving[nearest]] * np.where(to_low[nearest] <= to_high[nearest], 1.0, -1.0)[:, None]
+    return rows, margins[nearest], moving[nearest]
 
 
 class ValueObjective:
@@ -241,15 +244,17 @@ class ValueObjective:
         self.features, self.value_function, self.delta, self.rho = feature_map, value_function, delta, rho
         names = feature_names or feature_map.definition.feature_names
         self.kept_names = [names[k] for k in value_function.scaling.kept]
+        self._moving = np.flatnonzero(feature_map.moves_with_q[value_function.scaling.kept])
+        self._factor = value_function.scaling.factor[:, None]
 
     def __call__(self, q, object_poses) -> Objective:
         y, jacobian = self.features.with_jacobian(q, object_poses)
         scaling = self.value_function.scaling
         u = scaling.transform(y)
         value, df_du = self.value_function.scaled_gradient(u)
-        du_dq = jacobian[scaling.kept] * scaling.factor[:, None]               # (s, n)
+        du_dq = jacobian[scaling.kept] * self._factor                          # (s, n)
         g = df_du @ du_dq
-        rows, margins, nearest = domain_rows(u, du_dq, DOMAIN_ROWS)
+        rows, margins, nearest = domain_rows(u, du_dq, DOMAIN_ROWS, self._moving)
         return Objective(hessian=2.0 * self.rho * np.outer(g, g), linear=2.0 * self.rho * self.delta * g,
                          value=value, gradient_norm=math.sqrt(g @ g), domain_rows=rows, domain_margins=margins,
                          domain_names=[self.kept_names[k] for k in nearest])

@@ -68,6 +68,24 @@ def test_jacobian_matches_finite_differences(robot, task, poses):
         assert np.abs(jacobian - numeric).max() < 1e-6
 
 
+def test_features_that_no_joint_moves_are_known(robot):
+    """moves_with_q marks the features with a Jacobian: not those between the box, the lid and the
+    robot's fixed base, whose Jacobian rows are zero at every configuration."""
+    definition = FeatureDefinition.for_task("open_box", robot)
+    features = FeatureMap(definition, robot)
+    still = {name for name, moving in zip(definition.feature_names, features.moves_with_q) if not moving}
+    fixed = ("box", "lid", "robot_base")
+    assert still == {name for name in definition.feature_names
+                     if all(landmark in fixed for landmark in name[2:].split("]")[0].replace("->", ",").split(","))}
+    assert len(still) == 4 * 6  # the 6 ordered pairs of the 3 fixed landmarks
+    poses = {"object": ((0.6, 0.0, 0.1), (0.0, 0.0, 0.2, 0.98)), "lid_edge": ((0.5, 0.0, 0.2), (0.0, 0.3, 0.95, 0.1))}
+    rng = np.random.default_rng(1)
+    configurations = rng.uniform(robot.lower, robot.upper, (5, robot.n_joints))
+    jacobians = [features.with_jacobian(q, poses)[1] for q in configurations]
+    assert all(np.all(jacobian[~features.moves_with_q] == 0.0) for jacobian in jacobians)
+    assert np.all(np.any([np.abs(jacobian[features.moves_with_q]).max(axis=1) > 0 for jacobian in jacobians], axis=0))
+
+
 def test_batch_matches_single_evaluations(robot):
     features = FeatureMap(FeatureDefinition.for_task("grasp", robot), robot)
     poses = {"object": ((0.6, 0.1, 0.3), (0.0, 0.0, 0.0, 1.0))}

@@ -157,15 +157,16 @@ class FeatureMap:
         self._pair = first * count + second
         # R_i^T (x_j - x_k) for all i, (k, j) is (3 L, L L); y's p_ij is at [3 i + a, L i + j]
         self._local_index = ((3 * first[:, None] + np.arange(3)) * count * count + self._pair[:, None])
-        self._jacobian_index, self._extra_jacobian_indices = self._jacobian_indices(robot)
+        self._jacobian_index, self._extra_jacobian_indices, self.moves_with_q = self._jacobian_indices(robot)
         self._object_rotations = {}  # object name -> (its xyzw quaternion, rotation matrix)
 
     def _jacobian_indices(self, robot: RobotModel):
         """Flat indices into with_jacobian's projections (rows of _directions, E columns of data.J,
         L points): (P, 4, n) whose entry [pair, row, c] is the first extended column summed into q's
         column c (RobotModel.extended_to_q), projected on the row's direction with the sign of its
-        relative motion, or the zero row; and [(c, (P, 4))] the same for the further extended
-        columns of the q columns that have more than one (a coupled joint)."""
+        relative motion, or the zero row; [(c, (P, 4))] the same for the further extended columns of
+        the q columns that have more than one (a coupled joint); and which features (d,) move with q
+        at all (not those between objects and the robot's fixed base, say)."""
         count, first, second = self._count, self._first, self._second
         columns = robot.joint_supports.shape[1]
         # the columns of data.J that move each landmark (none for objects), and for each pair those
@@ -186,7 +187,8 @@ class FeatureMap:
             return (row * columns + e) * count + second[:, None]
 
         first_terms = np.stack([index(extended[0]) for extended in sources], axis=-1)
-        return first_terms, [(c, index(e)) for c, extended in enumerate(sources) for e in extended[1:]]
+        extras = [(c, index(e)) for c, extended in enumerate(sources) for e in extended[1:]]
+        return first_terms, extras, np.repeat(np.any(relative != 0.0, axis=1), 4)
 
     @property
     def size(self) -> int:

@@ -300,20 +300,17 @@ class Proximity:
             return []
         aways = -np.array(normals)
         rows = self._rows(close, np.array(distances), np.array(points), aways)
-        roles = [self._role(pair, away) for pair, away in zip(close, aways)]
+        roles = [self._roles[pair] if self._roles[pair] != "push" else self._push_role(pair, away)
+                 for pair, away in zip(close, aways)]
         return sorted((ClosePair(self._names[pair], distance, row, role)
                        for pair, distance, row, role in zip(close, distances, rows, roles)),
                       key=lambda p: p.distance)
 
-    def _role(self, pair: int, away: np.ndarray) -> str:
-        """The role of pair at the moment: a hand-lid pair whose hand side moves away from the lid
-        along the lid's normal (unit away (3,), world frame) is above the lid: "lid", not "push"."""
-        role = self._roles[pair]
-        if role == "push":
-            lid = self._body_placements[pair % self._body_count]
-            if away @ lid.rotation[:, 2] > 0.0:
-                return "lid"
-        return role
+    def _push_role(self, pair: int, away: np.ndarray) -> str:
+        """The role of a hand-lid pair at the moment: "push", or "lid" where its hand side moves away
+        from the lid along the lid's normal (unit away (3,), world frame), i.e. is above the lid."""
+        lid = self._body_placements[pair % self._body_count]
+        return "lid" if away @ lid.rotation[:, 2] > 0.0 else "push"
 
     def _rows(self, pairs: list, distances: np.ndarray, points: np.ndarray, aways: np.ndarray) -> np.ndarray:
         """The rows (k, n) that map a joint step to the change of the pairs' distances (k,): the
@@ -330,11 +327,15 @@ class Proximity:
 
 def _body_distance(body: scene.Body, placement: pin.SE3, points: np.ndarray) -> np.ndarray:
     """Signed distance (k,) of points (k, 3) to a scene body's surface."""
-    if body.shape in ("sphere", "cylinder"):
+    if body.shape == "sphere":
+        offsets = points - placement.translation
+        return np.sqrt(np.einsum("ka,ka->k", offsets, offsets)) - body.dimensions[0]
+    if body.shape == "cylinder":
         return metrics.object_surface(body.shape, body.dimensions, placement, points)[0]
     local = (points - placement.translation) @ placement.rotation
     q = np.abs(local) - np.asarray(body.dimensions) / 2
-    return np.linalg.norm(np.maximum(q, 0.0), axis=1) + np.minimum(q.max(axis=1), 0.0)
+    outside = np.maximum(q, 0.0)
+    return np.sqrt(np.einsum("ka,ka->k", outside, outside)) + np.minimum(q.max(axis=1), 0.0)
 
 
 class _Cylinder:
