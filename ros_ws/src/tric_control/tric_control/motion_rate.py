@@ -226,10 +226,10 @@ def domain_rows(u: np.ndarray, du_dq: np.ndarray, count: int, moving: np.ndarray
     position seen from the robot's base), from the scaled kept features u (s,) and their Jacobian
     du_dq (s, n): the gradients of their margins (count, n), the margins (count,) and the features'
     indices into the kept features, nearest first."""
-    to_low, to_high = u[moving] + DOMAIN_MARGIN, 1.0 + DOMAIN_MARGIN - u[moving]
+    scaled = u[moving]
+    to_low, to_high = scaled + DOMAIN_MARGIN, 1.0 + DOMAIN_MARGIN - scaled
     margins = np.minimum(to_low, to_high)
-    nearest = np.argpartition(margins, count)[:count] if count < len(margins) else np.arange(len(margins))
-    nearest = nearest[np.argsort(margins[nearest])]
+    nearest = np.argsort(margins)[:count]
     # the upper bound's margin falls as u rises
     rows = du_dq[moving[nearest]] * np.where(to_low[nearest] <= to_high[nearest], 1.0, -1.0)[:, None]
     return rows, margins[nearest], moving[nearest]

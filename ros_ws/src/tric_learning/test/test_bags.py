@@ -1,9 +1,11 @@
 """MCAP bags (tric_learning.bags): round trips checked by this module, by `mcap`, by `rosbags` and by
-ROS 2's own serializer; the rosbag2 conventions of the file; crash safety and damaged files."""
+ROS 2's own serializer; the rosbag2 conventions of the file; crash safety and damaged files; the
+reference datasets under bags/ read by our reader and by `rosbags`."""
 
 import array
 import math
 import os
+import pathlib
 import random
 import shutil
 import signal
@@ -29,9 +31,12 @@ from shape_msgs.msg import SolidPrimitive
 from std_msgs.msg import (Byte, ByteMultiArray, Char, Empty, Header, MultiArrayDimension, MultiArrayLayout,
                           UInt16MultiArray)
 from tric_learning import bags
+from tric_learning.recording import SAMPLES_TOPIC, bag_paths, load_dataset
 from tric_msgs.msg import EpisodeEvent, FeatureSample, ObjectPoses, Situation, TaskMetrics
+from tric_sim.robot_model import RobotModel
 
 NAN = float("nan")
+REFERENCE_BAGS = pathlib.Path(__file__).resolve().parents[4] / "bags"
 
 
 def _pose(x, y, z, qw=1.0):
@@ -200,13 +205,18 @@ def test_read_bag_returns_what_was_written(bag, messages):
     assert read[7].message.data == bytes([0, 1, 2, 255, 0])
 
 
-def test_rosbags_reads_the_same_messages(bag, messages, tmp_path):
-    # rosbags reads rosbag2 directories: the bag file and the metadata.yaml that rosbag2 would write,
-    # which is the bag's own "rosbag2" metadata record.
-    shutil.copy(bag, tmp_path / bag.name)
-    (tmp_path / "metadata.yaml").write_text(yaml.safe_dump(
+def _rosbag2_folder(bag, folder):
+    """folder, made what rosbags reads: a rosbag2 directory with the bag file and the metadata.yaml
+    that rosbag2 would write, which is the bag's own last "rosbag2" metadata record (written at close)."""
+    folder.mkdir(parents=True, exist_ok=True)
+    shutil.copy(bag, folder / bag.name)
+    (folder / "metadata.yaml").write_text(yaml.safe_dump(
         {"rosbag2_bagfile_information": _rosbag2_metadata(bag)[-1]}))
-    with AnyReader([tmp_path]) as reader:
+    return folder
+
+
+def test_rosbags_reads_the_same_messages(bag, messages, tmp_path):
+    with AnyReader([_rosbag2_folder(bag, tmp_path)]) as reader:
         assert reader.message_count == len(messages)
         read = [(c.topic, t, reader.deserialize(raw, c.msgtype)) for c, t, raw in reader.messages()]
     assert [(t, s) for t, s, _ in read] == [(t, s) for t, _, s in messages]
@@ -517,3 +527,21 @@ def test_foreign_and_missing_files_are_refused_clearly(tmp_path):
         bags.read_bag(other)
     with pytest.raises(ValueError, match="not a ROS 2 bag"):
         bags.bag_info(other, tolerant=True)
+
+
+@pytest.mark.parametrize("folder, task, demos, samples", [
+    ("sphere", "grasp", 27, 40), ("cylinder", "grasp", 10, 40), ("box", "open_box", 10, 64)])
+def test_reference_dataset_loads_and_rosbags_reads_the_same_samples(folder, task, demos, samples, tmp_path):
+    """The reference datasets committed under bags/ load with our reader, and rosbags reads the same
+    samples from every bag."""
+    files = bag_paths([REFERENCE_BAGS / folder])
+    dataset = load_dataset(files, RobotModel())
+    assert dataset.definition.task == task
+    assert [demo.length for demo in dataset.demos] == [samples] * demos
+    assert all(demo.metrics.get("success") for demo in dataset.demos)
+    for bag, demo in zip(files, dataset.demos):
+        with AnyReader([_rosbag2_folder(bag, tmp_path / bag.stem)]) as reader:
+            connections = [c for c in reader.connections if c.topic == SAMPLES_TOPIC]
+            read = [reader.deserialize(raw, c.msgtype) for c, _, raw in reader.messages(connections=connections)]
+        assert np.array_equal([message.q for message in read], demo.q), bag.name
+        assert np.array_equal([message.y for message in read], demo.y), bag.name
