@@ -75,6 +75,15 @@ def cosines_along_demos(model: ValueFunction, dataset: Dataset, min_step: float 
     return cosines
 
 
+def moving_only(cosines: np.ndarray, dataset: Dataset) -> np.ndarray:
+    """cosines (N, T_max - 1) from cosines_along_demos() with NaN where the step is shorter than
+    MIN_STEP rad: the same as cosines_along_demos(..., MIN_STEP), without computing them again."""
+    lengths = np.full(cosines.shape, np.nan)
+    for i, demo in enumerate(dataset.demos):
+        lengths[i, :demo.length - 1] = np.linalg.norm(np.diff(demo.q, axis=0), axis=1)
+    return np.where(lengths >= MIN_STEP, cosines, np.nan)
+
+
 def gradients_along_demos(model: ValueFunction, dataset: Dataset) -> np.ndarray:
     """df/du at every sample, u the kept features rescaled to [0, 1] (the paper's y):
     (N, T_max, s) for N demos of at most T_max samples, NaN past a demo's end."""
@@ -209,9 +218,9 @@ def write_figures(model: ValueFunction, dataset: Dataset, out: pathlib.Path, top
     """Fig. 13, 14a, 16 and 17a of model on dataset as out/VALUE_FIGURE, ... (out is created); their paths."""
     out.mkdir(parents=True, exist_ok=True)
     names = dataset.definition.feature_names
+    cosines = cosines_along_demos(model, dataset)
     return [plot_values(values_along_demos(model, dataset), [demo.name for demo in dataset.demos], out / VALUE_FIGURE),
-            plot_cosines(cosines_along_demos(model, dataset), cosines_along_demos(model, dataset, MIN_STEP),
-                         out / COSINES_FIGURE),
+            plot_cosines(cosines, moving_only(cosines, dataset), out / COSINES_FIGURE),
             plot_scores(ranked_features(model, names), out / SCORES_FIGURE, top),
             plot_gradients(mean_over_demos(gradients_along_demos(model, dataset)), model, names,
                            out / GRADIENTS_FIGURE, top)]
@@ -225,7 +234,8 @@ def key_numbers(model: ValueFunction, dataset: Dataset, top: int) -> dict:
     (score above SELECTED_FRACTION of the largest); the top features [{name, score}]; and how many of
     them have a mean gradient (Fig. 17a) that changes sign over time."""
     all_steps, moving_steps = decreasing_shares(model, dataset)
-    cosines, moving = cosines_along_demos(model, dataset), cosines_along_demos(model, dataset, MIN_STEP)
+    cosines = cosines_along_demos(model, dataset)
+    moving = moving_only(cosines, dataset)
     late = int(round(0.75 * moving.shape[1]))
     ranked = ranked_features(model, dataset.definition.feature_names)
     scores = np.array([score for _, score in ranked])
