@@ -23,5 +23,6 @@ setup(
         "simulator = tric_sim.simulator_node:main",
         "teacher = tric_sim.teacher_node:main",
         "tric-snapshot = tric_sim.snapshot:main",
+        "visualizer = tric_sim.visualizer_node:main",
     ]},
 )

@@ -11,7 +11,8 @@ Topics:
 - publishes /joint_command (sensor_msgs/JointState: all of the robot's joints, by name, position
   targets in rad), /episode (tric_msgs/EpisodeEvent: START with the situation, END, or ABORT on failure
   or cancel; source = the model kind, e.g. "tric") and ~/status (tric_msgs/ControllerStatus, every
-  tick; in realtime mode also while idle or holding).
+  tick, with f, the step, the active constraints and the top features (tric_control.top_features);
+  in realtime mode also while idle or holding).
 
 Services and actions:
 - ~/load_model (tric_msgs/srv/LoadModel): load a model file. Refused, keeping the current model, when
@@ -75,6 +76,7 @@ from tric_sim.robot_model import RobotModel
 
 from tric_control.motion_rate import MotionRateController
 from tric_control.objectives import make_objective
+from tric_control.top_features import TopFeatures
 
 STATE_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
 EVENT_QOS = QoSProfile(depth=20, reliability=ReliabilityPolicy.RELIABLE)
@@ -93,10 +95,11 @@ class Canceled(Exception):
 
 
 class Loaded:
-    """A loaded model: its file, path and controller objective."""
+    """A loaded model: its file, path, controller objective and the top features its status shows."""
 
     def __init__(self, path: str, model_file: ModelFile, objective):
         self.path, self.file, self.objective = path, model_file, objective
+        self.top_features = TopFeatures(objective)
         self.kind = model_file.kind
         self.objects = tuple(source.partition("/")[2] for source in model_file.definition.landmark_sources
                              if source.startswith("object/"))
@@ -457,6 +460,7 @@ class ControllerNode(Node):
             value_rate=float(getattr(episode.model.objective, "delta", math.nan)),
             gradient_norm=float(tick.gradient_norm), step_norm=step_norm,
             min_distance=float(tick.min_distance), active_constraints=list(tick.active), tick_time_ms=tick_ms)
+        status.feature_names, status.feature_values, status.feature_gradients = episode.model.top_features.read()
         status.header.stamp = messages.time_msg(status_ns)
         self.status_pub.publish(status)
         if episode.steps % FEEDBACK_EVERY == 0:

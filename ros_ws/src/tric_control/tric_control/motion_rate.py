@@ -236,7 +236,8 @@ def domain_rows(u: np.ndarray, du_dq: np.ndarray, count: int, moving: np.ndarray
 
 
 class ValueObjective:
-    """TRIC's objective: rho (g^T dq + delta)^2 with g = (df/dy)(dphi/dq) at q."""
+    """TRIC's objective: rho (g^T dq + delta)^2 with g = (df/dy)(dphi/dq) at q. After each call,
+    scaled_features (s,) and value_gradient (s,) hold u and df/du at that q (for the status)."""
 
     def __init__(self, feature_map, value_function, delta: float, rho: float, feature_names=None):
         if not (delta > 0 and rho > 0):
@@ -246,12 +247,14 @@ class ValueObjective:
         self.kept_names = [names[k] for k in value_function.scaling.kept]
         self._moving = np.flatnonzero(feature_map.moves_with_q[value_function.scaling.kept])
         self._factor = value_function.scaling.factor[:, None]
+        self.scaled_features = self.value_gradient = None
 
     def __call__(self, q, object_poses) -> Objective:
         y, jacobian = self.features.with_jacobian(q, object_poses)
         scaling = self.value_function.scaling
         u = scaling.transform(y)
         value, df_du = self.value_function.scaled_gradient(u)
+        self.scaled_features, self.value_gradient = u, df_du
         du_dq = jacobian[scaling.kept] * self._factor                          # (s, n)
         g = df_du @ du_dq
         rows, margins, nearest = domain_rows(u, du_dq, DOMAIN_ROWS, self._moving)
