@@ -106,16 +106,18 @@ def _interface_file(type_name: str, extension: str) -> Path:
                      f"({os.pathsep.join(prefixes) or 'unset'}): is the package built and its setup sourced?")
 
 
-def message_definition(type_name: str) -> str:
+def message_definition(type_name: str, text: str | None = None) -> str:
     """The full definition of a message type as rosbag2 stores it in a bag's schema.
 
-    type_name: "pkg/msg/Type" (or "pkg/Type"). The .msg text as installed, then for every type it
-    uses (sorted by name, depth first, each once): a line of 80 "=", "MSG: pkg/Type" and its text.
+    type_name: "pkg/msg/Type" (or "pkg/Type"). The .msg text as installed (or text, for a type that
+    is not), then for every type it uses (sorted by name, depth first, each once): a line of 80 "=",
+    "MSG: pkg/Type" and its text.
     """
     included: set[str] = set()
 
-    def text_with_dependencies(name: str) -> str:
-        text = _interface_file(name, ".msg").read_bytes().decode("utf-8")
+    def text_with_dependencies(name: str, text: str | None = None) -> str:
+        if text is None:
+            text = _interface_file(name, ".msg").read_bytes().decode("utf-8")
         package = _package_and_name(name)[0]
         used = {t if "/" in t else f"{package}/{t}"
                 for t in _FIELD_TYPE.findall(text) if t not in _PRIMITIVE_TYPES}
@@ -125,7 +127,7 @@ def message_definition(type_name: str) -> str:
                 text += f"\n{'=' * 80}\nMSG: {dependency}\n" + text_with_dependencies(dependency)
         return text
 
-    return text_with_dependencies(type_name)
+    return text_with_dependencies(type_name, text)
 
 
 def _check_generated_class(msg_class: type, checked: set | None = None) -> None:
@@ -261,7 +263,7 @@ def _to_yaml(data: Any) -> str:
 
 @dataclass
 class _Topic:
-    msg_class: type
+    msg_class: type | None  # None: a type not installed here, written as CDR bytes (write_cdr)
     channel_id: int
     metadata: dict  # rosbag2's topic_metadata
     message_count: int = 0
@@ -270,7 +272,8 @@ class _Topic:
 class BagWriter:
     """Writes one bag: "<path>.part" while open, renamed to path (which must end in ".mcap") by close().
 
-    Usage: add_topic() for each topic, write() messages, flush() after each sample that must survive
+    Usage: add_topic() for each topic (add_topic_definition() for a type not installed here), write()
+    messages (write_cdr() their bytes), flush() after each sample that must survive
     a crash, close() at the end (or discard() to drop the bag). As a context manager it closes on a
     normal exit and discards on an exception. Not thread-safe.
     """
@@ -312,18 +315,31 @@ class BagWriter:
         """Adds a topic (a name starting with "/") of messages of class msg_type (e.g.
         sensor_msgs.msg.JointState). latched: recorded as offered with transient-local durability,
         so `ros2 bag play` republishes it to late subscribers."""
+        self._check_new_topic(topic)
+        type_name = ros_type_name(msg_type)
+        _check_generated_class(msg_type)
+        self._add_channel(topic, msg_type, type_name, None, latched, _type_hash(type_name))
+
+    def add_topic_definition(self, topic: str, type_name: str, definition: str, latched: bool = False) -> None:
+        """Adds a topic of a message type that is not installed here (e.g. tf2_msgs/msg/TFMessage in
+        the pip environment): type_name "pkg/msg/Type", definition its .msg text (the types it uses
+        must be installed). Its messages are written as CDR bytes with write_cdr()."""
+        self._check_new_topic(topic)
+        package, name = _package_and_name(type_name)
+        self._add_channel(topic, None, f"{package}/msg/{name}", definition, latched, "")
+
+    def _check_new_topic(self, topic: str) -> None:
         self._check_open()
         if not topic.startswith("/"):
             raise ValueError(f"topic '{topic}' must be a full name starting with '/'")
         if topic in self._topics:
             raise ValueError(f"topic {topic} was added already")
-        type_name = ros_type_name(msg_type)
-        _check_generated_class(msg_type)
+
+    def _add_channel(self, topic, msg_type, type_name, definition, latched, type_hash) -> None:
         if type_name not in self._schema_ids:
             self._schema_ids[type_name] = self._mcap.register_schema(
-                type_name, "ros2msg", message_definition(type_name).encode("utf-8"))
+                type_name, "ros2msg", message_definition(type_name, definition).encode("utf-8"))
         qos = _offered_qos_profiles(latched)
-        type_hash = _type_hash(type_name)
         channel_id = self._mcap.register_channel(
             topic, "cdr", self._schema_ids[type_name],
             metadata={"offered_qos_profiles": _to_yaml(qos), "topic_type_hash": type_hash})
@@ -338,14 +354,26 @@ class BagWriter:
             raise ValueError(f"topic {topic} was not added to {self.part_path} "
                              f"(added: {', '.join(self._topics) or 'none'})")
         entry = self._topics[topic]
-        if not isinstance(message, entry.msg_class):
-            raise TypeError(f"topic {topic} takes {ros_type_name(entry.msg_class)}, "
-                            f"got {type(message).__name__}")
+        if entry.msg_class is None or not isinstance(message, entry.msg_class):
+            raise TypeError(f"topic {topic} takes {entry.metadata['type']}"
+                            + (" as CDR bytes (write_cdr)" if entry.msg_class is None else "")
+                            + f", got {type(message).__name__}")
+        self._write_bytes(entry, serialize_cdr(message), stamp_ns)
+
+    def write_cdr(self, topic: str, data: bytes, stamp_ns: int) -> None:
+        """Writes a message of a topic added with add_topic_definition(): its CDR bytes (with the
+        encapsulation header, see serialize_cdr) with log/publish time stamp_ns (ns, >= 0)."""
+        self._check_open()
+        entry = self._topics.get(topic)
+        if entry is None or entry.msg_class is not None:
+            raise ValueError(f"topic {topic} was not added with add_topic_definition() to {self.part_path}")
+        self._write_bytes(entry, bytes(data), stamp_ns)
+
+    def _write_bytes(self, entry: _Topic, data: bytes, stamp_ns: int) -> None:
         stamp_ns = operator.index(stamp_ns)
         if not 0 <= stamp_ns < 2 ** 64:
             raise ValueError(f"stamp_ns must be a time in ns in [0, 2^64), got {stamp_ns}")
-        self._mcap.add_message(entry.channel_id, log_time=stamp_ns, data=serialize_cdr(message),
-                               publish_time=stamp_ns)
+        self._mcap.add_message(entry.channel_id, log_time=stamp_ns, data=data, publish_time=stamp_ns)
         entry.message_count += 1
         self._start_ns = stamp_ns if self._start_ns is None else min(self._start_ns, stamp_ns)
         self._end_ns = stamp_ns if self._end_ns is None else max(self._end_ns, stamp_ns)

@@ -9,8 +9,13 @@ and poses are read by one thread of the node's own and applied in the order of t
 an END is never overtaken by the states that follow it (a lift test's), and a bag is closed only
 once that thread has seen the episode's last state (or `outcome_timeout_s` passed).
 
+Each bag also carries the scene for 3D replay in Foxglove (/robot_description, /tf_static, /tf,
+/scene_markers: tric_learning.scene_recording) and, when `status_topic` is set, the controller's
+status of every tick.
+
 Parameters: output_dir ("recordings"), sample_period_s (0.125), sources (["teacher"]: the episode
-sources to record), outcome_timeout_s (30).
+sources to record), outcome_timeout_s (30), status_topic ("": none; "/controller/status" to record a
+controller's episodes with their status).
 """
 
 import pathlib
@@ -23,7 +28,7 @@ from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from rcl_interfaces.msg import ParameterDescriptor
 from sensor_msgs.msg import JointState
-from tric_msgs.msg import EpisodeEvent, ObjectPoses
+from tric_msgs.msg import ControllerStatus, EpisodeEvent, ObjectPoses
 
 from tric_learning import bags
 from tric_learning.recording import SAMPLE_PERIOD, BagRecorder
@@ -53,6 +58,8 @@ class RecorderNode(Node):
             "sources", ["teacher"], describe("episode sources to record")).value)
         self.outcome_timeout = float(self.declare_parameter(
             "outcome_timeout_s", 30.0, describe("wall seconds to wait for an ended episode's outcome")).value)
+        self.status_topic = str(self.declare_parameter(
+            "status_topic", "", describe("the controller's status topic to record (empty: none)")).value)
         if not self.period > 0 or not self.outcome_timeout > 0:
             raise ValueError("sample_period_s and outcome_timeout_s must be positive")
         self.robot = RobotModel()
@@ -63,9 +70,11 @@ class RecorderNode(Node):
         self._outcome = None
         self._backlog = deque(maxlen=BACKLOG)
         self._stop = threading.Event()
-        self._poller = TopicPoller(self.context, "recorder_streams", {
-            "state": (JointState, "/joint_states", STATE_QOS), "poses": (ObjectPoses, "/object_poses", STATE_QOS),
-            "event": (EpisodeEvent, "/episode", EVENT_QOS)})
+        streams = {"state": (JointState, "/joint_states", STATE_QOS), "poses": (ObjectPoses, "/object_poses", STATE_QOS),
+                   "event": (EpisodeEvent, "/episode", EVENT_QOS)}
+        if self.status_topic:
+            streams["status"] = (ControllerStatus, self.status_topic, STATE_QOS)
+        self._poller = TopicPoller(self.context, "recorder_streams", streams)
         self._thread = threading.Thread(target=self._stream, daemon=True, name="recorder_streams")
         self._thread.start()
         self.create_timer(1.0, self._check_outcome_timeout)
@@ -110,6 +119,8 @@ class RecorderNode(Node):
         try:
             if kind == "poses":
                 self._recorder.object_poses(msg)
+            elif kind == "status":
+                self._recorder.controller_status(msg)
             else:
                 self._recorder.joint_state(msg)
         except ValueError as error:
@@ -148,7 +159,7 @@ class RecorderNode(Node):
         self.output_dir.mkdir(parents=True, exist_ok=True)
         path = self._free_path(event.episode_id or situation.name)
         self._recorder = BagRecorder(path, self.robot, situation, event.episode_id, event.source, event,
-                                     self.period)
+                                     self.period, self.status_topic)
         self._episode_id = event.episode_id
         self._ended_at = None
         self._outcome = None

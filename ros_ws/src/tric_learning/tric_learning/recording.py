@@ -12,7 +12,9 @@ A bag holds (topic: type):
     /joint_states:            sensor_msgs/JointState        every control period (raw)
     /object_poses:            tric_msgs/ObjectPoses         every control period (raw)
     /episode:                 tric_msgs/EpisodeEvent        START, END, OUTCOME (the teacher's metrics)
-and in its rosbag2 custom data: tric.episode_id, tric.source, tric.task, tric.fingerprint and, once
+    /controller/status:       tric_msgs/ControllerStatus    every control tick, when recording a controller
+and the scene topics for 3D replay (tric_learning.scene_recording: /robot_description, /tf_static,
+/tf, /scene_markers), and in its rosbag2 custom data: tric.episode_id, tric.source, tric.task, tric.fingerprint and, once
 known, tric.outcome (the metrics as JSON).
 """
 
@@ -22,14 +24,17 @@ from dataclasses import dataclass
 
 import numpy as np
 from sensor_msgs.msg import JointState
-from tric_msgs.msg import EpisodeEvent, FeatureDefinition as FeatureDefinitionMsg, FeatureSample, ObjectPoses
+from tric_msgs.msg import ControllerStatus, EpisodeEvent, FeatureDefinition as FeatureDefinitionMsg, FeatureSample
+from tric_msgs.msg import ObjectPoses
 from tric_msgs.msg import Situation as SituationMsg
 
 from tric_learning import bags
 from tric_learning.dataset import Dataset, Demo
 from tric_learning.features import FeatureDefinition, FeatureMap
 from tric_learning.messages import definition_from_msg, definition_msg, sample_arrays, sample_msg
+from tric_learning.scene_recording import SceneTopics
 from tric_sim import messages
+from tric_sim.scene_view import RobotView
 from tric_sim.robot_model import RobotModel
 
 DEFINITION_TOPIC = "/tric/feature_definition"
@@ -138,7 +143,8 @@ class BagRecorder:
     """
 
     def __init__(self, path, robot: RobotModel, situation, episode_id: str, source: str,
-                 start_event: EpisodeEvent, period: float = SAMPLE_PERIOD):
+                 start_event: EpisodeEvent, period: float = SAMPLE_PERIOD, status_topic: str = ""):
+        """status_topic: also record the controller's status from this topic (empty: none)."""
         self.definition = FeatureDefinition.for_task(situation.task, robot)
         self.sampler = EpisodeSampler(FeatureMap(self.definition, robot), period)
         self.robot = robot
@@ -156,6 +162,10 @@ class BagRecorder:
         self.writer.write(DEFINITION_TOPIC, definition_msg(self.definition), start_ns)
         self.writer.write(SITUATION_TOPIC, messages.situation_to_msg(situation), start_ns)
         self.writer.write("/episode", start_event, start_ns)
+        self.scene = SceneTopics(self.writer, RobotView(robot), situation, start_ns)
+        self.status_topic = status_topic
+        if status_topic:
+            self.writer.add_topic(status_topic, ControllerStatus)
         self.writer.flush()
 
     @property
@@ -178,9 +188,16 @@ class BagRecorder:
             return False
         self.writer.write("/joint_states", msg, stamp)
         q = messages.joint_positions_from_msg(msg, self.definition.joint_names)
+        self.scene.state(stamp, q, self.poses)
         self._write_pending()
         self.pending = self.sampler.offer(stamp, q, self.poses)
         return self.pending is not None
+
+    def controller_status(self, msg: ControllerStatus) -> None:
+        """Record a status of the controller (status_topic) stamped within the episode."""
+        stamp = messages.time_ns(msg.header.stamp)
+        if stamp >= self.start_ns and (self.end_ns is None or stamp <= self.end_ns):
+            self.writer.write(self.status_topic, msg, stamp)
 
     def _write_pending(self):
         if self.pending is not None:
