@@ -18,7 +18,7 @@ from rosbags.highlevel import AnyReader
 from tric_learning import bags
 from tric_learning.record_cli import demonstrate_all
 from tric_learning.recording import SAMPLES_TOPIC, load_dataset
-from tric_sim import situations
+from tric_sim import scene, scene_view, situations
 from tric_sim.robot_model import RobotModel
 
 
@@ -74,6 +74,58 @@ def test_rosbags_reads_the_same_samples(recorded, tmp_path):
         assert np.array_equal(theirs.q, mine.q) and np.array_equal(theirs.y, mine.y)
         assert np.array_equal(theirs.jacobian, mine.jacobian)
         assert (theirs.jacobian_rows, theirs.jacobian_cols) == (224, 14)
+
+
+def test_bags_carry_the_scene_for_3d_replay(recorded):
+    """/tf every 40 ms of the episode: with /tf_static, the links where the recorded joint states put
+    them and the objects where /object_poses did; /scene_markers the situation's bodies and the robot."""
+    out, _ = recorded
+    path = out / "box_train_00.mcap"
+    situation = situations.dataset("box_train")[0]
+    info = bags.bag_info(path)
+    assert {name: topic.type_name for name, topic in info.topics.items() if name in
+            ("/tf", "/tf_static", "/robot_description", "/scene_markers")} == {
+        "/tf": "tf2_msgs/msg/TFMessage", "/tf_static": "tf2_msgs/msg/TFMessage",
+        "/robot_description": "std_msgs/msg/String", "/scene_markers": "visualization_msgs/msg/MarkerArray"}
+    assert all(info.topics[name].latched for name in ("/tf_static", "/robot_description", "/scene_markers"))
+    read = {}
+    for message in bags.read_bag(path, topics=["/tf", "/tf_static", "/robot_description", "/scene_markers",
+                                                "/joint_states", "/object_poses"]):
+        read.setdefault(message.topic, []).append(message)
+    robot = RobotModel()
+    assert read["/robot_description"][0].message.data == robot.urdf_path.read_text()
+    tf_stamps = np.array([m.stamp_ns for m in read["/tf"]])
+    assert np.all(np.diff(tf_stamps) >= 40_000_000) and np.all(np.diff(tf_stamps) < 50_000_000)
+    assert len(tf_stamps) >= 8 / 0.05  # an 8 s box opening
+
+    def transforms(msg):
+        return scene_view.Transforms(
+            tuple(t.header.frame_id for t in msg.transforms), tuple(t.child_frame_id for t in msg.transforms),
+            np.array([[t.transform.translation.x, t.transform.translation.y, t.transform.translation.z]
+                      for t in msg.transforms]),
+            np.array([[t.transform.rotation.x, t.transform.rotation.y, t.transform.rotation.z,
+                       t.transform.rotation.w] for t in msg.transforms]))
+
+    static = transforms(read["/tf_static"][0].message)
+    states = {m.stamp_ns: m.message for m in read["/joint_states"]}
+    poses = {m.stamp_ns: m.message for m in read["/object_poses"]}
+    for tf in read["/tf"][::50]:
+        placements = scene_view.frame_placements(static, transforms(tf.message))
+        state = states[tf.stamp_ns]
+        robot.forward([state.position[list(state.name).index(j)] for j in robot.joint_names])
+        for frame in ("palm_center", "finger_2_tip", "base_link"):
+            assert np.allclose(placements[frame].homogeneous, robot.frame_placement(frame).homogeneous, atol=1e-9)
+        lid = poses[tf.stamp_ns].poses[list(poses[tf.stamp_ns].names).index("lid")]
+        assert np.allclose(placements["lid"].translation, [lid.position.x, lid.position.y, lid.position.z])
+    markers = read["/scene_markers"][0].message.markers
+    assert markers[0].action == 3  # DELETEALL, then the robot's 21 primitives and the scene's bodies
+    by_frame = {m.header.frame_id: m for m in markers[1:] if m.ns == "scene"}
+    assert sorted(by_frame) == ["lid", "object", "world"]
+    side = situation.object_dimensions[0]
+    lid = by_frame["lid"]
+    assert (lid.scale.x, lid.scale.y, lid.scale.z) == pytest.approx(scene.lid_extents(side))
+    assert lid.pose.position.x == pytest.approx(scene.lid_geometry_offset(side).translation[0])
+    assert sum(m.ns == "robot" for m in markers) == 21 and all(m.frame_locked for m in markers[1:])
 
 
 def test_bad_bags_are_refused_naming_the_file(recorded, tmp_path):
