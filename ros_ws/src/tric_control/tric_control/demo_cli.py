@@ -1,6 +1,6 @@
 """tric-demo: the main job. Record sphere demonstrations, train TRIC, run it against the teacher.
 
-    tric-demo [--reuse [BAGS]] [--out DIR] [--iterations N] [--jobs N] [--check]
+    tric-demo [--reuse [BAGS]] [--out DIR] [--iterations N] [--jobs N] [--check] [--viz [--viz-port P]]
 
 1. Record the paper's 27 sphere-grid demonstrations with the teacher through the real nodes
    (simulator in lockstep, teacher, recorder) into DIR/demo/bags, or, with --reuse, take the bags
@@ -13,6 +13,9 @@
    tric_cost_max, tric_lift_passed, episodes, train_s, total_s; and under "tric" and "teacher"
    each agent's summary and per-episode records),
    DIR/demo.png (grasp costs per test situation) and DIR/demo_grasp.png (one TRIC grasp).
+
+--viz serves a live Foxglove view of the whole run (tric_sim.visualizer_node) on ws://127.0.0.1:P
+(default 8765); the evaluations then run on one graph (--jobs 1), the one it shows.
 
 The targets (design.md): TRIC's mean grasp cost within 0.03 of the teacher's and every TRIC grasp
 below 0.25. They are printed as met or not; --check makes the exit code 1 when one is not met.
@@ -40,18 +43,20 @@ from tric_learning.record_cli import demonstrate_all, private_domain_id  # noqa:
 from tric_learning.training import TrainingConfig, train_from_bags  # noqa: E402
 from tric_sim.robot_model import RobotModel  # noqa: E402
 from tric_sim.situations import dataset  # noqa: E402
+from tric_sim.visualizer_node import add_view_arguments, open_view  # noqa: E402
 
 #: Paper Table 1 (mean grasp cost on the 15 test situations) and the margin TRIC must keep to our teacher.
 PAPER_TEACHER, PAPER_TRIC = 0.06, 0.08
 MARGIN_TO_TEACHER = 0.03
 
 
-def record(out: pathlib.Path, domain_id: int) -> pathlib.Path:
-    """Demonstrate the sphere grid into out/bags (emptied first); the folder, or RuntimeError."""
+def record(out: pathlib.Path, domain_id: int, view=None) -> pathlib.Path:
+    """Demonstrate the sphere grid into out/bags (emptied first), shown in view (a FoxgloveView, or
+    None); the folder, or RuntimeError."""
     bags = out / "bags"
     if bags.exists():
         shutil.rmtree(bags)
-    rows = demonstrate_all(dataset("sphere_train"), bags, 0.125, 0.0, domain_id=domain_id)
+    rows = demonstrate_all(dataset("sphere_train"), bags, 0.125, 0.0, domain_id=domain_id, view=view)
     failed = [s.name for s, result, path in rows if not (result.success and path)]
     if failed:
         raise RuntimeError(f"the teacher failed to demonstrate {', '.join(failed)}")
@@ -118,22 +123,28 @@ def main(argv=None) -> int:
     parser.add_argument("--jobs", type=int, default=os.cpu_count() or 1,
                         help="evaluation graphs run at once (default: the number of CPUs)")
     parser.add_argument("--check", action="store_true", help="exit 1 when TRIC misses its targets")
+    add_view_arguments(parser)
     args = parser.parse_args(argv)
     if args.jobs < 1:
         parser.error("--jobs must be at least 1")
+    if args.viz and args.jobs > 1:
+        print("tric-demo: --viz shows one graph: the evaluations run with --jobs 1", file=sys.stderr)
+        args.jobs = 1
     started = time.monotonic()
     out = pathlib.Path(args.out)
     work = out / "demo"
     work.mkdir(parents=True, exist_ok=True)
     domain_id = private_domain_id()
+    view = None
     try:
+        view = open_view(args, "tric-demo")
         config = TrainingConfig(max_iterations=args.iterations).validate()
         if args.reuse:
             bags = pathlib.Path(args.reuse)
             print(f"[1/4] reusing the demonstrations in {bags}")
         else:
             print("[1/4] recording the 27 sphere-grid demonstrations with the teacher")
-            bags = record(work, domain_id)
+            bags = record(work, domain_id, view)
         print("[2/4] training TRIC (K = 30, M = 60, the paper's alphas)")
         trained = train(bags, work / "tric_sphere.safetensors", config)
         result = trained.result
@@ -141,14 +152,17 @@ def main(argv=None) -> int:
               f"L_n {result.losses['n']:.3f}, L_g {result.losses['g']:.3f}, trained in {result.train_time_s:.1f} s")
         print("[3/4] the teacher on the 15 test situations")
         tests = dataset("sphere_test")
-        teacher = evaluate(tests, None, domain_id=domain_id, desc="teacher", jobs=args.jobs)
+        teacher = evaluate(tests, None, domain_id=domain_id, desc="teacher", jobs=args.jobs, view=view)
         print("[4/4] TRIC on the 15 test situations")
         snapshots = work / "snapshots"
         tric = evaluate(tests, trained.path, snapshots=snapshots, domain_id=domain_id, desc="TRIC",
-                        jobs=args.jobs)
+                        jobs=args.jobs, view=view)
     except (ValueError, RuntimeError) as error:
         print(f"tric-demo: {error}", file=sys.stderr)
         return 2
+    finally:
+        if view is not None:
+            view.close()
     print("\nTable 1: sphere grasp cost on the 15 test situations\n")
     print(comparison_table(teacher, tric))
     ts, rs = summarize(teacher), summarize(tric)

@@ -1,7 +1,8 @@
 """tric-eval: run a model (or the teacher) on situations through the real nodes, and judge it.
 
     tric-eval (--model MODEL | --teacher) (DATASET | --situations-file FILE) [--json OUT]
-              [--max-steps N] [--snapshots DIR] [--domain-id N] [--jobs N]
+              [--max-steps N] [--snapshots DIR] [--domain-id N] [--jobs N] [--record DIR]
+              [--viz [--viz-port P]]
 
 Runs the simulator (lockstep), the teacher and the controller nodes in one process. For each
 situation: reset the scene (/simulator/reset_scene); the teacher demonstrates it
@@ -13,8 +14,12 @@ box_test, ...); any YAML/JSON situations file of one task works too. --snapshots
 of each final state (before the lift test). The nodes run in a private DDS domain unless --domain-id
 names one. --jobs N runs N such graphs at once, each in a worker process of its own on its own
 domain (the base one and the N - 1 above it), the situations shared out one at a time; the records
-keep the situations' order. Exits 0 when every episode ran (whatever its score), 1 when one could
-not be run, 2 on bad arguments.
+keep the situations' order. --record DIR writes one bag per episode (the recorder node: the joint
+states, poses, samples and outcome, the controller's status of every tick, and /tf,
+/robot_description and /scene_markers for Foxglove to replay it in 3D). --viz serves a live Foxglove
+view of the run (tric_sim.visualizer_node) on ws://127.0.0.1:P (default 8765); it shows one graph, so
+it takes --jobs 1. Exits 0 when every episode ran (whatever its score), 1 when one could not be run,
+2 on bad arguments.
 """
 
 import argparse
@@ -36,42 +41,65 @@ from rclpy.action import ActionClient  # noqa: E402
 from rclpy.node import Node  # noqa: E402
 from rclpy.parameter import Parameter  # noqa: E402
 from tqdm import tqdm  # noqa: E402
+from rclpy.qos import QoSProfile, ReliabilityPolicy  # noqa: E402
 from tric_msgs.action import Demonstrate, Execute  # noqa: E402
+from tric_msgs.msg import EpisodeEvent  # noqa: E402
 from tric_msgs.srv import EvaluateTask, LoadModel, RenderScene, ResetScene  # noqa: E402
 
 from tric_control.controller_node import ControllerNode  # noqa: E402
 from tric_control.evaluation import EpisodeRecord, report, table, write_json  # noqa: E402
+from tric_control.objectives import RUNNABLE_KINDS  # noqa: E402
 from tric_learning.record_cli import InProcessGraph, private_domain_id, wait  # noqa: E402
+from tric_learning.recorder_node import RecorderNode  # noqa: E402
 from tric_sim import messages  # noqa: E402
 from tric_sim.simulator_node import SimulatorNode  # noqa: E402
 from tric_sim.situations import DATASETS, dataset, load_situations  # noqa: E402
 from tric_sim.teacher_node import TeacherNode  # noqa: E402
+from tric_sim.visualizer_node import VisualizerNode, add_view_arguments, open_view  # noqa: E402
 
 #: Wall seconds to wait for a service answer, and for an episode to end.
 SERVICE_TIMEOUT = 60.0
 EPISODE_TIMEOUT = 900.0
 #: The last DDS domain id (Fast DDS: its ports must stay below 65536).
 MAX_DOMAIN_ID = 232
+#: Wall seconds to wait for the recorder to close an episode's bag (--record).
+BAG_TIMEOUT = 30.0
+EVENT_QOS = QoSProfile(depth=20, reliability=ReliabilityPolicy.RELIABLE)
 
 
 class Evaluator:
     """The evaluation graph: simulator, teacher, controller and a client node, spun in-process.
 
     model: a model file for the controller, or None to evaluate the teacher; domain_id: the DDS
-    domain of the graph (None: the environment's)."""
+    domain of the graph (None: the environment's); view: a FoxgloveView to show the episodes in
+    (None: no visualizer); record: a folder for one bag per episode (None: no recorder)."""
 
-    def __init__(self, task: str, model: str = None, max_steps: int = 0, domain_id: int = None):
+    def __init__(self, task: str, model: str = None, max_steps: int = 0, domain_id: int = None, view=None,
+                 record=None):
         self.task, self.model, self.max_steps = task, model, max_steps
         self.graph = InProcessGraph(domain_id)
+        self.recorder = None
         try:
             self.graph.add(SimulatorNode(context=self.graph.context,
                                          parameter_overrides=[Parameter("mode", value="lockstep")]))
+            if view is not None:
+                self.graph.add(VisualizerNode(view=view, context=self.graph.context))
+            if record is not None:
+                self.recorder = self.graph.add(RecorderNode(context=self.graph.context, parameter_overrides=[
+                    Parameter("output_dir", value=str(record)),
+                    Parameter("sources", value=["teacher"] if model is None else list(RUNNABLE_KINDS)),
+                    Parameter("status_topic", value="" if model is None else "/controller/status")]))
             if model is None:
                 self.graph.add(TeacherNode(context=self.graph.context))
             else:
                 self.controller = self.graph.add(ControllerNode(context=self.graph.context, parameter_overrides=[
                     Parameter("task", value=task), Parameter("mode", value="lockstep")]))
             self.client = self.graph.add(Node("tric_eval", context=self.graph.context))
+            if self.recorder is not None and model is not None:
+                # the evaluator publishes each controller episode's OUTCOME, stamped as its END
+                self._end_stamps = {}
+                self.client.create_subscription(EpisodeEvent, "/episode", self._on_episode_event, EVENT_QOS)
+                self.outcome_pub = self.client.create_publisher(EpisodeEvent, "/episode", EVENT_QOS)
             self.graph.start()
             self.reset_scene = self._service(ResetScene, "/simulator/reset_scene")
             self.evaluate_task = self._service(EvaluateTask, "/simulator/evaluate_task")
@@ -124,6 +152,7 @@ class Evaluator:
                       grasp_cost=math.nan, lift_passed=None, lid_angle=math.nan, min_distance=math.nan,
                       collided=False, min_joint_margin=math.nan, steps=0)
         situation_msg = messages.situation_to_msg(situation)
+        bags_before = len(self.recorder.finished) if self.recorder is not None else 0
         if self.model is None:
             result = self._run_goal(Demonstrate.Goal(situation=situation_msg, episode_id=situation.name),
                                     f"the demonstration of '{situation.name}'")
@@ -148,6 +177,10 @@ class Evaluator:
                                     "the metrics")
             metrics, steps, outcome = evaluation.metrics, result.steps, result.outcome
             record["min_joint_margin"] = result.min_joint_limit_margin
+            if self.recorder is not None:
+                self._publish_outcome(situation.name, metrics)
+        if self.recorder is not None:
+            self._wait_for_bag(situation.name, bags_before)
         if snapshot is not None and self.model is None:
             self._snapshot(snapshot / f"{situation.name}.png")  # after the lift test: the teacher judges itself
         record.update(success=bool(metrics.success), min_distance=metrics.min_distance,
@@ -157,6 +190,31 @@ class Evaluator:
         else:
             record["lid_angle"] = metrics.lid_angle
         return EpisodeRecord(**record, wall_time_s=time.monotonic() - started, outcome=outcome)
+
+    def _on_episode_event(self, event: EpisodeEvent):
+        if event.event == EpisodeEvent.END:
+            self._end_stamps[event.episode_id] = event.header.stamp
+
+    def _publish_outcome(self, episode_id: str, metrics):
+        """--record: the OUTCOME of a controller episode (the recorder then closes its bag)."""
+        deadline = time.monotonic() + SERVICE_TIMEOUT
+        while episode_id not in self._end_stamps:
+            if time.monotonic() > deadline:
+                raise RuntimeError(f"the controller's END of '{episode_id}' never arrived")
+            time.sleep(0.002)
+        event = EpisodeEvent(event=EpisodeEvent.OUTCOME, episode_id=episode_id, source=self.agent, metrics=metrics)
+        event.header.stamp = self._end_stamps.pop(episode_id)
+        self.outcome_pub.publish(event)
+
+    def _wait_for_bag(self, episode_id: str, bags_before: int):
+        """--record: wait until the recorder has closed the episode's bag (one more than bags_before);
+        RuntimeError if it does not."""
+        deadline = time.monotonic() + BAG_TIMEOUT
+        while len(self.recorder.finished) <= bags_before:
+            if time.monotonic() > deadline:
+                raise RuntimeError(f"the recorder did not finish the bag of '{episode_id}' "
+                                   f"within {BAG_TIMEOUT:g} s")
+            time.sleep(0.01)
 
     def _wait_for_scene(self, situation):
         """Wait until the controller has taken the new scene from /situation (latched, asynchronous)."""
@@ -178,30 +236,33 @@ class Evaluator:
 
 
 def evaluate(situations, model=None, max_steps: int = 0, snapshots=None, progress=True, desc="evaluating",
-             domain_id: int = None, jobs: int = 1):
+             domain_id: int = None, jobs: int = 1, view=None, record=None):
     """Run the agent (model file, or the teacher if None) on every situation; [EpisodeRecord] in the
     situations' order. jobs > 1: that many worker processes (spawned), each with its own Evaluator
-    on DDS domain domain_id + k (domain_id None: the environment's ROS_DOMAIN_ID, else 0)."""
+    on DDS domain domain_id + k (domain_id None: the environment's ROS_DOMAIN_ID, else 0).
+    view: a FoxgloveView to show the run in (jobs 1 only); record: a folder for one bag per episode."""
     tasks = {s.task for s in situations}
     if len(tasks) != 1:
         raise ValueError(f"the situations mix tasks ({', '.join(sorted(tasks))}): evaluate one task at a time")
     if jobs < 1:
         raise ValueError(f"jobs must be at least 1, not {jobs}")
+    if view is not None and min(jobs, len(situations)) > 1:
+        raise ValueError("a live view shows one evaluation graph: use --jobs 1 with --viz")
     task = tasks.pop()
     snapshot = pathlib.Path(snapshots) if snapshots else None
     bar = tqdm(total=len(situations), desc=desc, unit="episode", disable=not progress)
     try:
         if min(jobs, len(situations)) == 1:
-            return _evaluate_here(situations, task, model, max_steps, snapshot, domain_id, bar)
+            return _evaluate_here(situations, task, model, max_steps, snapshot, domain_id, bar, view, record)
         return _evaluate_in_workers(situations, task, model, max_steps, snapshot, domain_id,
-                                    min(jobs, len(situations)), bar)
+                                    min(jobs, len(situations)), bar, record)
     finally:
         bar.close()
 
 
-def _evaluate_here(situations, task, model, max_steps, snapshot, domain_id, bar) -> list:
+def _evaluate_here(situations, task, model, max_steps, snapshot, domain_id, bar, view, record) -> list:
     """Every situation in turn on one Evaluator in this process."""
-    evaluator = Evaluator(task, model, max_steps, domain_id)
+    evaluator = Evaluator(task, model, max_steps, domain_id, view, record)
     records = []
     try:
         for situation in situations:
@@ -213,7 +274,7 @@ def _evaluate_here(situations, task, model, max_steps, snapshot, domain_id, bar)
     return records
 
 
-def _evaluate_in_workers(situations, task, model, max_steps, snapshot, domain_id, jobs, bar) -> list:
+def _evaluate_in_workers(situations, task, model, max_steps, snapshot, domain_id, jobs, bar, record) -> list:
     """The situations shared out over jobs spawned workers (see _start_worker), one at a time."""
     base = int(os.environ.get("ROS_DOMAIN_ID", "0")) if domain_id is None else domain_id
     if not 0 <= base <= MAX_DOMAIN_ID - jobs + 1:
@@ -224,7 +285,7 @@ def _evaluate_in_workers(situations, task, model, max_steps, snapshot, domain_id
         domain_ids.put(base + offset)
     records = [None] * len(situations)
     with concurrent.futures.ProcessPoolExecutor(jobs, mp_context=spawn, initializer=_start_worker,
-                                                initargs=(task, model, max_steps, domain_ids)) as pool:
+                                                initargs=(task, model, max_steps, domain_ids, record)) as pool:
         futures = {pool.submit(_run_in_worker, situation, snapshot): k for k, situation in enumerate(situations)}
         try:
             for future in concurrent.futures.as_completed(futures):
@@ -241,10 +302,10 @@ def _evaluate_in_workers(situations, task, model, max_steps, snapshot, domain_id
 _worker = {}
 
 
-def _start_worker(task, model, max_steps, domain_ids):
+def _start_worker(task, model, max_steps, domain_ids, record):
     """Worker initializer: build this process's Evaluator on the next free domain; closed at exit."""
     try:
-        evaluator = Evaluator(task, model, max_steps, domain_ids.get(timeout=SERVICE_TIMEOUT))
+        evaluator = Evaluator(task, model, max_steps, domain_ids.get(timeout=SERVICE_TIMEOUT), record=record)
     except Exception as error:  # an initializer's exception would only break the pool, without its message
         _worker["error"] = error
         return
@@ -274,6 +335,9 @@ def main(argv=None) -> int:
                         help="DDS domain of the in-process nodes (default: a private one, 1 + pid %% 100)")
     parser.add_argument("--jobs", type=int, default=1,
                         help="evaluation graphs run at once, each in a process on its own domain (default 1)")
+    parser.add_argument("--record", metavar="DIR",
+                        help="write one bag per episode into DIR (with the controller's status, /tf and markers)")
+    add_view_arguments(parser)
     args = parser.parse_args(argv)
     if bool(args.dataset) == bool(args.situations_file):
         parser.error("give either DATASET or --situations-file")
@@ -284,15 +348,24 @@ def main(argv=None) -> int:
         parser.error("--jobs must be in [1, 64]")
     if not 0 <= domain_id <= MAX_DOMAIN_ID - args.jobs + 1:
         parser.error(f"--domain-id must be in [0, {MAX_DOMAIN_ID - args.jobs + 1}] with --jobs {args.jobs}")
+    if args.viz and args.jobs > 1:
+        parser.error("--viz shows one evaluation graph: use --jobs 1")
+    if args.record and pathlib.Path(args.record).exists() and not pathlib.Path(args.record).is_dir():
+        parser.error(f"--record {args.record} exists and is not a folder")
+    view = None
     try:
         situations = load_situations(args.situations_file) if args.situations_file else dataset(args.dataset)
         if args.model and not pathlib.Path(args.model).is_file():
             raise ValueError(f"model file {args.model} does not exist")
+        view = open_view(args, "tric-eval")
         records = evaluate(situations, None if args.teacher else args.model, args.max_steps, args.snapshots,
-                           domain_id=domain_id, jobs=args.jobs)
+                           domain_id=domain_id, jobs=args.jobs, view=view, record=args.record)
     except ValueError as error:
         print(f"tric-eval: {error}", file=sys.stderr)
         return 2
+    finally:
+        if view is not None:
+            view.close()
     name = "teacher" if args.teacher else args.model
     print(table(records, f"\n{name} on {args.dataset or args.situations_file}"))
     if args.json:

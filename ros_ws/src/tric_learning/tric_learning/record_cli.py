@@ -1,11 +1,13 @@
 """tric-record: record teacher demonstrations to MCAP bags, through the real nodes.
 
     tric-record DATASET|--situations-file FILE [--out DIR] [--period S] [--duration S] [--domain-id N]
+                [--viz [--viz-port P]]
 
 Runs the simulator (lockstep), the teacher and the recorder nodes in one process: for each situation
 the teacher demonstrates (action /teacher/demonstrate) and the recorder writes one bag
 DIR/<situation>.mcap. DATASET is a built-in data set (sphere_train, cylinder_train, box_train, ...).
-Prints a table of the demonstrations' outcomes; exits non-zero if any failed.
+Prints a table of the demonstrations' outcomes; exits non-zero if any failed. --viz serves a live
+Foxglove view of the run (tric_sim.visualizer_node) on ws://127.0.0.1:P (default 8765).
 """
 
 import argparse
@@ -29,6 +31,7 @@ from tric_sim import messages
 from tric_sim.simulator_node import SimulatorNode
 from tric_sim.situations import DATASETS, dataset, load_situations
 from tric_sim.teacher_node import TeacherNode
+from tric_sim.visualizer_node import VisualizerNode, add_view_arguments, open_view
 
 
 def private_domain_id() -> int:
@@ -81,12 +84,15 @@ def wait(future, timeout: float, what: str):
 
 
 def demonstrate_all(situations, out: pathlib.Path, period: float, duration: float, progress=True,
-                    domain_id: int = None):
+                    domain_id: int = None, view=None):
     """Demonstrate and record every situation; returns [(situation, result, bag path or None)].
-    domain_id: the graph's DDS domain (None: the environment's)."""
+    domain_id: the graph's DDS domain (None: the environment's); view: a FoxgloveView to show the
+    run in (None: no visualizer)."""
     graph = InProcessGraph(domain_id)
     try:
         graph.add(SimulatorNode(context=graph.context, parameter_overrides=[Parameter("mode", value="lockstep")]))
+        if view is not None:
+            graph.add(VisualizerNode(view=view, context=graph.context))
         graph.add(TeacherNode(context=graph.context))
         recorder = graph.add(RecorderNode(context=graph.context, parameter_overrides=[
             Parameter("output_dir", value=str(out)), Parameter("sample_period_s", value=period)]))
@@ -127,6 +133,7 @@ def main(argv=None) -> int:
     parser.add_argument("--domain-id", type=int, default=None,
                         help="DDS domain of the in-process nodes (default: a private one, 1 + pid %% 100, "
                              "so that they never mix with another simulator's topics)")
+    add_view_arguments(parser)
     args = parser.parse_args(argv)
     if bool(args.dataset) == bool(args.situations_file):
         parser.error("give either DATASET or --situations-file")
@@ -141,8 +148,18 @@ def main(argv=None) -> int:
     if not 0 <= domain_id <= 232:
         parser.error("--domain-id must be in [0, 232]")
     print(f"tric-record: nodes in DDS domain {domain_id}", file=sys.stderr)
+    try:
+        view = open_view(args, "tric-record")
+    except ValueError as error:
+        print(f"tric-record: {error}", file=sys.stderr)
+        return 2
     start = time.monotonic()
-    rows = demonstrate_all(situations, pathlib.Path(args.out), args.period, args.duration, domain_id=domain_id)
+    try:
+        rows = demonstrate_all(situations, pathlib.Path(args.out), args.period, args.duration,
+                               domain_id=domain_id, view=view)
+    finally:
+        if view is not None:
+            view.close()
     print(f"\n{'situation':24s} {'success':>7s} {'grasp cost':>10s} {'lift':>5s} {'lid (rad)':>9s}  bag")
     for situation, result, path in rows:
         m = result.metrics

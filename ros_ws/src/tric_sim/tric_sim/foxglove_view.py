@@ -23,7 +23,7 @@ from foxglove.channels import FrameTransformsChannel, SceneUpdateChannel
 from foxglove.messages import (Color, CubePrimitive, CylinderPrimitive, FrameTransform, FrameTransforms, Pose,
                                Quaternion, SceneEntity, SceneEntityDeletion, SceneEntityDeletionType, SceneUpdate,
                                SpherePrimitive, Timestamp, Vector3)
-from foxglove.websocket import Capability
+from foxglove.websocket import Capability, ServerListener
 
 
 SCENE_TOPIC = "/scene"
@@ -64,7 +64,8 @@ class FoxgloveView:
         self._status_channel = foxglove.Channel(STATUS_TOPIC, schema=STATUS_SCHEMA, context=self._context)
         try:
             self._server = foxglove.start_server(name=name, host=host, port=port, context=self._context,
-                                                 capabilities=[Capability.Time], server_listener=self)
+                                                 capabilities=[Capability.Time],
+                                                 server_listener=_NewSubscriber(self))
         except RuntimeError as error:
             raise ValueError(f"the Foxglove server could not listen on {host}:{port}: {error}") from None
         self.host = host
@@ -102,16 +103,26 @@ class FoxgloveView:
         """Send a controller status (tric_sim.scene_messages.status_fields)."""
         self._status_channel.log(fields, log_time=stamp_ns)
 
-    def on_subscribe(self, client, channel) -> None:
-        """Server callback: a client subscribed; a new /scene subscriber gets the current scene."""
-        if channel.topic == SCENE_TOPIC:
-            with self._lock:
-                update, stamp_ns = self._scene, self._scene_time
-            if update is not None:
-                self._scene_channel.log(update, log_time=stamp_ns)
+    def resend_scene(self) -> None:
+        """Send the current scene again (for a client that subscribed after it was sent)."""
+        with self._lock:
+            update, stamp_ns = self._scene, self._scene_time
+        if update is not None:
+            self._scene_channel.log(update, log_time=stamp_ns)
 
     def close(self) -> None:
         self._server.stop()
+
+
+class _NewSubscriber(ServerListener):
+    """The server's callbacks: a new /scene subscriber gets the current scene."""
+
+    def __init__(self, view: FoxgloveView):
+        self.view = view
+
+    def on_subscribe(self, client, channel) -> None:
+        if channel.topic == SCENE_TOPIC:
+            self.view.resend_scene()
 
 
 def foxglove_layout() -> str:

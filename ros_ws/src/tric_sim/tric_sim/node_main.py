@@ -1,6 +1,7 @@
 """The body of every node executable's main(), as `ros2 run` runs it: build one node, spin it until
-Ctrl-C or an external shutdown, then destroy it. A node that refuses its parameters (ValueError)
-ends the process with its message on one line and exit status 2; otherwise the status is 0."""
+Ctrl-C (also one while it is being built) or an external shutdown, then destroy it. A node that
+refuses its parameters (ValueError) ends the process with its message on one line and exit status 2;
+otherwise the status is 0."""
 
 import sys
 
@@ -17,6 +18,9 @@ def run_node(node_class, prog: str, args=None) -> int:
         print(f"{prog}: {error}", file=sys.stderr)
         rclpy.try_shutdown()
         return 2
+    except KeyboardInterrupt:  # Ctrl-C while the node was being built
+        rclpy.try_shutdown()
+        return 0
     try:
         rclpy.spin(node)
     except (KeyboardInterrupt, ExternalShutdownException):
