@@ -247,6 +247,16 @@ def test_tric_eval_viz_serves_the_episode_live(model_path, tmp_path):
     assert recorded[0].feature_names == statuses[0]["feature_names"]
 
 
+def test_the_layout_in_docs_is_the_generated_one():
+    from tric_sim.foxglove_view import LAYOUT_PATH, foxglove_layout
+
+    path = pathlib.Path(__file__).resolve().parent.parent / LAYOUT_PATH
+    assert path.read_text() == foxglove_layout(), "regenerate it: python -m tric_sim.foxglove_view"
+    panels = json.dumps(json.loads(path.read_text()))
+    for topic in ("/scene", "/scene_markers", "/controller/status.value", "/controller/status.feature_gradients"):
+        assert f'"{topic}' in panels
+
+
 # --- the visualizer node's ROS topics --------------------------------------------------------
 
 
