@@ -1,11 +1,16 @@
 """The viewer's scene (tric_sim.scene_view): the robot's primitives and transforms against Pinocchio's
-collision model and kinematics, the scene's primitives against the situation's geometry."""
+collision model and kinematics, the scene's primitives against the situation's geometry; and their
+messages (tric_sim.scene_messages)."""
+
+import json
 
 import numpy as np
 import pinocchio as pin
 import pytest
+from tric_msgs.msg import ControllerStatus
+from visualization_msgs.msg import Marker
 
-from tric_sim import scene, scene_view, situations
+from tric_sim import scene, scene_messages, scene_view, situations
 from tric_sim.robot_model import RobotModel
 
 
@@ -105,3 +110,29 @@ def test_quaternion_product_composes_rotations():
     for k in range(6):
         rotation = lambda v: pin.Quaternion(v[3], v[0], v[1], v[2]).matrix()  # noqa: E731
         assert np.allclose(rotation(product[k]), rotation(a[k]) @ rotation(b[k]))
+
+
+def test_marker_array_holds_every_primitive(view):
+    situation = situations.find_situation("box_test_02")
+    primitives = view.primitives + scene_view.scene_primitives(situation)
+    markers = scene_messages.marker_array(primitives, 2_500_000_000).markers
+    assert markers[0].action == Marker.DELETEALL and len(markers) == len(primitives) + 1
+    assert len({(m.ns, m.id) for m in markers[1:]}) == len(primitives)
+    for marker, primitive in zip(markers[1:], primitives):
+        assert marker.header.frame_id == primitive.frame and marker.ns == primitive.group
+        assert marker.type == scene_messages.MARKER_TYPES[primitive.shape] and marker.frame_locked
+        assert (marker.scale.x, marker.scale.y, marker.scale.z) == pytest.approx(primitive.size)
+        assert (marker.header.stamp.sec, marker.header.stamp.nanosec) == (2, 500_000_000)
+
+
+def test_status_fields_are_json(view):
+    status = ControllerStatus(state=ControllerStatus.RUNNING, step=7, value=float("nan"), value_rate=0.1,
+                              gradient_norm=2.0, step_norm=0.01, min_distance=float("inf"), tick_time_ms=0.4,
+                              active_constraints=["collision:palm_link/table"], feature_names=["d[palm,object]"],
+                              feature_values=[0.25], feature_gradients=[float("nan")])
+    status.header.stamp.sec = 3
+    fields = scene_messages.status_fields(status)
+    assert json.loads(json.dumps(fields, allow_nan=False)) == fields
+    assert fields["value"] is None and fields["min_distance"] is None and fields["feature_gradients"] == [None]
+    assert fields["stamp_ns"] == 3_000_000_000 and fields["active_constraints"] == ["collision:palm_link/table"]
+    assert set(fields) == set(scene_messages.STATUS_FIELDS) | {"stamp_ns"}
