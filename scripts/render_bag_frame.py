@@ -61,9 +61,9 @@ def draw_scene(axes, markers, placements) -> None:
     for marker in markers:
         if marker.type not in SHAPES or marker.header.frame_id not in placements:
             continue
+        position, orientation = marker.pose.position, marker.pose.orientation
         pose = placements[marker.header.frame_id] * scene.se3(
-            [marker.pose.position.x, marker.pose.position.y, marker.pose.position.z],
-            [marker.pose.orientation.x, marker.pose.orientation.y, marker.pose.orientation.z, marker.pose.orientation.w])
+            [position.x, position.y, position.z], [orientation.x, orientation.y, orientation.z, orientation.w])
         scale = np.array([marker.scale.x, marker.scale.y, marker.scale.z])
         color = (marker.color.r, marker.color.g, marker.color.b, min(marker.color.a, 0.9))
         for face in unit_faces(SHAPES[marker.type]):

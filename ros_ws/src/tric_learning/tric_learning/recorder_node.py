@@ -70,8 +70,8 @@ class RecorderNode(Node):
         self._outcome = None
         self._backlog = deque(maxlen=BACKLOG)
         self._stop = threading.Event()
-        streams = {"state": (JointState, "/joint_states", STATE_QOS), "poses": (ObjectPoses, "/object_poses", STATE_QOS),
-                   "event": (EpisodeEvent, "/episode", EVENT_QOS)}
+        streams = {"state": (JointState, "/joint_states", STATE_QOS),
+                   "poses": (ObjectPoses, "/object_poses", STATE_QOS), "event": (EpisodeEvent, "/episode", EVENT_QOS)}
         if self.status_topic:
             streams["status"] = (ControllerStatus, self.status_topic, STATE_QOS)
         self._poller = TopicPoller(self.context, "recorder_streams", streams)

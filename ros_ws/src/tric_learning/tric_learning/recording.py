@@ -14,8 +14,8 @@ A bag holds (topic: type):
     /episode:                 tric_msgs/EpisodeEvent        START, END, OUTCOME (the teacher's metrics)
     /controller/status:       tric_msgs/ControllerStatus    every control tick, when recording a controller
 and the scene topics for 3D replay (tric_learning.scene_recording: /robot_description, /tf_static,
-/tf, /scene_markers), and in its rosbag2 custom data: tric.episode_id, tric.source, tric.task, tric.fingerprint and, once
-known, tric.outcome (the metrics as JSON).
+/tf, /scene_markers), and in its rosbag2 custom data: tric.episode_id, tric.source, tric.task,
+tric.fingerprint and, once known, tric.outcome (the metrics as JSON).
 """
 
 import json

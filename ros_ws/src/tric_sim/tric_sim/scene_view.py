@@ -116,7 +116,8 @@ class RobotView:
         angles = self._multipliers * np.asarray(q, dtype=float)[self._sources] + self._offsets
         half = 0.5 * angles
         turns = np.concatenate([self._axes * np.sin(half)[:, None], np.cos(half)[:, None]], axis=1)
-        return Transforms(self._parents, self._children, self._origins, quaternion_product(self._origin_rotations, turns))
+        rotations = quaternion_product(self._origin_rotations, turns)
+        return Transforms(self._parents, self._children, self._origins, rotations)
 
 
 def object_transforms(poses: dict) -> Transforms:
