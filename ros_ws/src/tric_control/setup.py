@@ -21,5 +21,6 @@ setup(
         "tric-eval = tric_control.evaluate_cli:main",
         "tric-demo = tric_control.demo_cli:main",
         "tric-experiments = tric_control.experiments:main",
+        "tric-study = tric_control.study:main",
     ]},
 )

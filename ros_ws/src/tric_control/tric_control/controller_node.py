@@ -45,8 +45,9 @@ that state is older than 3 control periods (or the objects' poses are missing) t
 node commands the last measured positions (approached at the velocity bound) with status HOLDING,
 does not step the controller, and resumes when fresh states arrive.
 
-Safety: every command is checked against the joint limits and the per-tick velocity bound before it
-is published (the controller already respects both; a violation is clipped and counted in a warning).
+The episode itself (safe commands, the stale-state hold, convergence and the step budget, the
+statistics) is tric_control.episode.EpisodeRunner, the same loop that `tric-eval --offline` runs on
+the physics without ROS; this node only feeds it states and publishes what it decides.
 """
 
 import math
@@ -54,7 +55,6 @@ import sys
 import threading
 import time
 
-import numpy as np
 from rclpy.action import ActionServer, CancelResponse, GoalResponse
 from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
@@ -74,6 +74,7 @@ from tric_sim.lockstep import StateStream, command_msg, run_in_thread
 from tric_sim.node_main import run_node
 from tric_sim.robot_model import RobotModel
 
+from tric_control.episode import DEFAULT_MAX_STEPS, EpisodeRunner
 from tric_control.motion_rate import MotionRateController
 from tric_control.objectives import make_objective
 from tric_control.top_features import TopFeatures
@@ -83,8 +84,6 @@ EVENT_QOS = QoSProfile(depth=20, reliability=ReliabilityPolicy.RELIABLE)
 #: /situation as the simulator publishes it: latched for late joiners.
 LATCHED_QOS = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 MODES = ("lockstep", "realtime")
-#: Realtime: joint states older than this many control periods are stale.
-STALE_PERIODS = 3
 FEEDBACK_EVERY = 10
 #: Wall seconds between checks of cancel requests and the state timeout (lockstep waits, realtime watchdog).
 POLL_S = 0.05
@@ -113,36 +112,32 @@ class Scene:
 
 
 class Episode:
-    """One run of ~/execute: the controller and the running statistics of its result."""
+    """One run of ~/execute: its goal, model, scene and runner (tric_control.episode)."""
 
-    def __init__(self, goal_handle, episode_id: str, model: Loaded, scene: Scene, controller, max_steps: int):
+    def __init__(self, goal_handle, episode_id: str, model: Loaded, scene: Scene, runner: EpisodeRunner):
         self.goal_handle, self.episode_id, self.model, self.scene = goal_handle, episode_id, model, scene
-        self.controller, self.max_steps = controller, max_steps
-        self.steps = 0
-        self.initial_value = math.nan
-        self.final_value = math.nan
-        self.min_distance = math.inf
-        self.min_margin = math.inf
-        self.tick_ms = []
-        self.previous = None        # the last command published (n,), or None before the first
+        self.runner = runner
         self.start_ns = None        # stamp of the first answered state (START), None before it
         self.last_ns = None         # stamp of the last answered state
         self.wall_start = time.monotonic()
-        self.last_state_wall = self.wall_start
         self.done = Future()        # realtime: (outcome, message) when the episode is over
+
+    @property
+    def steps(self) -> int:
+        return self.runner.stats.steps
 
     def finish(self, outcome: str, message: str = "") -> None:
         if not self.done.done():
             self.done.set_result((outcome, message))
 
     def fill(self, result) -> None:
-        result.steps = self.steps
-        result.initial_value, result.final_value = self.initial_value, self.final_value
-        result.min_distance = self.min_distance if self.steps else math.nan
-        result.min_joint_limit_margin = self.min_margin if self.steps else math.nan
+        stats = self.runner.stats
+        result.steps = stats.steps
+        result.initial_value, result.final_value = stats.initial_value, stats.final_value
+        result.min_distance = stats.min_distance if stats.steps else math.nan
+        result.min_joint_limit_margin = stats.min_joint_margin if stats.steps else math.nan
         result.wall_time_s = time.monotonic() - self.wall_start
-        result.mean_tick_ms = float(np.mean(self.tick_ms)) if self.tick_ms else math.nan
-        result.max_tick_ms = float(np.max(self.tick_ms)) if self.tick_ms else math.nan
+        result.mean_tick_ms, result.max_tick_ms = stats.mean_tick_ms, stats.max_tick_ms
 
 
 class ControllerNode(Node):
@@ -154,7 +149,7 @@ class ControllerNode(Node):
         model_path = self._parameter("model_path", "", "a model file to load at start (empty: none)")
         self.mode = self._parameter("mode", "lockstep", "'lockstep' (answer every joint state) or 'realtime'")
         rate = self._parameter("control_rate_hz", 100.0, "control ticks per second")
-        self.max_steps = self._parameter("max_steps", 800, "an episode's default step budget")
+        self.max_steps = self._parameter("max_steps", DEFAULT_MAX_STEPS, "an episode's default step budget")
         self.state_timeout = self._parameter(
             "state_timeout_s", 10.0, "wall seconds without joint states before an episode aborts")
         if self.task not in TASK_LANDMARKS:
@@ -171,10 +166,8 @@ class ControllerNode(Node):
         self.period_ns = int(round(1e9 / rate))
         self.robot = RobotModel()
         self.definition = FeatureDefinition.for_task(self.task, self.robot)
-        self.max_step = self.robot.velocity_limits * self.period
         self.model = None
         self.scene = None
-        self.violations = 0
         self._busy = threading.Lock()
         self._stop = threading.Event()
         self._control_thread = None
@@ -328,9 +321,11 @@ class ControllerNode(Node):
             return self._abort(goal_handle, result, f"the current situation '{scene.situation.name}' is a "
                                f"'{scene.situation.task}' task; this controller runs '{self.task}'")
         controller = MotionRateController(self.robot, scene.proximity, model.objective, self.period)
-        episode = Episode(goal_handle, goal.episode_id or scene.situation.name, model, scene, controller,
-                          int(goal.max_steps) or self.max_steps)
-        self.get_logger().info(f"episode '{episode.episode_id}' ({model.kind}, {episode.max_steps} steps at most)")
+        max_steps = int(goal.max_steps) or self.max_steps
+        runner = EpisodeRunner(self.robot, controller, max_steps, self.period, model.objects,
+                               lambda what: self.get_logger().warning(what, throttle_duration_sec=1.0))
+        episode = Episode(goal_handle, goal.episode_id or scene.situation.name, model, scene, runner)
+        self.get_logger().info(f"episode '{episode.episode_id}' ({model.kind}, {max_steps} steps at most)")
         if self.mode == "lockstep":
             try:
                 outcome, message = await run_in_thread(self, self._drive, episode)
@@ -395,7 +390,7 @@ class ControllerNode(Node):
                         f"control_rate_hz sets a period of {self.period * 1e3:g} ms")
                 last = stamp
                 poses = self.stream.poses
-                missing = [name for name in episode.model.objects if name not in poses]
+                missing = episode.runner.missing(poses)
                 if missing:
                     raise RuntimeError(f"no pose of {', '.join(missing)} on /object_poses: is the simulator running?")
                 outcome = self._tick(episode, stamp, q, poses, stamp)
@@ -424,80 +419,45 @@ class ControllerNode(Node):
 
     # --- one tick (both modes) -------------------------------------------------------------------
 
-    def _tick(self, episode: Episode, stamp_ns: int, q, poses, status_ns: int):
-        """One controller step from the state stamped stamp_ns: command, status, statistics and
-        feedback. Returns (outcome, message) when the episode is over, else None; raises RuntimeError."""
-        controller = episode.controller
+    def _tick(self, episode: Episode, stamp_ns: int, q, poses, status_ns: int, now_ns: int = None):
+        """One runner step from the state stamped stamp_ns (at now_ns: realtime's staleness test):
+        command, status, feedback. Returns (outcome, message) when the episode is over, else None;
+        raises RuntimeError."""
         if episode.start_ns is None:
             episode.start_ns = stamp_ns
-            controller.reset(q)
-            episode.previous = np.array(q, dtype=float)
             self._event(EpisodeEvent.START, episode)
-        started = time.perf_counter()
-        try:
-            tick = controller.tick(q, poses)
-        except Exception as error:  # the objective or the QP failed on this input
-            raise RuntimeError(f"control tick {episode.steps} failed: {type(error).__name__}: {error}") from None
-        tick_ms = (time.perf_counter() - started) * 1e3
-        command = self._safe_command(tick.target, episode.previous)
-        if not np.array_equal(command, tick.target):
-            controller.reference = command.copy()  # integrate from what was actually commanded
-        self.command_pub.publish(command_msg(self.robot.joint_names, command, stamp_ns))
-        step_norm = float(np.linalg.norm(command - episode.previous))
-        episode.previous = command
-        episode.steps += 1
+        decided = episode.runner.step(q, poses, stamp_ns, now_ns)
+        held = decided.tick is None
+        self.command_pub.publish(command_msg(self.robot.joint_names, decided.command,
+                                             now_ns if held and now_ns is not None else stamp_ns))
+        if held:
+            if "no pose" in decided.held:
+                self.get_logger().warning(f"holding: {decided.held} on /object_poses", throttle_duration_sec=1.0)
+            self._status(ControllerStatus.HOLDING, status_ns, episode)
+            return None
         episode.last_ns = stamp_ns
-        if episode.steps == 1:
-            episode.initial_value = float(tick.value)
-        episode.final_value = float(tick.value)
-        episode.min_distance = min(episode.min_distance, float(tick.min_distance))
-        margin = float(min(np.min(q - self.robot.lower), np.min(self.robot.upper - q)))
-        episode.min_margin = min(episode.min_margin, margin)
-        episode.tick_ms.append(tick_ms)
+        tick, steps = decided.tick, episode.steps
         status = ControllerStatus(
             state=ControllerStatus.CONVERGED if tick.converged else ControllerStatus.RUNNING,
-            model_path=episode.model.path, step=episode.steps, value=float(tick.value),
+            model_path=episode.model.path, step=steps, value=float(tick.value),
             value_rate=float(getattr(episode.model.objective, "delta", math.nan)),
-            gradient_norm=float(tick.gradient_norm), step_norm=step_norm,
-            min_distance=float(tick.min_distance), active_constraints=list(tick.active), tick_time_ms=tick_ms)
+            gradient_norm=float(tick.gradient_norm), step_norm=decided.step_norm,
+            min_distance=float(tick.min_distance), active_constraints=list(tick.active),
+            tick_time_ms=decided.tick_ms)
         status.feature_names, status.feature_values, status.feature_gradients = episode.model.top_features.read()
         status.header.stamp = messages.time_msg(status_ns)
         self.status_pub.publish(status)
-        if episode.steps % FEEDBACK_EVERY == 0:
+        if steps % FEEDBACK_EVERY == 0:
             episode.goal_handle.publish_feedback(Execute.Feedback(
-                step=episode.steps, value=float(tick.value), step_norm=step_norm,
+                step=steps, value=float(tick.value), step_norm=decided.step_norm,
                 min_distance=float(tick.min_distance)))
-        if tick.converged:
-            return "converged", f"converged after {episode.steps} steps"
-        if episode.steps >= episode.max_steps:
-            return "step_budget", f"step budget of {episode.max_steps} spent"
-        return None
-
-    def _safe_command(self, target, previous: np.ndarray, count: bool = True) -> np.ndarray:
-        """target moved into the joint limits and within one tick's velocity bound of previous;
-        violations (there should be none from the controller) are counted and logged if count."""
-        target = np.asarray(target, dtype=float)
-        if target.shape != previous.shape or not np.all(np.isfinite(target)):
-            self._violation("a non-finite or mis-sized target; holding the previous command")
-            return previous.copy()
-        change = target - previous
-        command = np.clip(previous + np.clip(change, -self.max_step, self.max_step),
-                          self.robot.lower, self.robot.upper)
-        if count and np.any(np.abs(change) > self.max_step + 1e-12):
-            self._violation("a target step beyond the velocity bound")
-        if count and np.any((target < self.robot.lower) | (target > self.robot.upper)):
-            self._violation("a target outside the joint limits")
-        return self.robot.check_configuration(command, "command")
-
-    def _violation(self, what: str) -> None:
-        self.violations += 1
-        self.get_logger().warning(f"clipped {what} ({self.violations} safety violations so far)",
-                                  throttle_duration_sec=1.0)
+        return decided.outcome
 
     # --- realtime ----------------------------------------------------------------------------------
 
     def _on_control_timer(self):
-        """Realtime: one tick from the latest state, a hold on stale input, or idle status."""
+        """Realtime: one runner step from the latest state (a hold when it is stale or the objects'
+        poses are missing), or idle status."""
         now_ns = self.get_clock().now().nanoseconds
         episode = self._episode
         if episode is None or episode.done.done():
@@ -508,32 +468,13 @@ class ControllerNode(Node):
             self._status(ControllerStatus.HOLDING, now_ns, episode)
             return
         stamp, q, _ = latest
-        poses = self._poses
-        stale = now_ns - stamp > STALE_PERIODS * self.period_ns
-        missing = [name for name in episode.model.objects if name not in poses]
-        if stale or missing:
-            self._hold(episode, q, now_ns)
-            if missing:
-                self.get_logger().warning(f"holding: no pose of {', '.join(missing)} on /object_poses",
-                                          throttle_duration_sec=1.0)
-            return
         try:
-            outcome = self._tick(episode, stamp, q, poses, now_ns)
+            outcome = self._tick(episode, stamp, q, self._poses, now_ns, now_ns)
         except Exception as error:
             outcome = ("failed", str(error) if isinstance(error, RuntimeError)
                        else f"internal error: {type(error).__name__}: {error}")
         if outcome:
             episode.finish(*outcome)
-
-    def _hold(self, episode: Episode, q, now_ns: int):
-        """Command the last measured positions (approached within the velocity bound); HOLDING."""
-        previous = episode.previous if episode.previous is not None else np.array(q, dtype=float)
-        command = self._safe_command(q, previous, count=False)
-        episode.previous = command
-        if episode.controller.reference is not None:
-            episode.controller.reference = command.copy()
-        self.command_pub.publish(command_msg(self.robot.joint_names, command, now_ns))
-        self._status(ControllerStatus.HOLDING, now_ns, episode)
 
     def _status(self, state, now_ns: int, episode: Episode = None):
         status = ControllerStatus(state=state, model_path=self.model.path if self.model else "",
@@ -542,7 +483,7 @@ class ControllerNode(Node):
         if episode is not None:
             status.step = episode.steps
             status.model_path = episode.model.path
-            status.value = episode.final_value
+            status.value = episode.runner.stats.final_value
             status.value_rate = float(getattr(episode.model.objective, "delta", math.nan))
         status.header.stamp = messages.time_msg(now_ns)
         self.status_pub.publish(status)

@@ -26,8 +26,10 @@ class EpisodeRecord:
     grasp_cost, lift_passed: grasps only (NaN / None otherwise); lid_angle: boxes only (NaN otherwise).
     min_distance: the smallest signed distance between the robot and the table, obstacles and box
     body over the episode, as the simulator measured it (negative: penetration); collided: it went
-    below zero. min_joint_margin: the smallest distance of a joint to its limit (NaN for the
-    teacher, whose episodes the controller does not see). outcome: how the episode ended
+    below zero. min_joint_margin: the smallest distance of a commanded joint's measured position to
+    its limit (NaN for the teacher, whose episodes the controller does not see). max_joint_overshoot:
+    the largest distance a measured joint (arm, hand or the lid's hinge) went past its limit, as the
+    simulator measured it (0: none did). outcome: how the episode ended
     ("converged", "step_budget", "demonstrated", "failed", ...). message: why, when it failed.
     """
 
@@ -45,6 +47,7 @@ class EpisodeRecord:
     wall_time_s: float
     outcome: str
     message: str = ""
+    max_joint_overshoot: float = math.nan
 
     @property
     def failed(self) -> bool:
@@ -81,6 +84,7 @@ def summarize(records) -> dict:
         "collisions": sum(bool(r.collided) for r in records),
         "min_distance": float(min(distances)) if distances else math.nan,
         "min_joint_margin": float(min(margins)) if margins else math.nan,
+        "max_joint_overshoot": _max(r.max_joint_overshoot for r in records),
         "steps_mean": _mean(r.steps for r in records),
         "wall_time_s_mean": _mean(r.wall_time_s for r in records),
     }
@@ -99,7 +103,7 @@ def _cell(value, fmt: str) -> str:
 def table(records, title: str = "") -> str:
     """A fixed-width table of the records, with a summary line."""
     header = (f"{'situation':22s} {'agent':10s} {'ok':>3s} {'cost':>6s} {'lift':>4s} {'lid':>5s} "
-              f"{'min d (mm)':>10s} {'margin':>6s} {'steps':>5s} {'wall s':>6s}  outcome")
+              f"{'min d (mm)':>10s} {'margin':>6s} {'over':>5s} {'steps':>5s} {'wall s':>6s}  outcome")
     lines = [title] if title else []
     lines += [header, "-" * len(header)]
     for r in records:
@@ -107,6 +111,7 @@ def table(records, title: str = "") -> str:
             f"{r.situation[:22]:22s} {r.agent[:10]:10s} {_cell(bool(r.success), ''):>3s} "
             f"{_cell(r.grasp_cost, '.3f'):>6s} {_cell(r.lift_passed, ''):>4s} {_cell(r.lid_angle, '.2f'):>5s} "
             f"{_cell(r.min_distance * 1e3, '.1f'):>10s} {_cell(r.min_joint_margin, '.3f'):>6s} "
+            f"{_cell(r.max_joint_overshoot, '.3f'):>5s} "
             f"{r.steps:5d} {r.wall_time_s:6.1f}  {r.outcome}{': ' + r.message if r.failed else ''}")
     s = summarize(records)
     lines.append("-" * len(header))
@@ -117,6 +122,8 @@ def table(records, title: str = "") -> str:
     if math.isfinite(s["lid_angle_mean"]):
         parts.append(f"{s['boxes_opened']} boxes opened (lid mean {s['lid_angle_mean']:.2f} rad)")
     parts.append(f"{s['collisions']} collisions (closest {_cell(s['min_distance'] * 1e3, '.1f')} mm)")
+    if math.isfinite(s["max_joint_overshoot"]):
+        parts.append(f"joints at most {s['max_joint_overshoot']:.3f} rad past a limit")
     if s["failed_runs"]:
         parts.append(f"{s['failed_runs']} runs failed")
     lines.append("; ".join(parts))

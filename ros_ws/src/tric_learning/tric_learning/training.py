@@ -23,6 +23,7 @@ import time
 from dataclasses import asdict, dataclass
 
 import numpy as np
+import scipy.optimize
 import torch
 
 from tric_learning import model_file, samples
@@ -43,6 +44,8 @@ TICKS_PER_DEMO = 500
 #: gradient: the value term dominates the step-size term there (Proposition 1), and steps shrink
 #: smoothly where the gradient vanishes.
 RHO_GAIN = 100.0
+#: The optimizers TrainingConfig.optimizer names.
+OPTIMIZERS = ("lbfgs", "lbfgsb")
 #: The model file written next to the first bag when no output path is given.
 DEFAULT_MODEL_NAME = "model.safetensors"
 MODEL_SUFFIX = ".safetensors"
@@ -61,6 +64,12 @@ class TrainingConfig:
     max_iterations: int = 100
     correlation_threshold: float = 0.995
     seed: int = 0
+    #: L_n's weights eps divided by their sum at each step (each step's L_n a weighted mean over its
+    #: noisy samples) instead of summed as in Eq. 16.
+    per_step_weights: bool = False
+    #: "lbfgs": PyTorch's L-BFGS on the whole loss, |w|_1 included (not smooth at 0); "lbfgsb": SciPy's
+    #: L-BFGS-B on w = w+ - w-, w+, w- >= 0, where |w|_1 = sum(w+ + w-) is linear (exact L1, sparse).
+    optimizer: str = "lbfgs"
 
     def validate(self) -> "TrainingConfig":
         """Return self, or ValueError naming the first value out of range."""
@@ -74,6 +83,7 @@ class TrainingConfig:
             (1 <= self.max_iterations <= 100000, "max_iterations must be in [1, 100000]"),
             (0 < self.correlation_threshold <= 1, "correlation_threshold must be in (0, 1]"),
             (0 <= self.seed < 2**32, "seed must be in [0, 2^32)"),
+            (self.optimizer in OPTIMIZERS, f"optimizer must be one of {', '.join(OPTIMIZERS)}"),
         ]
         for ok, message in checks:
             if not ok:
@@ -191,13 +201,17 @@ class _Problem:
 
     def __init__(self, dataset: Dataset, noisy: samples.NoisySamples, scaling: Scaling, config: TrainingConfig):
         self.config = config
-        dtype = torch.float32
+        dtype = torch.float64 if config.optimizer == "lbfgsb" else torch.float32
         self.s, self.k = len(scaling.kept), config.hidden_units
         self.u = torch.tensor(scaling.transform(np.concatenate([d.y for d in dataset.demos])), dtype=dtype)
         self.steps = len(self.u)
         self.u_noisy = torch.tensor(scaling.transform(noisy.y), dtype=dtype)
         self.noisy_step = torch.tensor(noisy.step, dtype=torch.long)
-        self.noisy_weight = torch.tensor(noisy.weight, dtype=dtype)
+        weight = noisy.weight
+        if config.per_step_weights:
+            sums = np.bincount(noisy.step, weights=noisy.weight, minlength=self.steps)
+            weight = weight / np.maximum(sums[noisy.step], 1e-12)
+        self.noisy_weight = torch.tensor(weight, dtype=dtype)
         # L_g: the steps with a direction, their (scaled) Jacobians du/dq and directions
         offsets = samples.step_offsets(dataset)
         rows, jacobians, directions = [], [], []
@@ -241,30 +255,74 @@ class _Problem:
         return loss_n, loss_g, loss_w
 
     def solve(self, report):
+        """Minimize the loss; ((W1, W2, W3), final loss terms, iterations)."""
+        if self.config.optimizer == "lbfgsb":
+            iterations = self._solve_split(report)
+        else:
+            iterations = self._solve_lbfgs(report)
+        with torch.no_grad():
+            loss_n, loss_g, loss_w = self.terms(self.theta)
+        config = self.config
+        losses = {"n": float(loss_n) / self.steps, "g": float(loss_g) / self.steps, "w": float(loss_w)}
+        losses["total"] = config.alpha_n * losses["n"] + config.alpha_g * losses["g"] + config.alpha_w * losses["w"]
+        w1, w2, w3 = (t.detach().to(torch.float64).numpy().copy() for t in self._split(self.theta))
+        return (w1, w2, w3), losses, int(iterations)
+
+    def _data_loss(self, theta):
+        """(alpha_n L_n + alpha_g L_g) / S and the terms (L_n, L_g, |w|_1) as tensors."""
+        loss_n, loss_g, loss_w = self.terms(theta)
+        return (self.config.alpha_n * loss_n + self.config.alpha_g * loss_g) / self.steps, (loss_n, loss_g, loss_w)
+
+    def _report(self, report, iteration, loss_n, loss_g, loss_w):
+        config = self.config
+        latest = dict(n=float(loss_n) / self.steps, g=float(loss_g) / self.steps, w=float(loss_w))
+        latest["total"] = config.alpha_n * latest["n"] + config.alpha_g * latest["g"] + config.alpha_w * latest["w"]
+        report("optimizing", min(iteration / config.max_iterations, 1.0), dict(latest, iteration=iteration))
+
+    def _solve_split(self, report) -> int:
+        """SciPy's L-BFGS-B on x = (w+, w-) >= 0, w = w+ - w-: the data loss plus alpha_w sum(x)."""
+        config = self.config
+        start = self.theta.detach().numpy()
+        x0 = np.concatenate([np.maximum(start, 0.0), np.maximum(-start, 0.0)])
+        size = len(start)
+        state = {"iteration": 0}
+
+        def objective(x):
+            theta = torch.tensor(x[:size] - x[size:], dtype=self.theta.dtype, requires_grad=True)
+            data, terms = self._data_loss(theta)
+            data.backward()
+            gradient = theta.grad.numpy()
+            state["terms"] = [float(t.detach()) for t in terms]
+            value = float(data.detach()) + config.alpha_w * float(np.sum(x))
+            return value, np.concatenate([gradient + config.alpha_w, -gradient + config.alpha_w])
+
+        def iterated(_x):
+            state["iteration"] += 1
+            self._report(report, state["iteration"], *state["terms"])
+
+        result = scipy.optimize.minimize(objective, x0, jac=True, method="L-BFGS-B",
+                                         bounds=[(0.0, None)] * (2 * size), callback=iterated,
+                                         options={"maxiter": config.max_iterations, "maxcor": 20,
+                                                  "ftol": 1e-12, "gtol": 1e-10})
+        with torch.no_grad():
+            self.theta.copy_(torch.tensor(result.x[:size] - result.x[size:], dtype=self.theta.dtype))
+        return result.nit
+
+    def _solve_lbfgs(self, report) -> int:
         config = self.config
         optimizer = torch.optim.LBFGS([self.theta], lr=1.0, max_iter=config.max_iterations,
                                       max_eval=config.max_iterations * 2, history_size=20,
                                       tolerance_grad=1e-10, tolerance_change=1e-12,
                                       line_search_fn="strong_wolfe")
-        latest = {}
 
         def closure():
             optimizer.zero_grad()
-            loss_n, loss_g, loss_w = self.terms(self.theta)
-            total = (config.alpha_n * loss_n + config.alpha_g * loss_g) / self.steps + config.alpha_w * loss_w
+            data, terms = self._data_loss(self.theta)
+            total = data + config.alpha_w * terms[2]
             total.backward()
-            latest.update(total=float(total.detach()), n=float(loss_n.detach()) / self.steps,
-                          g=float(loss_g.detach()) / self.steps, w=float(loss_w.detach()))
-            iteration = optimizer.state[optimizer._params[0]].get("n_iter", 0)
-            report("optimizing", min(iteration / config.max_iterations, 1.0), dict(latest, iteration=iteration))
+            self._report(report, optimizer.state[optimizer._params[0]].get("n_iter", 0), *(t.detach() for t in terms))
             return total
 
         torch.manual_seed(config.seed)
         optimizer.step(closure)
-        iterations = optimizer.state[optimizer._params[0]].get("n_iter", 0)
-        with torch.no_grad():
-            loss_n, loss_g, loss_w = self.terms(self.theta)
-        losses = {"n": float(loss_n) / self.steps, "g": float(loss_g) / self.steps, "w": float(loss_w)}
-        losses["total"] = config.alpha_n * losses["n"] + config.alpha_g * losses["g"] + config.alpha_w * losses["w"]
-        w1, w2, w3 = (t.detach().to(torch.float64).numpy().copy() for t in self._split(self.theta))
-        return (w1, w2, w3), losses, int(iterations)
+        return optimizer.state[optimizer._params[0]].get("n_iter", 0)

@@ -129,7 +129,8 @@ def metrics_msg(metrics) -> TaskMetricsMsg:
         lift_tested=bool(metrics.lift_tested), lift_passed=bool(metrics.lift_passed),
         lift_height=float(metrics.lift_height), lid_angle=float(metrics.lid_angle),
         success=bool(metrics.success), min_distance=float(metrics.min_distance),
-        collided=bool(metrics.collided))
+        collided=bool(metrics.collided), max_joint_overshoot=float(metrics.max_joint_overshoot),
+        overshoot_joint=metrics.overshoot_joint)
 
 
 def metrics_dict(msg: TaskMetricsMsg) -> dict:
@@ -138,7 +139,10 @@ def metrics_dict(msg: TaskMetricsMsg) -> dict:
             "cost_terms": dict(zip(msg.cost_term_names, (float(v) for v in msg.cost_term_values))),
             "lift_tested": msg.lift_tested, "lift_passed": msg.lift_passed,
             "lift_height": float(msg.lift_height), "lid_angle": _finite_or_none(msg.lid_angle),
-            "success": msg.success, "min_distance": float(msg.min_distance), "collided": msg.collided}
+            "success": msg.success, "min_distance": float(msg.min_distance), "collided": msg.collided,
+            # bags recorded before these fields existed decode without them: unknown, not zero
+            "max_joint_overshoot": _finite_or_none(float(getattr(msg, "max_joint_overshoot", math.nan))),
+            "overshoot_joint": getattr(msg, "overshoot_joint", "")}
 
 
 def _finite_or_none(value: float):

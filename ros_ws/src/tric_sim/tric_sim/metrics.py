@@ -60,6 +60,8 @@ class TaskMetrics:
     success: bool = False
     min_distance: float = float("nan")
     collided: bool = False
+    max_joint_overshoot: float = 0.0
+    overshoot_joint: str = ""
 
 
 def object_surface(kind: str, dimensions, placement: pin.SE3, points: np.ndarray):
@@ -150,7 +152,7 @@ def evaluate(world, robot: RobotModel, run_lift_test: bool = False) -> TaskMetri
     if situation.task == "open_box":
         metrics.lid_angle = world.lid_angle()
         metrics.success = metrics.lid_angle > scene.LID_OPEN_ANGLE
-        return metrics
+        return _with_overshoot(metrics, world)
     q, _ = world.joint_state()
     position, orientation = world.object_poses()["object"]
     terms = grasp_cost_terms(robot, q, situation.object_kind, situation.object_dimensions,
@@ -163,4 +165,12 @@ def evaluate(world, robot: RobotModel, run_lift_test: bool = False) -> TaskMetri
         metrics.lift_height = lift_test(world, robot)
         metrics.lift_passed = metrics.lift_height >= LIFT_PASS_FRACTION * LIFT_HEIGHT
         metrics.success = metrics.success and metrics.lift_passed
+    return _with_overshoot(metrics, world)
+
+
+def _with_overshoot(metrics: TaskMetrics, world) -> TaskMetrics:
+    """metrics with the largest joint-limit overshoot measured since the scene's reset (lift test
+    included)."""
+    metrics.max_joint_overshoot = float(world.max_overshoot)
+    metrics.overshoot_joint = world.max_overshoot_joint
     return metrics

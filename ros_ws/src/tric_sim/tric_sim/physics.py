@@ -48,8 +48,8 @@ SPINNING_FRICTION = 0.002
 #: Distance beyond which robot-to-scene distances are not resolved (reported as this value), m: the
 #: contact-breaking threshold, within which PyBullet reports contact points with their distance.
 DISTANCE_CUTOFF = 0.02
-#: Force (N m) of the hard stops at the joint limits: contacts cannot bend a joint past them.
-JOINT_LIMIT_FORCE = 1000.0
+#: The lid's hinge range, rad: closed (resting on the box) to flung open.
+LID_RANGE = (0.0, 2.2)
 #: Gains of the joint servos (PyBullet's POSITION_CONTROL: position and velocity error weights).
 POSITION_GAIN = 0.1
 VELOCITY_GAIN = 1.0
@@ -78,8 +78,8 @@ class PhysicsWorld:
         self.substeps = int(round(substeps))
         self.client = pb.connect(pb.GUI if gui else pb.DIRECT)
         pb.setGravity(0, 0, -9.81, physicsClientId=self.client)
-        # One stepSimulation call per control period, split by PyBullet into `substeps` steps.
-        pb.setPhysicsEngineParameter(fixedTimeStep=self.control_period, numSubSteps=self.substeps,
+        # One stepSimulation call per physics step: the joints' stops are enforced after each.
+        pb.setPhysicsEngineParameter(fixedTimeStep=self.control_period / self.substeps, numSubSteps=1,
                                      numSolverIterations=solver_iterations,
                                      contactBreakingThreshold=DISTANCE_CUTOFF,
                                      deterministicOverlappingPairs=1, physicsClientId=self.client)
@@ -110,8 +110,11 @@ class PhysicsWorld:
         self._velocity_gains = [VELOCITY_GAIN] * len(self.all_joints)
         for link in range(-1, pb.getNumJoints(self.robot_id, physicsClientId=self.client)):
             pb.changeDynamics(self.robot_id, link, lateralFriction=LATERAL_FRICTION,
-                              spinningFriction=SPINNING_FRICTION, jointLimitForce=JOINT_LIMIT_FORCE,
-                              physicsClientId=self.client)
+                              spinningFriction=SPINNING_FRICTION, physicsClientId=self.client)
+        infos = [pb.getJointInfo(self.robot_id, i, physicsClientId=self.client) for i in self.all_joints]
+        self._stop_low = np.array([info[8] for info in infos])
+        self._stop_high = np.array([info[9] for info in infos])
+        self._stop_names = [info[1].decode() for info in infos]
         self.periods = 0
         self.situation = None
         self.bodies = {}
@@ -120,6 +123,9 @@ class PhysicsWorld:
         self.targets = robot.home.copy()
         self.setpoint = robot.home.copy()
         self.min_distance = DISTANCE_CUTOFF
+        #: The largest distance a measured joint went past its limit since the last reset, rad, and
+        #: which joint ("" for none).
+        self.max_overshoot, self.max_overshoot_joint = 0.0, ""
 
     def close(self) -> None:
         if pb.isConnected(self.client):
@@ -159,6 +165,7 @@ class PhysicsWorld:
         self.setpoint = q0.copy()
         self.command(q0)
         self.min_distance = self.closest_distance()
+        self.max_overshoot, self.max_overshoot_joint = 0.0, ""
         self.periods += 1
 
     def _create_body(self, body: scene.Body, situation: Situation) -> int:
@@ -188,8 +195,8 @@ class PhysicsWorld:
             linkInertialFrameOrientations=[[0, 0, 0, 1]], linkParentIndices=[0],
             linkJointTypes=[pb.JOINT_REVOLUTE], linkJointAxis=[[0, -1, 0]],
             physicsClientId=self.client)
-        pb.changeDynamics(uid, 0, lateralFriction=LATERAL_FRICTION, jointLowerLimit=0.0,
-                          jointUpperLimit=2.2, physicsClientId=self.client)
+        pb.changeDynamics(uid, 0, lateralFriction=LATERAL_FRICTION, jointLowerLimit=LID_RANGE[0],
+                          jointUpperLimit=LID_RANGE[1], physicsClientId=self.client)
         pb.setJointMotorControl2(uid, 0, pb.VELOCITY_CONTROL, targetVelocity=0.0,
                                  force=scene.LID_HINGE_FRICTION, physicsClientId=self.client)
         # A multibody's links do not collide with their parent by default: the lid must rest on,
@@ -238,9 +245,55 @@ class PhysicsWorld:
                                      targetVelocities=velocities.tolist(), forces=self._forces,
                                      positionGains=self._position_gains,
                                      velocityGains=self._velocity_gains, physicsClientId=self.client)
-        pb.stepSimulation(physicsClientId=self.client)
+        for _ in range(self.substeps):
+            pb.stepSimulation(physicsClientId=self.client)
+            self._enforce_stops()
         self.periods += 1
         self.min_distance = min(self.min_distance, self.closest_distance())
+        self._measure_overshoot()
+
+    def _enforce_stops(self) -> None:
+        """The joints' hard stops. PyBullet's joint-limit constraints are soft: measured, a constant
+        3 N m on a finger's distal joint holds it 0.22 rad past its limit without any contact, and a
+        grasped object pushed distal joints up to 1 rad past (more solver iterations, a finer physics
+        step or a larger jointLimitForce only shrink that). A joint found past a limit after a physics
+        step is put back on it, and its velocity into the stop removed; the lid's hinge likewise."""
+        states = pb.getJointStates(self.robot_id, self.all_joints, physicsClientId=self.client)
+        for k, (position, velocity, *_rest) in enumerate(states):
+            if position < self._stop_low[k]:
+                pb.resetJointState(self.robot_id, self.all_joints[k], self._stop_low[k], max(velocity, 0.0),
+                                   physicsClientId=self.client)
+            elif position > self._stop_high[k]:
+                pb.resetJointState(self.robot_id, self.all_joints[k], self._stop_high[k], min(velocity, 0.0),
+                                   physicsClientId=self.client)
+        box = self._box()
+        if box is not None:
+            angle, velocity = pb.getJointState(box, 0, physicsClientId=self.client)[:2]
+            if not LID_RANGE[0] <= angle <= LID_RANGE[1]:
+                low = angle < LID_RANGE[0]
+                pb.resetJointState(box, 0, LID_RANGE[0] if low else LID_RANGE[1],
+                                   max(velocity, 0.0) if low else min(velocity, 0.0), physicsClientId=self.client)
+
+    def _box(self):
+        """The box's body id (its link 0 is the lid), or None in a scene without a box."""
+        uid = self.bodies.get("object")
+        return uid if uid is not None and self.body_roles["object"] == "box_body" else None
+
+    def _measure_overshoot(self) -> None:
+        """Track the largest distance of a measured joint (actuated, mimic, or the lid's hinge) past
+        its limit since the last reset, rad, and the joint it was."""
+        states = pb.getJointStates(self.robot_id, self.all_joints, physicsClientId=self.client)
+        positions = np.array([state[0] for state in states])
+        overshoot = np.maximum(self._stop_low - positions, positions - self._stop_high)
+        worst = int(np.argmax(overshoot))
+        candidates = [(float(overshoot[worst]), self._stop_names[worst])]
+        box = self._box()
+        if box is not None:
+            angle = pb.getJointState(box, 0, physicsClientId=self.client)[0]
+            candidates.append((max(LID_RANGE[0] - angle, angle - LID_RANGE[1]), "lid_hinge"))
+        best = max(candidates)
+        if best[0] > self.max_overshoot:
+            self.max_overshoot, self.max_overshoot_joint = best
 
     # --- state ---------------------------------------------------------------------------------
 
@@ -272,9 +325,10 @@ class PhysicsWorld:
 
     def lid_angle(self) -> float:
         """Opening angle of the box's lid, rad (NaN when the scene has no box)."""
-        if "object" not in self.bodies or self.body_roles["object"] != "box_body":
+        box = self._box()
+        if box is None:
             return float("nan")
-        return float(pb.getJointState(self.bodies["object"], 0, physicsClientId=self.client)[0])
+        return float(pb.getJointState(box, 0, physicsClientId=self.client)[0])
 
     def link_placements(self) -> dict:
         """World placement (position, xyzw) of each robot link PyBullet simulates, by link name."""

@@ -262,6 +262,19 @@ def with_obstacle(situation: Situation, thickness: float = 0.03, width: float = 
     return replace(situation, name=situation.name + "_obstacle", obstacles=(obstacle,)).validate()
 
 
+def obstacle_set(count: int, seed: int, prefix: str, gap_range=(0.04, 0.10), height_range=(0.10, 0.18)) -> list:
+    """Spheres at random positions inside the grid, each behind a plate (with_obstacle) of random gap
+    and height drawn uniformly from the ranges, m."""
+    rng = np.random.default_rng(seed)
+    out = []
+    for i in range(count):
+        position = rng.uniform(GRID_LOW, GRID_HIGH)
+        gap, height = float(rng.uniform(*gap_range)), float(rng.uniform(*height_range))
+        situation = with_obstacle(sphere(f"{prefix}_{i:02d}", position, seed), gap=gap, height=height)
+        out.append(replace(situation, name=f"{prefix}_{i:02d}"))
+    return out
+
+
 def box(name, side: float, x: float, y: float, yaw: float, seed=0) -> Situation:
     """A cube of the given side on the table, its lid hinged at the top edge of local +x."""
     return Situation(name=name, task="open_box", object_kind="box", object_dimensions=(side,),
@@ -281,14 +294,22 @@ def box_set(count: int = 10, seed: int = 4, prefix: str = "box_train") -> list:
     return out
 
 
-#: Named data sets: name -> function returning the list of situations.
+#: Named data sets: name -> function returning the list of situations. The training sets are the
+#: demonstrations; every choice of method or controller is made on them and on the validation sets
+#: (*_val, ours, drawn from the same generators with seeds of their own); the test sets (*_test, the
+#: paper's) are only reported.
 DATASETS = {
     "sphere_train": sphere_grid,
+    "sphere_val": lambda: [replace(s, name=f"sphere_val_{i:02d}")
+                           for i, s in enumerate(sphere_test_set(15, seed=11))],
     "sphere_test": lambda: sphere_test_set(15, seed=1),
     "cylinder_train": lambda: cylinder_set(10, seed=3, prefix="cylinder_train"),
+    "cylinder_val": lambda: cylinder_set(10, seed=12, prefix="cylinder_val"),
     "cylinder_test": lambda: cylinder_set(10, seed=5, prefix="cylinder_test"),
+    "obstacle_val": lambda: obstacle_set(10, seed=14, prefix="obstacle_val"),
     "obstacle_test": lambda: [with_obstacle(s) for s in sphere_test_set(5, seed=6)],
     "box_train": lambda: box_set(10, seed=4, prefix="box_train"),
+    "box_val": lambda: box_set(25, seed=13, prefix="box_val"),
     "box_test": lambda: box_set(25, seed=7, prefix="box_test"),
 }
 

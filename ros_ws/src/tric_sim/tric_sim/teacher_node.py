@@ -24,12 +24,10 @@ from tric_sim import messages
 from tric_sim.lockstep import StateStream, command_msg, run_in_thread
 from tric_sim.node_main import run_node
 from tric_sim.robot_model import RobotModel
-from tric_sim.teachers import make_teacher
+from tric_sim.teachers import DEFAULT_DURATION, make_teacher
 
 STATE_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
 EVENT_QOS = QoSProfile(depth=20, reliability=ReliabilityPolicy.RELIABLE)
-#: Default demonstration lengths by task, simulated s (the paper: 5 s grasps; 80 plan steps of 0.1 s).
-DEFAULT_DURATION = {"grasp": 5.0, "open_box": 8.0}
 
 
 class Canceled(Exception):

@@ -1,0 +1,166 @@
+"""Offline evaluation: the controller core on PhysicsWorld, no nodes. ROS-free.
+
+The same episodes as through the nodes (tric_control.evaluate_cli), without the graph: the scene is
+reset to the situation, the model's controller is run by the same EpisodeRunner as the controller
+node's, each command goes to the physics as the simulator would apply it, and the final state is
+judged by the same hidden metrics (with the lift test for grasps). The teacher runs its core
+(tric_sim.teachers.demonstrate) the same way. Sweeps and method studies use this; the README's tables
+come from the nodes.
+
+An episode through the nodes and offline differ only in the lockstep protocol's timing (the simulator
+steps on its own when a command is late), so the two agree to within the physics' run-to-run spread.
+"""
+
+import concurrent.futures
+import multiprocessing
+import pathlib
+import time
+
+from tqdm import tqdm
+
+from tric_control.episode import DEFAULT_MAX_STEPS, EpisodeRunner
+from tric_control.evaluation import EpisodeRecord
+from tric_control.motion_rate import MotionRateController
+from tric_control.objectives import CONTROL_PERIOD, make_objective
+from tric_learning.features import FeatureDefinition
+from tric_learning.model_file import ModelFile
+from tric_sim import metrics, teachers
+from tric_sim.collision import Proximity
+from tric_sim.physics import PhysicsWorld
+from tric_sim.robot_model import RobotModel
+
+
+class OfflineEvaluator:
+    """A physics world and, unless model is None (the teacher), a loaded model for one task.
+
+    Args:
+        task: "grasp" or "open_box".
+        model: a model file path, or None for the teacher.
+        max_steps: control ticks per episode at most (0: DEFAULT_MAX_STEPS, the controller node's).
+        period: the control period, s.
+    """
+
+    def __init__(self, task: str, model=None, max_steps: int = 0, period: float = CONTROL_PERIOD):
+        self.task, self.model, self.period = task, model, period
+        self.max_steps = max_steps or DEFAULT_MAX_STEPS
+        self.robot = RobotModel()
+        self.objective = self.kind = None
+        self.objects = ()
+        if model is not None:
+            model_file = ModelFile.load(model, FeatureDefinition.for_task(task, self.robot))
+            self.objective = make_objective(model_file, self.robot, period)
+            self.kind = model_file.kind
+            self.objects = tuple(source.partition("/")[2] for source in model_file.definition.landmark_sources
+                                 if source.startswith("object/"))
+        self.world = PhysicsWorld(self.robot, control_rate_hz=1.0 / period)
+
+    @property
+    def agent(self) -> str:
+        return "teacher" if self.model is None else self.kind
+
+    def close(self) -> None:
+        self.world.close()
+
+    def run(self, situation, snapshot: pathlib.Path = None) -> EpisodeRecord:
+        """One episode of the agent on situation, judged by the hidden metrics."""
+        if situation.task != self.task:
+            raise ValueError(f"situation '{situation.name}' is a '{situation.task}' task, not '{self.task}'")
+        started = time.monotonic()
+        world, grasp = self.world, situation.task == "grasp"
+        record = dict(situation=situation.name, task=situation.task, agent=self.agent, min_joint_margin=float("nan"))
+        if self.model is None:
+            duration = teachers.DEFAULT_DURATION[situation.task]
+            teachers.demonstrate(world, self.robot, situation, duration)
+            steps, outcome = int(round(duration / world.control_period)), "demonstrated"
+            if snapshot is not None:
+                self._snapshot(snapshot, situation)
+        else:
+            world.reset(situation)
+            controller = MotionRateController(self.robot, Proximity(self.robot, situation), self.objective, self.period)
+            runner = EpisodeRunner(self.robot, controller, self.max_steps, self.period, self.objects)
+            outcome = None
+            try:
+                while outcome is None:
+                    q, _ = world.joint_state()
+                    decided = runner.step(q, world.object_poses())
+                    world.command(decided.command)
+                    world.step()
+                    outcome = decided.outcome
+            except RuntimeError as error:
+                return EpisodeRecord(**record, success=False, grasp_cost=float("nan"), lift_passed=None,
+                                     lid_angle=float("nan"), min_distance=float("nan"), collided=False,
+                                     steps=runner.stats.steps, wall_time_s=time.monotonic() - started,
+                                     outcome="failed", message=str(error))
+            steps, outcome = runner.stats.steps, outcome[0]
+            record["min_joint_margin"] = runner.stats.min_joint_margin
+            if snapshot is not None:
+                self._snapshot(snapshot, situation)
+        judged = metrics.evaluate(world, self.robot, run_lift_test=grasp)
+        return EpisodeRecord(
+            **record, success=bool(judged.success), grasp_cost=judged.grasp_cost if grasp else float("nan"),
+            lift_passed=bool(judged.lift_passed) if grasp else None,
+            lid_angle=float("nan") if grasp else judged.lid_angle, min_distance=judged.min_distance,
+            collided=bool(judged.collided), steps=int(steps), wall_time_s=time.monotonic() - started,
+            outcome=outcome, max_joint_overshoot=judged.max_joint_overshoot)
+
+    def _snapshot(self, folder: pathlib.Path, situation) -> None:
+        import matplotlib.pyplot as plt
+
+        folder.mkdir(parents=True, exist_ok=True)
+        plt.imsave(folder / f"{situation.name}.png", self.world.render(480, 360))
+
+
+def evaluate_offline(situations, model=None, max_steps: int = 0, snapshots=None, progress=True,
+                     desc="evaluating offline", jobs: int = 1) -> list:
+    """Run the agent (a model file, or the teacher if None) on every situation offline; [EpisodeRecord]
+    in the situations' order. jobs > 1: that many spawned worker processes, each with its own world."""
+    tasks = {s.task for s in situations}
+    if len(tasks) != 1:
+        raise ValueError(f"the situations mix tasks ({', '.join(sorted(tasks))}): evaluate one task at a time")
+    if jobs < 1:
+        raise ValueError(f"jobs must be at least 1, not {jobs}")
+    task = tasks.pop()
+    snapshot = pathlib.Path(snapshots) if snapshots else None
+    jobs = min(jobs, len(situations))
+    records = [None] * len(situations)
+    with tqdm(total=len(situations), desc=desc, unit="episode", disable=not progress) as bar:
+        if jobs <= 1:
+            evaluator = OfflineEvaluator(task, model, max_steps)
+            try:
+                for k, situation in enumerate(situations):
+                    bar.set_postfix_str(situation.name)
+                    records[k] = evaluator.run(situation, snapshot)
+                    bar.update()
+            finally:
+                evaluator.close()
+            return records
+        spawn = multiprocessing.get_context("spawn")
+        with concurrent.futures.ProcessPoolExecutor(jobs, mp_context=spawn, initializer=_start_worker,
+                                                    initargs=(task, model, max_steps)) as pool:
+            futures = {pool.submit(_run_in_worker, situation, snapshot): k for k, situation in enumerate(situations)}
+            try:
+                for future in concurrent.futures.as_completed(futures):
+                    records[futures[future]] = future.result()
+                    bar.set_postfix_str(situations[futures[future]].name)
+                    bar.update()
+            except BaseException:
+                pool.shutdown(wait=True, cancel_futures=True)
+                raise
+    return records
+
+
+#: A worker process's OfflineEvaluator, or the error that building it raised (re-raised by each run).
+_worker = {}
+
+
+def _start_worker(task, model, max_steps):
+    try:
+        _worker["evaluator"] = OfflineEvaluator(task, model, max_steps)
+    except Exception as error:  # an initializer's exception would only break the pool, without its message
+        _worker["error"] = error
+
+
+def _run_in_worker(situation, snapshot):
+    if "error" in _worker:
+        raise _worker["error"]
+    return _worker["evaluator"].run(situation, snapshot)

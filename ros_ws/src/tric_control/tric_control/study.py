@@ -1,0 +1,217 @@
+"""tric-study: compare training variants of TRIC on the training and validation sets, over seeds.
+
+    tric-study [--variant NAME=OPTIONS ...] [--seeds S ...] [--tasks TASK ...] [--out DIR] [--jobs N]
+
+A variant is a name and TrainingConfig fields to change from the defaults, e.g.
+`--variant balanced=per_step_weights=true,optimizer=lbfgsb,alpha_g=3` (no options: the defaults).
+For each variant, seed and task, a model is trained on the reference bags of the task (the seed
+draws the noisy samples and the initial weights) and measured:
+
+- on its own demonstrations (tric-analyze's numbers): the share of the moving steps along which f
+  falls, L_g's mean cosine over them, and the selected features;
+- offline (tric_control.offline: the controller core on the physics, no nodes) on the task's
+  training and validation situations: sphere -> sphere_val; cylinder -> cylinder_train,
+  cylinder_val; box -> box_train, box_val; obstacle -> obstacle_val (with the sphere model).
+
+Test sets are never used here: choices are made on training and validation sets; test sets are only
+reported (tric-experiments). Models are kept in DIR/models and re-used; every result is merged into
+DIR/study.json, so a study can be extended run by run. Prints one row per variant, seed and task, and
+per variant the mean, min and max over the seeds.
+"""
+
+import argparse
+import dataclasses
+import json
+import math
+import os
+import pathlib
+import sys
+import time
+
+import numpy as np
+
+from tric_control.evaluation import GOOD_GRASP, OPEN_LID, write_json
+from tric_control.offline import evaluate_offline
+from tric_learning import analysis, model_file
+from tric_learning.recording import bag_paths, load_dataset
+from tric_learning.training import TrainingConfig, train
+from tric_sim.robot_model import RobotModel
+from tric_sim.situations import dataset
+
+BAGS = pathlib.Path("bags")
+#: Each task: the bags its model is trained on, the sets it is measured on, its episodes' step budget.
+TASKS = {
+    "sphere": ("sphere", ("sphere_val",), 800),
+    "cylinder": ("cylinder", ("cylinder_train", "cylinder_val"), 800),
+    "box": ("box", ("box_train", "box_val"), 1200),
+    "obstacle": ("sphere", ("obstacle_val",), 800),
+}
+
+
+def parse_variant(text: str):
+    """(name, {field: value}) from NAME=FIELD=VALUE,FIELD=VALUE; ValueError naming a bad part."""
+    name, _, options = text.partition("=")
+    if not name or not name.replace("_", "").replace("-", "").isalnum():
+        raise ValueError(f"variant '{text}': the name must be letters, digits, - and _")
+    fields = {f.name: f for f in dataclasses.fields(TrainingConfig)}
+    changes = {}
+    for option in filter(None, options.split(",")):
+        key, _, value = option.partition("=")
+        if key not in fields or key == "seed":
+            raise ValueError(f"variant '{name}': unknown option '{key}' (known: "
+                             f"{', '.join(k for k in fields if k != 'seed')})")
+        kind = type(getattr(TrainingConfig(), key))
+        if kind is bool:
+            if value.lower() not in ("true", "false"):
+                raise ValueError(f"variant '{name}': {key} must be true or false")
+            changes[key] = value.lower() == "true"
+        else:
+            try:
+                changes[key] = kind(value)
+            except ValueError:
+                raise ValueError(f"variant '{name}': {key} must be a {kind.__name__}, got '{value}'") from None
+    TrainingConfig(**changes).validate()
+    return name, changes
+
+
+def measure_set(records) -> dict:
+    """Summary numbers of one set's offline episodes."""
+    grasps = [r for r in records if r.task == "grasp"]
+    if grasps:
+        costs = [r.grasp_cost for r in grasps if math.isfinite(r.grasp_cost)]
+        return {"episodes": len(records), "cost_mean": float(np.mean(costs)) if costs else math.nan,
+                "good": sum(r.grasp_cost < GOOD_GRASP for r in grasps),
+                "lifted": sum(r.lift_passed is True for r in grasps),
+                "collisions": sum(bool(r.collided) for r in records),
+                "overshoot": max(r.max_joint_overshoot for r in records)}
+    return {"episodes": len(records), "opened": sum(r.lid_angle > OPEN_LID for r in records),
+            "lid_mean": float(np.mean([r.lid_angle for r in records])),
+            "collisions": sum(bool(r.collided) for r in records),
+            "overshoot": max(r.max_joint_overshoot for r in records)}
+
+
+class Study:
+    """Trains, measures and records; results merged into out/study.json."""
+
+    def __init__(self, out: pathlib.Path, jobs: int):
+        self.out, self.jobs = out, jobs
+        self.robot = RobotModel()
+        self.path = out / "study.json"
+        self.results = json.loads(self.path.read_text()) if self.path.is_file() else {}
+        self._datasets = {}
+        (out / "models").mkdir(parents=True, exist_ok=True)
+
+    def demonstrations(self, bags: str):
+        if bags not in self._datasets:
+            self._datasets[bags] = load_dataset(bag_paths([BAGS / bags]), self.robot)
+        return self._datasets[bags]
+
+    def model(self, variant: str, changes: dict, bags: str, seed: int) -> tuple:
+        """(model path, its training record) of the variant on the bags with the seed."""
+        key = f"{variant}/{bags}/{seed}"
+        path = self.out / "models" / f"{variant}_{bags}_s{seed}.safetensors"
+        record = self.results.get("models", {}).get(key)
+        if path.is_file() and record is not None and record["config"] == {**changes, "seed": seed}:
+            return path, record
+        demos = self.demonstrations(bags)
+        print(f"training {variant} on {BAGS / bags}, seed {seed}", flush=True)
+        result = train(demos, self.robot, TrainingConfig(**changes, seed=seed))
+        model_file.from_training(result, demos).save(path)
+        numbers = analysis.key_numbers(result.model, demos, 20)
+        record = {"config": {**changes, "seed": seed}, "train_s": result.train_time_s,
+                  "iterations": result.iterations, "losses": result.losses,
+                  "falls_moving": numbers["decreasing_share_moving_steps"],
+                  "cosine_moving": numbers["mean_cosine_moving_steps"],
+                  "selected_features": numbers["selected_features"], "kept_features": numbers["kept_features"]}
+        self.results.setdefault("models", {})[key] = record
+        self.save()
+        return path, record
+
+    def run(self, variant: str, changes: dict, task: str, seed: int) -> dict:
+        bags, sets, max_steps = TASKS[task]
+        path, record = self.model(variant, changes, bags, seed)
+        row = {"variant": variant, "task": task, "seed": seed, "model": record, "sets": {}}
+        for name in sets:
+            records = evaluate_offline(dataset(name), str(path), max_steps, jobs=self.jobs,
+                                       desc=f"{variant} s{seed} {name}")
+            row["sets"][name] = measure_set(records)
+        row["date"] = time.strftime("%Y-%m-%d %H:%M")
+        self.results.setdefault("rows", {})[f"{variant}/{task}/{seed}"] = row
+        self.save()
+        return row
+
+    def save(self):
+        write_json(self.path, self.results)
+
+
+def format_row(row: dict) -> str:
+    m = row["model"]
+    cells = [f"{row['variant']:16s} {row['task']:8s} s{row['seed']:<2d} cos {m['cosine_moving']:6.3f} "
+             f"falls {m['falls_moving']:5.3f} sel {m['selected_features']:3d} train {m['train_s']:5.1f}s"]
+    for name, s in row["sets"].items():
+        if "opened" in s:
+            cells.append(f"{name} {s['opened']}/{s['episodes']}")
+        else:
+            cells.append(f"{name} {s['cost_mean']:.3f} good {s['good']}/{s['episodes']} lift {s['lifted']}")
+        if s["collisions"]:
+            cells.append(f"({s['collisions']} coll.)")
+    return "  ".join(cells)
+
+
+def seed_summary(rows: list) -> str:
+    """Per variant and task: each measure's seeds and their mean, min and max."""
+    lines = []
+    groups = {}
+    for row in rows:
+        groups.setdefault((row["variant"], row["task"]), []).append(row)
+    for (variant, task), group in groups.items():
+        measures = {"cos": [r["model"]["cosine_moving"] for r in group],
+                    "falls": [r["model"]["falls_moving"] for r in group]}
+        for name in group[0]["sets"]:
+            sets = [r["sets"][name] for r in group]
+            if "opened" in sets[0]:
+                measures[f"{name} opened"] = [s["opened"] for s in sets]
+            else:
+                measures[f"{name} cost"] = [s["cost_mean"] for s in sets]
+                measures[f"{name} good"] = [s["good"] for s in sets]
+                measures[f"{name} lifted"] = [s["lifted"] for s in sets]
+        parts = [f"{k} {'/'.join(format(v, '.3g') for v in values)} (mean {np.mean(values):.3g}, "
+                 f"min {np.min(values):.3g}, max {np.max(values):.3g})" for k, values in measures.items()]
+        lines.append(f"{variant} / {task} over {len(group)} seeds: " + "; ".join(parts))
+    return "\n".join(lines)
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(prog="tric-study", description=__doc__.splitlines()[0])
+    parser.add_argument("--variant", action="append", default=[], metavar="NAME=OPTIONS",
+                        help="a training variant (repeatable; default: 'default=' the paper's settings)")
+    parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2], help="training seeds (default 0 1 2)")
+    parser.add_argument("--tasks", nargs="+", default=list(TASKS), choices=list(TASKS),
+                        help="tasks to measure (default: all)")
+    parser.add_argument("--out", default="results/study", help="folder of the models and study.json")
+    parser.add_argument("--jobs", type=int, default=os.cpu_count() or 1, help="offline episodes run at once")
+    args = parser.parse_args(argv)
+    try:
+        variants = [parse_variant(text) for text in args.variant or ["default="]]
+        if any(not 0 <= seed < 2**32 for seed in args.seeds):
+            raise ValueError("seeds must be in [0, 2^32)")
+        if not 1 <= args.jobs <= 64:
+            raise ValueError("--jobs must be in [1, 64]")
+        study = Study(pathlib.Path(args.out), args.jobs)
+        rows = []
+        for name, changes in variants:
+            for task in args.tasks:
+                for seed in args.seeds:
+                    rows.append(study.run(name, changes, task, seed))
+                    print(format_row(rows[-1]), flush=True)
+    except ValueError as error:
+        print(f"tric-study: {error}", file=sys.stderr)
+        return 2
+    print("\n" + "\n".join(format_row(row) for row in rows))
+    print("\n" + seed_summary(rows))
+    print(f"\nwrote {study.path}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
