@@ -314,9 +314,9 @@ def test_visualizer_runs_alone_and_exits_cleanly_on_sigint():
     try:
         for line in process.stdout:
             lines.append(line)
-            if "Foxglove server on ws://127.0.0.1:" in line:
+            if "Foxglove server on ws://127.0.0.1:" in line:  # the last line of its start
                 break
-        assert any("Foxglove server on" in line for line in lines), "".join(lines)
+        assert any("visualizing at 30 Hz" in line for line in lines), "".join(lines)
         process.send_signal(signal.SIGINT)
         output, _ = process.communicate(timeout=30)
     finally:

@@ -21,6 +21,10 @@ def run_node(node_class, prog: str, args=None) -> int:
     except KeyboardInterrupt:  # Ctrl-C while the node was being built
         rclpy.try_shutdown()
         return 0
+    except Exception:
+        if not rclpy.ok():  # Ctrl-C while the node was being built: rclpy shut its context down
+            return 0
+        raise
     try:
         rclpy.spin(node)
     except (KeyboardInterrupt, ExternalShutdownException):

@@ -74,7 +74,6 @@ class VisualizerNode(Node):
             from tric_sim.foxglove_view import FoxgloveView  # only now: nothing of foxglove when it is off
 
             view = self._owned_view = FoxgloveView(host, port)  # ValueError: the port is taken
-            self.get_logger().info(f"Foxglove server on {view.url} (open it in Foxglove: Open connection)")
         self.view = view
 
         self.description_pub = self.create_publisher(String, "/robot_description", LATCHED_QOS)
@@ -84,8 +83,6 @@ class VisualizerNode(Node):
             self.tf_pub = self.create_publisher(TFMessage, "/tf", QoSProfile(depth=100))
             self.tf_static_pub = self.create_publisher(TFMessage, "/tf_static", LATCHED_QOS)
             self.tf_static_pub.publish(TFMessage(transforms=scene_messages.transform_msgs(self.robot_view.static, 0)))
-        else:
-            self.get_logger().info("tf2_msgs is not installed (pip environment): frames go to Foxglove only")
         self.description_pub.publish(scene_messages.robot_description_msg(self.robot_view.urdf))
         self._show_scene()
         self.create_subscription(SituationMsg, "/situation", self._on_situation, LATCHED_QOS)
@@ -93,6 +90,10 @@ class VisualizerNode(Node):
             "state": (JointState, "/joint_states", NEWEST_QOS), "poses": (ObjectPoses, "/object_poses", NEWEST_QOS),
             "status": (ControllerStatus, status_topic, NEWEST_QOS)})
         self.create_timer(1.0 / rate, self._on_timer, clock=Clock(clock_type=ClockType.STEADY_TIME))
+        topics = "/robot_description, /scene_markers" + (", /tf" if self.tf_pub is not None else
+                                                          " (no /tf: tf2_msgs is not installed)")
+        self.get_logger().info(f"visualizing at {rate:g} Hz on {topics}"
+                               + (f"; Foxglove server on {view.url}" if self._owned_view is not None else ""))
 
     def _parameter(self, name, default, description):
         """Declare a parameter; its value, of the default's type, or ValueError."""
