@@ -120,6 +120,38 @@ def test_d_curve_on_a_known_polyline():
     np.testing.assert_allclose(d_curve(points, path[:1]), np.linalg.norm(points, axis=1), atol=1e-12)
 
 
+def test_per_step_weights_make_each_steps_l_n_a_weighted_mean():
+    """The hand-made case of test_loss_terms_on_a_hand_made_case with two samples at step 1: summed
+    (Eq. 16) their weights add up; per step they are divided by their sum."""
+    q = np.array([[0.0, 0.0], [0.1, 0.0], [0.2, 0.0]])
+    demo = Demo(name="hand", situation=None, q=q, y=q * 10, jacobians=np.array([np.eye(2)] * 3),
+                object_poses=[{}] * 3, stamps_ns=np.arange(3))
+    noisy = NoisySamples(step=np.array([1, 1, 2]), y=np.array([[0.0, 0.5], [2.0, 0.0], [1.0, 1.0]]),
+                         weight=np.array([3.0, 1.0, 0.5]), kept_per_step=np.array([0, 2, 1]))
+    scaling = Scaling(kept=np.array([0, 1]), low=np.zeros(2), high=np.array([2.0, 1.0]), size=2)
+    theta = torch.tensor([1.0, -2.0])                                    # linear: f = u_0 - 2 u_1
+    softplus = lambda x: math.log1p(math.exp(x))  # noqa: E731
+    f = lambda y: y[0] / 2 - 2 * y[1]  # noqa: E731
+    contrasts = [softplus(f(demo.y[step]) - f(sample)) for step, sample in zip(noisy.step, noisy.y)]
+    summed = _Problem(Dataset(None, [demo]), noisy, scaling, TrainingConfig(hidden_units=0)).terms(theta)[0]
+    mean = _Problem(Dataset(None, [demo]), noisy, scaling,
+                    TrainingConfig(hidden_units=0, per_step_weights=True)).terms(theta)[0]
+    assert float(summed) == pytest.approx(3.0 * contrasts[0] + 1.0 * contrasts[1] + 0.5 * contrasts[2], rel=1e-5)
+    assert float(mean) == pytest.approx(0.75 * contrasts[0] + 0.25 * contrasts[1] + contrasts[2], rel=1e-5)
+
+
+def test_split_l_bfgs_b_gives_exact_zeros_and_a_lower_loss_than_it_starts_from(robot, grid_dataset):
+    demos = grid_dataset.subset(3)
+    config = TrainingConfig(hidden_units=3, noisy_samples=10, max_iterations=30, optimizer="lbfgsb",
+                            alpha_w=0.01)
+    reported = []
+    result = train(demos, robot, config, lambda stage, _, losses: reported.append(losses)
+                   if stage == "optimizing" else None)
+    weights = np.concatenate([result.model.w1.ravel(), result.model.w2, result.model.w3])
+    assert np.sum(weights == 0.0) > weights.size // 4       # the L1 term's solution is sparse
+    assert result.losses["total"] < reported[0]["total"] and result.iterations <= 30
+
+
 @pytest.mark.parametrize("values, message", [
     ({"hidden_units": -1}, "hidden_units must be in [0, 1000]"),
     ({"hidden_units": 1001}, "hidden_units must be in [0, 1000]"),
@@ -135,6 +167,7 @@ def test_d_curve_on_a_known_polyline():
     ({"correlation_threshold": 1.5}, "correlation_threshold must be in (0, 1]"),
     ({"seed": -1}, "seed must be in [0, 2^32)"),
     ({"seed": 2**32}, "seed must be in [0, 2^32)"),
+    ({"optimizer": "adam"}, "optimizer must be one of lbfgs, lbfgsb"),
 ])
 def test_training_config_refuses_bad_values(values, message):
     with pytest.raises(ValueError) as refused:

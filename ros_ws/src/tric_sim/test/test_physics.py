@@ -117,3 +117,47 @@ def test_min_distance_tracks_contact_with_the_table(world, robot):
         world.step()
     assert world.min_distance < 0.0
     assert metrics.evaluate(world, robot).collided
+
+
+def test_joint_stops_hold_a_joint_pushed_past_its_limit(robot, world):
+    """A joint found past its limit after a physics step is put back on it (PyBullet's own limits are
+    soft: a constant 3 N m held a distal joint 0.22 rad past, and contacts pushed up to 1 rad past)."""
+    world.reset(S.sphere("s", (0.6, 0.0, 0.35)))
+    k = robot.joint_names.index("finger_2_distal_joint")
+    index = world.actuated[k]
+    pb.resetJointState(world.robot_id, index, robot.upper[k] + 0.5, 2.0, physicsClientId=world.client)
+    world.command(np.minimum(world.targets, robot.upper))
+    world.step()
+    position, velocity = world.joint_state()
+    assert position[k] <= robot.upper[k] + 0.01 and velocity[k] <= 1e-9
+    assert world.max_overshoot <= 0.01
+
+
+def test_lid_hinge_stays_at_or_above_its_closed_stop(world):
+    situation = S.box("b", 0.2, 0.6, 0.0, 0.3)
+    world.reset(situation)
+    lid = world.bodies["object"]
+    hinge = scene.hinge_placement(situation)
+    free_edge = hinge.act(np.array([0.2 + scene.LID_OVERHANG, 0.0, 0.0]))
+    lowest = 0.0
+    for _ in range(40):  # press the lip down with 200 N for 0.4 s
+        pb.applyExternalForce(lid, 0, [0, 0, -200.0], free_edge.tolist(), pb.WORLD_FRAME,
+                              physicsClientId=world.client)
+        world.step()
+        lowest = min(lowest, world.lid_angle())
+    assert lowest >= -0.01
+    assert world.max_overshoot <= 0.01
+
+
+def test_overshoot_is_measured_and_reported_in_the_metrics(robot, world):
+    world.reset(S.sphere("s", (0.6, 0.0, 0.35)))
+    world.step()
+    assert world.max_overshoot == 0.0 and world.max_overshoot_joint == ""
+    # a joint moved past its limit between two measurements (as a solver slip would) is reported
+    k = robot.joint_names.index("arm_4_joint")
+    world._stop_high[k] = world.joint_state()[0][k] - 0.05   # pretend the limit is 0.05 rad below q
+    world._enforce_stops = lambda: None                     # without the stop, the joint stays there
+    world.step()
+    judged = metrics.evaluate(world, robot)
+    assert judged.max_joint_overshoot == pytest.approx(0.05, abs=0.01)
+    assert judged.overshoot_joint == "arm_4_joint"

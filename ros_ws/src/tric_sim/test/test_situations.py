@@ -98,3 +98,22 @@ def test_bad_files_are_refused_with_the_reason(tmp_path):
         S.load_situations(unknown)
     with pytest.raises(ValueError, match="unknown data set"):
         S.dataset("nonsense")
+
+
+def test_validation_sets_are_drawn_apart_from_the_training_and_test_sets():
+    counts = {"sphere_val": 15, "cylinder_val": 10, "box_val": 25, "obstacle_val": 10}
+    for name, count in counts.items():
+        chosen = S.dataset(name)
+        assert len(chosen) == count and all(s.name.startswith(name) for s in chosen)
+        task = name.split("_")[0].replace("obstacle", "sphere")
+        others = S.dataset(f"{task}_train") + S.dataset(f"{task}_test")
+        placements = {(s.object_position, s.object_orientation, s.object_dimensions) for s in others}
+        assert not placements & {(s.object_position, s.object_orientation, s.object_dimensions) for s in chosen}
+    plates = [s.obstacles[0] for s in S.dataset("obstacle_val")]
+    heights = [plate.dimensions[2] for plate in plates]
+    assert all(0.10 <= h <= 0.18 for h in heights) and max(heights) - min(heights) > 0.03
+    for situation in S.dataset("obstacle_val"):
+        centre, radius = np.asarray(situation.object_position), situation.object_dimensions[0]
+        plate = np.asarray(situation.obstacles[0].position)
+        gap = np.linalg.norm((centre - plate)[:2]) - radius - situation.obstacles[0].dimensions[0] / 2
+        assert 0.04 - 1e-9 <= gap <= 0.10 + 1e-9

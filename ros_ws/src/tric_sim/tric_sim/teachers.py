@@ -34,11 +34,12 @@ PALM_TO_WRIST = 0.19
 #: well-conditioned elbow angle across the workspace, m.
 COMFORTABLE_WRIST_DISTANCE = 0.55
 #: Palm-centre distance to the object's surface at the grasp and at the pre-grasp pose, m.
-GRASP_GAP = {"sphere": 0.025, "cylinder": 0.02}
+GRASP_GAP = {"sphere": 0.025, "cylinder": 0.035}
 PREGRASP_DISTANCE = {"sphere": 0.10, "cylinder": 0.14}
 #: Hand pre-shapes: (knuckle, proximal, distal) in rad. Spheres: the three fingers spread at 120
-#: degrees; cylinders: fingers 2 and 3 side by side, facing the thumb.
-PRESHAPE = {"sphere": (math.pi / 3, -0.45, 0.35), "cylinder": (0.0, -0.6, 0.3)}
+#: degrees; cylinders: fingers 2 and 3 side by side, facing the thumb, opened wide enough that the
+#: proximal links clear the cylinder until the palm is in place (see docs/decisions/cylinder-teacher.md).
+PRESHAPE = {"sphere": (math.pi / 3, -0.45, 0.35), "cylinder": (0.0, -0.9, 0.6)}
 #: The palm pose servo descends the pose error E = |dx|^2 + ORIENTATION_LENGTH^2 |drot|^2 (m^2) along
 #: its joint-space gradient, with steps that make E fall at SERVO_RATE (1/s): exponentially, as long
 #: as the joints' velocity limits allow.

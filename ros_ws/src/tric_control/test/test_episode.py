@@ -1,0 +1,116 @@
+"""The ROS-free episode runner: safe commands, holds, outcomes and statistics, on a scripted controller."""
+
+import math
+
+import numpy as np
+import pytest
+
+from tric_control.episode import STALE_PERIODS, EpisodeRunner
+from tric_control.motion_rate import Tick
+from tric_sim.robot_model import RobotModel
+
+PERIOD = 0.01
+
+
+@pytest.fixture(scope="module")
+def robot():
+    return RobotModel()
+
+
+class ScriptedController:
+    """Returns the queued targets tick after tick, with a value that falls by 1 per tick."""
+
+    def __init__(self, targets, converge_at=None, fail_at=None):
+        self.targets, self.converge_at, self.fail_at = list(targets), converge_at, fail_at
+        self.reference = None
+        self.ticks = 0
+
+    def reset(self, q):
+        self.reference = np.array(q, dtype=float)
+
+    def tick(self, q, object_poses):
+        if self.ticks == self.fail_at:
+            raise np.linalg.LinAlgError("singular")
+        target = self.targets[min(self.ticks, len(self.targets) - 1)]
+        self.ticks += 1
+        self.reference = np.array(target, dtype=float)
+        return Tick(target=self.reference.copy(), value=-float(self.ticks), gradient_norm=1.0,
+                    step=np.zeros(len(q)), min_distance=0.02 - 0.001 * self.ticks,
+                    converged=self.ticks == self.converge_at)
+
+
+def test_steps_within_bounds_pass_unchanged_and_statistics_are_kept(robot):
+    q = robot.home.copy()
+    small = q + 0.5 * robot.velocity_limits * PERIOD
+    runner = EpisodeRunner(robot, ScriptedController([small]), max_steps=5, period=PERIOD)
+    decided = runner.step(q, {})
+    assert np.array_equal(decided.command, small) and decided.held == "" and decided.outcome is None
+    assert decided.step_norm == pytest.approx(np.linalg.norm(small - q))
+    assert runner.stats.steps == 1 and runner.stats.initial_value == -1.0 and runner.stats.violations == 0
+    assert runner.stats.min_distance == pytest.approx(0.019)
+    assert runner.stats.min_joint_margin == pytest.approx(min(np.min(q - robot.lower), np.min(robot.upper - q)))
+
+
+def test_unsafe_targets_are_clipped_counted_and_reported(robot):
+    q = robot.home.copy()
+    far = np.clip(q + 0.1, robot.lower, robot.upper)  # beyond one period's velocity bound, within the limits
+    outside = robot.upper + 0.5                       # beyond the joint limits
+    reported = []
+    controller = ScriptedController([far, outside, np.full(robot.n_joints, np.nan)])
+    runner = EpisodeRunner(robot, controller, max_steps=10, period=PERIOD, on_violation=reported.append)
+    first = runner.step(q, {})
+    assert np.allclose(first.command - q, np.minimum(far - q, robot.velocity_limits * PERIOD))
+    assert np.array_equal(controller.reference, first.command)    # the controller integrates what was sent
+    second = runner.step(first.command, {})
+    assert np.all(second.command <= robot.upper)
+    third = runner.step(second.command, {})
+    assert np.array_equal(third.command, second.command)         # NaN: the previous command holds
+    assert runner.stats.violations == 4                           # bound, bound + limits, non-finite
+    assert len(reported) == 4 and "non-finite" in reported[-1]
+
+
+def test_stale_states_and_missing_poses_hold_without_stepping(robot):
+    q = robot.home.copy()
+    controller = ScriptedController([q + 0.001])
+    runner = EpisodeRunner(robot, controller, max_steps=10, period=PERIOD, required_objects=("object",))
+    period_ns = int(PERIOD * 1e9)
+    stale = runner.step(q, {"object": None}, stamp_ns=0, now_ns=(STALE_PERIODS + 1) * period_ns)
+    assert stale.tick is None and stale.held == "stale joint states" and controller.ticks == 0
+    missing = runner.step(q, {}, stamp_ns=0, now_ns=0)
+    assert missing.tick is None and "no pose of object" in missing.held and controller.ticks == 0
+    fresh = runner.step(q, {"object": None}, stamp_ns=0, now_ns=STALE_PERIODS * period_ns)
+    assert fresh.tick is not None and controller.ticks == 1
+    assert runner.stats.holds == 2 and runner.stats.steps == 1
+
+
+def test_a_hold_approaches_the_measured_state_within_the_velocity_bound(robot):
+    q = robot.home.copy()
+    runner = EpisodeRunner(robot, ScriptedController([q]), max_steps=10, period=PERIOD)
+    runner.step(q, {})
+    away = q + 0.2
+    held = runner.hold(away, "test")
+    assert np.allclose(held.command - q, np.minimum(0.2, robot.velocity_limits * PERIOD))
+
+
+def test_the_episode_ends_on_convergence_or_the_step_budget(robot):
+    q = robot.home.copy()
+    converging = EpisodeRunner(robot, ScriptedController([q], converge_at=3), max_steps=10, period=PERIOD)
+    outcomes = [converging.step(q, {}).outcome for _ in range(3)]
+    assert outcomes[:2] == [None, None] and outcomes[2][0] == "converged"
+    budget = EpisodeRunner(robot, ScriptedController([q]), max_steps=2, period=PERIOD)
+    assert budget.step(q, {}).outcome is None
+    assert budget.step(q, {}).outcome == ("step_budget", "step budget of 2 spent")
+    assert budget.stats.final_value == -2.0
+
+
+def test_bad_input_is_refused_with_a_reason(robot):
+    q = robot.home.copy()
+    with pytest.raises(ValueError, match="step budget"):
+        EpisodeRunner(robot, ScriptedController([q]), max_steps=0, period=PERIOD)
+    with pytest.raises(ValueError, match="control period"):
+        EpisodeRunner(robot, ScriptedController([q]), max_steps=1, period=math.nan)
+    runner = EpisodeRunner(robot, ScriptedController([q], fail_at=0), max_steps=5, period=PERIOD)
+    with pytest.raises(ValueError, match="finite joint positions"):
+        runner.step(np.full(robot.n_joints, np.inf), {})
+    with pytest.raises(RuntimeError, match="control tick 0 failed: LinAlgError"):
+        runner.step(q, {})

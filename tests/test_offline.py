@@ -1,0 +1,60 @@
+"""tric-eval --offline: the controller core on the physics without nodes gives the episodes the nodes
+give (the README's tables come from the nodes; sweeps run offline)."""
+
+import json
+import pathlib
+
+import pytest
+
+from tric_control import evaluate_cli
+from tric_control.offline import evaluate_offline
+from tric_learning.training import TrainingConfig, train_from_bags
+from tric_sim import situations
+from tric_sim.robot_model import RobotModel
+
+BAGS = pathlib.Path(__file__).resolve().parents[1] / "bags"
+#: The two paths may differ by the lockstep protocol's timing only: grasp costs agree within this.
+COST_AGREEMENT = 0.01
+
+
+@pytest.fixture(scope="module")
+def models(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("models")
+    return {task: train_from_bags([BAGS / bags], folder / f"{bags}.safetensors", TrainingConfig(), RobotModel()).path
+            for task, bags in (("grasp", "sphere"), ("open_box", "box"))}
+
+
+@pytest.mark.slow
+def test_offline_and_node_episodes_agree_on_three_spheres_and_a_box(models):
+    spheres = situations.dataset("sphere_test")[:3]
+    offline = evaluate_offline(spheres, str(models["grasp"]), progress=False)
+    nodes = evaluate_cli.evaluate(spheres, models["grasp"], progress=False)
+    for a, b in zip(offline, nodes):
+        assert a.situation == b.situation and a.outcome == b.outcome and a.success == b.success
+        assert a.grasp_cost == pytest.approx(b.grasp_cost, abs=COST_AGREEMENT)
+        assert a.lift_passed == b.lift_passed and a.steps == b.steps
+    boxes = situations.dataset("box_train")[:1]
+    [box_offline] = evaluate_offline(boxes, str(models["open_box"]), 1200, progress=False)
+    [box_nodes] = evaluate_cli.evaluate(boxes, models["open_box"], 1200, progress=False)
+    assert box_offline.success == box_nodes.success and box_offline.outcome == box_nodes.outcome
+    assert box_offline.max_joint_overshoot <= 0.01 and box_nodes.max_joint_overshoot <= 0.01
+
+
+def test_offline_cli_writes_the_same_table_and_json(tmp_path, capsys):
+    chosen = tmp_path / "one.yaml"
+    situations.save_situations(chosen, situations.dataset("sphere_test")[:1])
+    out = tmp_path / "teacher.json"
+    assert evaluate_cli.main(["--teacher", "--situations-file", str(chosen), "--offline", "--json", str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert "(offline)" in printed and "sphere_test_00" in printed
+    data = json.loads(out.read_text())
+    assert data["summary"]["episodes"] == 1 and data["episodes"][0]["outcome"] == "demonstrated"
+    assert data["episodes"][0]["grasp_cost"] < 0.25 and data["summary"]["max_joint_overshoot"] <= 0.01
+
+
+def test_offline_evaluation_refuses_mixed_tasks_and_bad_jobs():
+    mixed = situations.sphere_grid()[:1] + situations.dataset("box_test")[:1]
+    with pytest.raises(ValueError, match="mix tasks"):
+        evaluate_offline(mixed, None, progress=False)
+    with pytest.raises(ValueError, match="jobs must be at least 1"):
+        evaluate_offline(mixed[:1], None, jobs=0, progress=False)
