@@ -2,22 +2,20 @@
 solutions, joint and velocity limits under an adversarial objective, collision rows against an
 obstacle, convergence with TRIC's value objective, and refused inputs. Units: rad, m, s."""
 
-from dataclasses import replace
-
 import coal
 import numpy as np
 import pinocchio as pin
 import pytest
 
-from tric_control.motion_rate import (CONVERGED_MOTION, CONVERGED_WINDOW, DOMAIN_MARGIN, JOINT_MARGIN, PUSH_DEPTH,
-                                      SAFETY, SAFETY_BY_ROLE, TOUCH_DEPTH, MotionRateController, Objective, StepQP,
-                                      ValueObjective)
+from tric_control.motion_rate import (CONVERGED_MOTION, CONVERGED_WINDOW, DOMAIN_MARGIN, JOINT_MARGIN, SAFETY,
+                                      MotionRateController, Objective, StepQP, ValueObjective)
 from tric_control.objectives import make_objective
 from tric_learning.features import FeatureDefinition, FeatureMap
 from tric_learning.model_file import ModelFile, value_function_arrays
 from tric_learning.value_function import Scaling, ValueFunction
-from tric_sim import scene, situations
-from tric_sim.collision import Proximity, coal_shape
+from tric_sim import situations
+from tric_sim.collision import Closest, Proximity
+from tric_sim.shapes import coal_shape
 from tric_sim.robot_model import RobotModel
 
 #: "No bound" for the QP's unused inequality rows, as the controller uses it.
@@ -70,7 +68,7 @@ class NoPairs:
     """A proximity that reports no close pairs: the controller without collision rows."""
 
     def near(self, q, object_poses, influence):
-        return []
+        return Closest.none(len(q))
 
 
 class Push:
@@ -251,31 +249,3 @@ def test_make_objective_runs_tric_models_and_refuses_the_others(robot):
         make_objective(ModelFile("tric", definition, arrays, {"rho": 50.0}), robot)
     with pytest.raises(ValueError, match="delta must be finite and positive"):
         make_objective(ModelFile("tric", definition, arrays, {"delta": -0.002, "rho": 50.0}), robot)
-
-
-# --- what the hand may press ---------------------------------------------------------------------
-
-def upside_down(situation):
-    """The situation's box turned over about its x axis, in place: its lid's normal points down."""
-    turned = pin.Quaternion(scene.se3((0, 0, 0), situation.object_orientation).rotation
-                            @ pin.utils.rotate("x", np.pi))
-    return replace(situation, object_orientation=(turned.x, turned.y, turned.z, turned.w)).validate()
-
-
-@pytest.mark.parametrize("situation, body, scene_role, hand_role, hand_safety", [
-    (situations.dataset("sphere_test")[0], "object", "target", "touch", -TOUCH_DEPTH),
-    (upside_down(situations.dataset("box_test")[0]), "lid", "lid", "push", -PUSH_DEPTH),
-    (situations.dataset("box_test")[0], "lid", "lid", "lid", SAFETY),
-    (situations.dataset("box_test")[0], "object", "box_body", "box_body", SAFETY)],
-    ids=["target", "lid_from_beneath", "lid_from_above", "box_body"])
-def test_hand_pairs_get_the_role_of_what_the_hand_may_do_there(robot, situation, body, scene_role, hand_role,
-                                                               hand_safety):
-    """The hand may press into a grasp target (role "touch") and deeper into a lid from beneath
-    ("push"), and keeps SAFETY from a lid it is above (at home, over a closed box) and from a box's
-    body; the arm keeps SAFETY from all of them (the body's own role)."""
-    pairs = Proximity(robot, situation).near(robot.home, {}, influence=10.0)
-    roles = {(pair.name.split("/")[0].startswith(("finger_", "palm")), pair.role)
-             for pair in pairs if pair.name.endswith(f"/{body}")}
-    assert roles == {(True, hand_role), (False, scene_role)}
-    assert SAFETY_BY_ROLE.get(hand_role, SAFETY) == hand_safety
-    assert SAFETY_BY_ROLE.get(scene_role, SAFETY) == SAFETY

@@ -1,0 +1,36 @@
+"""The joints' position limits, kept with a margin, and their per-tick step bound (velocity limit
+times control period) as the box of the step. ROS-free. Units: rad, s."""
+
+import numpy as np
+
+from tric_control.limits.base import Limit, StepState
+
+#: Below this, a bound counts as reached (rad).
+REACHED = 1e-9
+
+
+class JointLimits(Limit):
+    """The box low <= dq <= high of a step from the reference: within [lower + margin, upper -
+    margin] (rad, the robot's limits) and within the step bound max_step (n,) of each joint. It always
+    holds dq = 0 (from a reference outside the margin, the step may stay there but not go further).
+    A joint is active where the step sits on a position bound tighter than its step bound."""
+
+    def __init__(self, lower: np.ndarray, upper: np.ndarray, joint_names, margin: float):
+        if not margin >= 0:
+            raise ValueError(f"the joint limit margin must be >= 0, got {margin!r}")
+        self.lowest, self.highest = np.asarray(lower) + margin, np.asarray(upper) - margin
+        self.joint_names = list(joint_names)
+        self._scratch = np.empty(len(self.lowest))
+
+    def bound(self, state: StepState, low: np.ndarray, high: np.ndarray) -> None:
+        mine, max_step = self._scratch, state.max_step
+        np.maximum(np.subtract(self.lowest, state.reference, out=mine), -max_step, out=mine)
+        np.maximum(low, np.minimum(mine, 0.0, out=mine), out=low)
+        np.minimum(np.subtract(self.highest, state.reference, out=mine), max_step, out=mine)
+        np.minimum(high, np.maximum(mine, 0.0, out=mine), out=high)
+
+    def active(self, state: StepState, step: np.ndarray, binding: np.ndarray) -> list:
+        low, high, max_step = state.low, state.high, state.max_step
+        hit = ((step <= low + REACHED) & (low > -max_step + REACHED)
+               | (step >= high - REACHED) & (high < max_step - REACHED))
+        return [f"joint_limit:{self.joint_names[i]}" for i in np.flatnonzero(hit)]
