@@ -29,8 +29,8 @@ from dataclasses import dataclass, field
 import numpy as np
 import proxsuite
 
-from tric_control.limits import (UNBOUNDED_BELOW, CollisionDamper, DomainDamper, JointLimits, Limit, SoftContact,
-                                 StepState)
+from tric_control.limits import (UNBOUNDED_BELOW, CollisionDamper, ContactRules, DomainDamper, JointLimits, Limit,
+                                 SoftContact, StepState)
 from tric_sim.collision import Proximity
 from tric_sim.robot_model import RobotModel
 
@@ -55,10 +55,11 @@ CONVERGED_MOTION = 0.01
 def default_limits(robot: RobotModel, contacts: dict) -> list:
     """The controller's limits: joint limits, collision and domain dampers, and the soft side of
     the task's contacts ({scene body name: tric_sim.scene.Contact})."""
-    return [CollisionDamper(contacts, COLLISION_ROWS, SAFETY, SELF_SAFETY, DAMPING),
+    rules = ContactRules(contacts)
+    return [CollisionDamper(rules, COLLISION_ROWS, SAFETY, SELF_SAFETY, DAMPING),
             DomainDamper(DOMAIN_ROWS, DAMPING),
             JointLimits(robot.lower, robot.upper, robot.joint_names, JOINT_MARGIN),
-            SoftContact(contacts)]
+            SoftContact(rules)]
 
 
 @dataclass
@@ -105,7 +106,7 @@ class StepQP:
         self.qp.solve()
         if self.qp.results.info.status not in _SOLVED:
             return None
-        return np.clip(self.qp.results.x, box_low, box_high)
+        return np.maximum(np.minimum(self.qp.results.x, box_high), box_low)
 
 
 class MotionRateController:
@@ -155,7 +156,7 @@ class MotionRateController:
         if self.reference is None:
             self.reset(q)
         previous = self.reference
-        self.reference = q + np.clip(self.reference - q, -MAX_LEAD, MAX_LEAD)
+        self.reference = q + np.maximum(np.minimum(self.reference - q, MAX_LEAD), -MAX_LEAD)
         model = self.objective(q, object_poses)
         state = self._state
         state.q, state.reference, state.objective = q, self.reference, model
@@ -180,8 +181,8 @@ class MotionRateController:
             step = np.zeros(robot.n_joints)
         # the command moves by at most one velocity-bounded step per tick, within the joint limits
         max_step = self._max_step
-        target = previous + np.clip(self.reference + step - previous, -max_step, max_step)
-        self.reference = np.clip(target, robot.lower, robot.upper)
+        target = previous + np.maximum(np.minimum(self.reference + step - previous, max_step), -max_step)
+        self.reference = np.maximum(np.minimum(target, robot.upper), robot.lower)
         binding = rows @ step <= lower + 1e-7
         active = []
         for limit, rows_of in zip(self.limits, self._slices):
@@ -202,52 +203,54 @@ class MotionRateController:
 class Objective:
     """An objective's quadratic model at q: 1/2 dq^T hessian dq + linear^T dq, the cost's value and
     gradient norm, and the domain rows: the gradients (k, n) of margins (k,) that must stay >= 0,
-    nearest their bound first, with the names of their features."""
+    nearest their bound first, with the names of their features. gradient: the gradient (n,) of the
+    learned value in q, for an objective that has one (else None)."""
 
     hessian: np.ndarray
     linear: np.ndarray
     value: float
     gradient_norm: float
+    gradient: np.ndarray = None
     domain_rows: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
     domain_margins: np.ndarray = field(default_factory=lambda: np.zeros(0))
     domain_names: list = field(default_factory=list)
 
 
-def domain_rows(u: np.ndarray, du_dq: np.ndarray, count: int, moving: np.ndarray):
-    """The count features nearest the bounds of their training range (+-DOMAIN_MARGIN) among the
-    moving ones (indices into the kept features: those a step can change, not, say, an object's
-    position seen from the robot's base), from the scaled kept features u (s,) and their Jacobian
-    du_dq (s, n): the gradients of their margins (count, n), the margins (count,) and the features'
-    indices into the kept features, nearest first."""
-    scaled = u[moving]
-    to_low, to_high = scaled + DOMAIN_MARGIN, 1.0 + DOMAIN_MARGIN - scaled
-    margins = np.minimum(to_low, to_high)
-    nearest = np.argsort(margins)[:count]
-    # the upper bound's margin falls as u rises
-    rows = du_dq[moving[nearest]] * np.where(to_low[nearest] <= to_high[nearest], 1.0, -1.0)[:, None]
-    return rows, margins[nearest], moving[nearest]
-
-
 class ValueObjective:
-    """TRIC's objective: rho (g^T dq + delta)^2 with g = (df/dy)(dphi/dq) at q."""
+    """TRIC's objective: rho (g^T dq + delta)^2 with g = (df/dy)(dphi/dq) at q.
+
+    Its domain rows: the DOMAIN_ROWS kept features nearest the bounds of their training range
+    (scaled u in [-DOMAIN_MARGIN, 1 + DOMAIN_MARGIN]) among those a step can change (not, say, an
+    object's position seen from the robot's base), nearest first: the gradients du/dq of their
+    margins (the upper bound's margin falls as u rises), the margins and their names."""
 
     def __init__(self, feature_map, value_function, delta: float, rho: float, feature_names=None):
         if not (delta > 0 and rho > 0):
             raise ValueError("delta and rho must be positive")
         self.features, self.value_function, self.delta, self.rho = feature_map, value_function, delta, rho
+        scaling = value_function.scaling
         names = feature_names or feature_map.definition.feature_names
-        self.kept_names = [names[k] for k in value_function.scaling.kept]
-        self._moving = np.flatnonzero(feature_map.moves_with_q[value_function.scaling.kept])
-        self._factor = value_function.scaling.factor[:, None]
+        self.kept_names = [names[k] for k in scaling.kept]
+        self._kept, self._low, self._span = scaling.kept, scaling.low, scaling.high - scaling.low
+        self._factor = scaling.factor
+        self._weights = np.zeros(scaling.size)                    # df/dy on the raw features
+        moving = np.flatnonzero(feature_map.moves_with_q[scaling.kept])
+        self._moving, self._moving_raw, self._moving_factor = moving, scaling.kept[moving], self._factor[moving]
 
     def __call__(self, q, object_poses) -> Objective:
         y, jacobian = self.features.with_jacobian(q, object_poses)
-        scaling = self.value_function.scaling
-        u = scaling.transform(y)
+        u = (y.take(self._kept) - self._low) / self._span
         value, df_du = self.value_function.scaled_gradient(u)
-        du_dq = jacobian[scaling.kept] * self._factor                          # (s, n)
-        g = df_du @ du_dq
-        rows, margins, nearest = domain_rows(u, du_dq, DOMAIN_ROWS, self._moving)
-        return Objective(hessian=2.0 * self.rho * np.outer(g, g), linear=2.0 * self.rho * self.delta * g,
-                         value=value, gradient_norm=math.sqrt(g @ g), domain_rows=rows, domain_margins=margins,
-                         domain_names=[self.kept_names[k] for k in nearest])
+        weights = self._weights
+        weights[self._kept] = df_du * self._factor
+        g = weights @ jacobian
+        scaled = u.take(self._moving)
+        to_low, to_high = scaled + DOMAIN_MARGIN, (1.0 + DOMAIN_MARGIN) - scaled
+        margins = np.minimum(to_low, to_high)
+        nearest = np.argsort(margins)[:DOMAIN_ROWS]
+        signs = np.where(to_low.take(nearest) <= to_high.take(nearest), 1.0, -1.0)
+        rows = jacobian.take(self._moving_raw.take(nearest), axis=0) * (self._moving_factor.take(nearest) * signs)[:, None]
+        two_rho = 2.0 * self.rho
+        return Objective(hessian=two_rho * (g[:, None] * g), linear=two_rho * self.delta * g, value=value,
+                         gradient_norm=math.sqrt(g @ g), gradient=g, domain_rows=rows, domain_margins=margins.take(nearest),
+                         domain_names=[self.kept_names[k] for k in self._moving.take(nearest).tolist()])

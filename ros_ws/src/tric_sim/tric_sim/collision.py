@@ -16,6 +16,7 @@ bound falls within reach go to coal, which resets their bound to their distance.
 Units: m, rad.
 """
 
+import math
 from dataclasses import dataclass
 
 import coal
@@ -219,7 +220,8 @@ class Proximity:
         for geometry in objects:
             self.geometry_model.addGeometryObject(geometry)
         self._body_placements = self.scene.body_placements({})
-        self._body_poses = [None] * bodies  # the object_poses entry each placement was made from
+        # the pose (position, xyzw) each body's placement was made from
+        self._body_poses = [(tuple(body.position), tuple(body.orientation)) for body in self.scene.bodies]
         self._body_rotations = np.array([placement.rotation for placement in self._body_placements])
         for body, shape, placement in zip(self.scene.bodies, self.scene.body_shapes, self._body_placements):
             self.geometry_model.addGeometryObject(pin.GeometryObject(f"scene/{body.name}", 0, 0, placement, shape))
@@ -244,7 +246,8 @@ class Proximity:
             # coal's default request (Pinocchio's warm-starts GJK from the pair's previous call)
             self.geometry_data.distanceRequests[pair] = coal.DistanceRequest()
         self._pair_bodies, self._pair_hand = np.array(pair_bodies), np.array(pair_hand)
-        self._supports = robot.joint_supports[np.array(joints)]   # (pairs, 2, E): data.J's columns moving each side
+        # data.J's columns moving each pair's first sides (rows 0 to P - 1) and second sides (P to 2 P - 1)
+        self._side_supports = np.concatenate(robot.joint_supports[np.array(joints)].transpose(1, 0, 2))
         # the order in which pairs are examined (and ties in distance kept): body by body, geometry by
         # geometry, then the self pairs; pairs of geometry fixed to the world never
         moving = [objects[k].parentJoint != 0 for k in range(count)]
@@ -255,39 +258,48 @@ class Proximity:
         self._pair_reach = np.concatenate([np.repeat(reach, bodies, axis=0),
                                            reach[self.self_pairs[:, 0]] + reach[self.self_pairs[:, 1]]])
         self._body_pairs = [np.arange(b, count * bodies, bodies) for b in range(bodies)]
-        self._body_bounds = [shapes.bounding_radius(body.shape, body.dimensions) for body in self.scene.bodies]
+        # how far from its frame's origin a point of each body's solid may be, m
+        self._body_reach = [shapes.bounding_radius(body.shape, body.dimensions)
+                            + (math.hypot(*body.geometry_offset[0]) if body.geometry_offset else 0.0)
+                            for body in self.scene.bodies]
         self._lower_bounds = np.full(len(self.pair_names), -np.inf)
+        self._wrenches = np.empty((2 * len(self.pair_names), 6))
         self._checked_at = None   # the configuration the lower bounds hold for
         self._geometry_count, self._body_count = count, bodies
 
     def _update_bodies(self, object_poses: dict) -> None:
         """Move the bodies that object_poses (name -> (position, xyzw)) places elsewhere than before,
-        lowering their pairs' bounds by how far any point of their solids moved."""
+        lowering their pairs' bounds by how far any point of their solids can have moved: the
+        translation plus the rotation's largest displacement of a point at the solid's reach, from the
+        quaternions (|R1 - R0| <= 2 min(|q1 - q0|, |q1 + q0|) for unit quaternions)."""
         for b, body in enumerate(self.scene.bodies):
             pose = object_poses.get(body.name)
             if pose is None:
                 continue
-            key = (tuple(pose[0]), tuple(pose[1]))
-            if key != self._body_poses[b]:
-                placement = body.solid_placement(pose)
-                before = self._body_placements[b]
-                moved = (np.linalg.norm(placement.translation - before.translation)
-                         + np.linalg.norm(placement.rotation - before.rotation) * self._body_bounds[b])
-                self._lower_bounds[self._body_pairs[b]] -= moved
-                self._body_placements[b] = placement
-                self._body_rotations[b] = placement.rotation
-                self.geometry_model.geometryObjects[self._geometry_count + b].placement = placement
-                self._body_poses[b] = key
+            position, orientation = tuple(pose[0]), tuple(pose[1])
+            before_position, before_orientation = self._body_poses[b]
+            if position == before_position and orientation == before_orientation:
+                continue
+            turned = 2.0 * min(math.dist(orientation, before_orientation),
+                               math.hypot(*(a + c for a, c in zip(orientation, before_orientation))))
+            self._lower_bounds[self._body_pairs[b]] -= (math.dist(position, before_position)
+                                                        + turned * self._body_reach[b])
+            placement = body.solid_placement(pose)
+            self._body_placements[b] = placement
+            self._body_rotations[b] = placement.rotation
+            self.geometry_model.geometryObjects[self._geometry_count + b].placement = placement
+            self._body_poses[b] = (position, orientation)
 
     def near(self, q: np.ndarray, object_poses: dict, influence: float) -> Closest:
         """The pairs within influence (m) of each other at q (n,), with the objects at object_poses
         (name -> (position, xyzw)), closest first."""
         model, data = self.robot.model, self.robot.data
+        q = np.asarray(q, dtype=float)
         self._update_bodies(object_poses)
         bounds = self._lower_bounds
         if self._checked_at is not None:
             bounds -= self._pair_reach @ np.abs(q - self._checked_at)
-        self._checked_at = np.array(q, dtype=float)
+        self._checked_at = q.copy()
         pin.computeJointJacobians(model, data, q)
         pin.updateGeometryPlacements(model, data, self.geometry_model, self.geometry_data)
         # (a NaN bound, after a non-finite q, sends its pair to coal)
@@ -306,25 +318,42 @@ class Proximity:
         bounds[candidates] = checked
         if not close:
             return Closest.none(self.robot.n_joints, self.pair_names, self.body_names, self._body_rotations)
-        aways = -np.array(normals)
+        if len(close) > 1:   # closest first; ties keep the examination order
+            order = sorted(range(len(close)), key=distances.__getitem__)
+            close, distances = [close[k] for k in order], [distances[k] for k in order]
+            points, normals = [points[k] for k in order], [normals[k] for k in order]
+        aways = np.array(normals)
+        np.negative(aways, out=aways)
         distances = np.array(distances)
-        rows = self._rows(close, distances, np.array(points), aways)
-        order = np.argsort(distances, kind="stable")
-        close = np.array(close)[order]
-        return Closest(close, distances[order], rows[order], aways[order], self._pair_bodies[close],
-                       self._pair_hand[close], self.pair_names, self.body_names, self._body_rotations)
+        close = np.array(close)
+        return Closest(close, distances, self._rows(close, distances, np.array(points), aways), aways,
+                       self._pair_bodies.take(close), self._pair_hand.take(close), self.pair_names, self.body_names,
+                       self._body_rotations)
 
     def _rows(self, pairs: list, distances: np.ndarray, points: np.ndarray, aways: np.ndarray) -> np.ndarray:
         """The rows (k, n) that map a joint step to the change of the pairs' distances (k,): the
         unit directions aways (k, 3) in which the first sides move away from the second, on the
         velocities of the witness points (k, 3) on the first sides minus those of the second sides'
-        (at distance along -away), each point fixed to its side's body (the world's does not move)."""
-        others = points - aways * distances[:, None]
-        velocities = self.robot.point_jacobians(np.concatenate([points, others]))      # (3, E, 2 k)
-        along = np.einsum("ka,aek->ke", np.concatenate([aways, -aways]), velocities)    # (2 k, E)
-        supports = self._supports[pairs]                                               # (k, 2, E)
+        (at distance along -away), each point fixed to its side's body (the world's does not move).
+
+        With data.J's column e a twist (v_e, w_e) at the world origin, a point x fixed to the body the
+        column moves has the velocity v_e + w_e x x, and a . (v_e + w_e x x) = [a, x x a] . (v_e, w_e):
+        one product of the wrenches [a, x x a] (2 k, 6) with data.J gives every projection."""
         count = len(pairs)
-        return (along[:count] * supports[:, 0] + along[count:] * supports[:, 1]) @ self.robot.extended_to_q
+        wrenches = self._wrenches[:2 * count]
+        wrenches[:count, :3] = aways
+        np.negative(aways, out=wrenches[count:, :3])
+        # the other sides' witness points, at distance along -away: x x (-a) = -(p x a) + d (a x a) = -(p x a)
+        np.subtract(points.take(_NEXT, axis=1) * aways.take(_AFTER_NEXT, axis=1),
+                    points.take(_AFTER_NEXT, axis=1) * aways.take(_NEXT, axis=1), out=wrenches[:count, 3:])
+        np.negative(wrenches[:count, 3:], out=wrenches[count:, 3:])
+        along = wrenches @ self.robot.data.J                                          # (2 k, E)
+        along *= self._side_supports.take(np.concatenate([pairs, pairs + len(self.pair_names)]), axis=0)
+        return (along[:count] + along[count:]) @ self.robot.extended_to_q
+
+
+#: Index permutations of (x, y, z) for row-wise cross products: a x b = a[NEXT] b[AFTER_NEXT] - a[AFTER_NEXT] b[NEXT].
+_NEXT, _AFTER_NEXT = np.array([1, 2, 0]), np.array([2, 0, 1])
 
 
 def _geometry_reach(robot: RobotModel, objects, bounds) -> np.ndarray:

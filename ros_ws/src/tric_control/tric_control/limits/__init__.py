@@ -5,9 +5,10 @@ learned model's domain (DomainDamper), and the soft side of contact (SoftContact
 
 from tric_control.limits.base import UNBOUNDED_BELOW, Limit, StepState, damper_bounds
 from tric_control.limits.collision_damper import CollisionDamper
+from tric_control.limits.contact_rules import ContactRules
 from tric_control.limits.domain_damper import DomainDamper
 from tric_control.limits.joint_limits import JointLimits
 from tric_control.limits.soft_contact import SoftContact
 
-__all__ = ["UNBOUNDED_BELOW", "Limit", "StepState", "damper_bounds", "CollisionDamper", "DomainDamper",
-           "JointLimits", "SoftContact"]
+__all__ = ["UNBOUNDED_BELOW", "Limit", "StepState", "damper_bounds", "CollisionDamper", "ContactRules",
+           "DomainDamper", "JointLimits", "SoftContact"]

@@ -11,17 +11,18 @@ class CollisionDamper(Limit):
     """For the `rows` closest pairs (state.closest), n^T J dq >= -damping * (d - safety): no pair
     closes faster than the fraction damping of its remaining margin per tick. The safety distance
     (m) is `safety` against the scene, `self_safety` between the robot's own links, and -depth for the
-    hand against a body whose contact (contacts: {scene body name: tric_sim.scene.Contact}, the task's)
-    it holds at the moment: there the hand may press that deep. A pair is active (named
-    "<robot geometry>/<other>") when its row binds the step."""
+    hand against a body whose contact (the task's tric_sim.scene.Contact, read through rules) it holds
+    at the moment: there the hand may press that deep. A pair is active (named "<robot
+    geometry>/<other>") when its row binds the step."""
 
-    def __init__(self, contacts: dict, rows: int, safety: float, self_safety: float, damping: float):
+    def __init__(self, rules: ContactRules, rows: int, safety: float, self_safety: float, damping: float):
         if not (rows >= 0 and 0 < damping <= 1):
             raise ValueError(f"the collision damper needs rows >= 0 and damping in (0, 1], got {rows}, {damping}")
-        self.rules = ContactRules(contacts)
+        self.rules = rules
         self.rows, self.safety, self.self_safety, self.damping = rows, safety, self_safety, damping
         self._used = 0
         self._margins = np.empty(rows)
+        self._names, self._safety = None, None
 
     def constrain(self, state: StepState, rows: np.ndarray, lower: np.ndarray) -> None:
         closest = state.closest
@@ -30,11 +31,16 @@ class CollisionDamper(Limit):
         lower[used:] = UNBOUNDED_BELOW
         if not used:
             return
-        distances, bodies = closest.distances[:used], closest.bodies[:used]
-        held = self.rules.held(closest)[:used]
-        safety = np.where(held, -self.rules.depth[bodies], np.where(bodies < 0, self.self_safety, self.safety))
+        rules, bodies, distances = self.rules, closest.bodies[:used], closest.distances[:used]
+        if closest.body_names is not self._names:   # safety by body, the last for pairs within the robot
+            self._names = closest.body_names
+            self._safety = np.array([self.safety] * len(self._names) + [self.self_safety])
+        margins = self._margins[:used]
+        np.subtract(distances, self._safety.take(bodies), out=margins)
+        held = rules.held(closest)[:used]
+        if np.count_nonzero(held):
+            np.add(distances, rules.depth.take(bodies), out=margins, where=held)
         rows[:used] = closest.rows[:used]
-        margins = np.subtract(distances, safety, out=self._margins[:used])
         damper_bounds(rows[:used], margins, self.damping, state.max_step, lower[:used])
 
     def active(self, state: StepState, step: np.ndarray, binding: np.ndarray) -> list:

@@ -20,16 +20,27 @@ class JointLimits(Limit):
             raise ValueError(f"the joint limit margin must be >= 0, got {margin!r}")
         self.lowest, self.highest = np.asarray(lower) + margin, np.asarray(upper) - margin
         self.joint_names = list(joint_names)
-        self._scratch = np.empty(len(self.lowest))
+        self._low, self._high = np.empty(len(self.lowest)), np.empty(len(self.lowest))
+        self._near = False   # whether a position bound was tighter than the step bound at the last tick
 
     def bound(self, state: StepState, low: np.ndarray, high: np.ndarray) -> None:
-        mine, max_step = self._scratch, state.max_step
-        np.maximum(np.subtract(self.lowest, state.reference, out=mine), -max_step, out=mine)
-        np.maximum(low, np.minimum(mine, 0.0, out=mine), out=low)
-        np.minimum(np.subtract(self.highest, state.reference, out=mine), max_step, out=mine)
-        np.minimum(high, np.maximum(mine, 0.0, out=mine), out=high)
+        mine_low, mine_high, max_step = self._low, self._high, state.max_step
+        np.subtract(self.lowest, state.reference, out=mine_low)
+        np.subtract(self.highest, state.reference, out=mine_high)
+        # a position bound is tighter than the step bound: the joint is within one step of it
+        self._near = bool(np.count_nonzero(mine_low > -max_step) or np.count_nonzero(mine_high < max_step))
+        if self._near:
+            np.maximum(mine_low, -max_step, out=mine_low)
+            np.minimum(mine_high, max_step, out=mine_high)
+            np.maximum(low, np.minimum(mine_low, 0.0, out=mine_low), out=low)
+            np.minimum(high, np.maximum(mine_high, 0.0, out=mine_high), out=high)
+        else:
+            np.maximum(low, -max_step, out=low)
+            np.minimum(high, max_step, out=high)
 
     def active(self, state: StepState, step: np.ndarray, binding: np.ndarray) -> list:
+        if not self._near:
+            return []
         low, high, max_step = state.low, state.high, state.max_step
         hit = ((step <= low + REACHED) & (low > -max_step + REACHED)
                | (step >= high - REACHED) & (high < max_step - REACHED))

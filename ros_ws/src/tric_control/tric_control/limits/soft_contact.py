@@ -8,27 +8,25 @@ from tric_control.limits.contact_rules import ContactRules
 
 
 class SoftContact(Limit):
-    """For each pair of state.closest that holds its body's contact (contacts: {scene body name:
-    tric_sim.scene.Contact}, the task's) and is closer than the contact's cushion c: the cost
+    """For each pair of state.closest that holds its body's contact (the task's tric_sim.scene.Contact)
+    and is closer than the contact's cushion c: the cost
     w (d + r dq - c)^2 with w = cushion_weight / |r|^2 (r: the distance's row), a spring of stiffness
     cushion_weight in the step's metric that pushes the hand back to the cushion. Contacts without a
-    cushion add nothing."""
+    cushion add nothing (rules: tric_control.limits.ContactRules)."""
 
-    def __init__(self, contacts: dict):
-        self.rules = ContactRules(contacts)
+    def __init__(self, rules: ContactRules):
+        self.rules = rules
 
     def add_cost(self, state: StepState, hessian: np.ndarray, linear: np.ndarray) -> None:
-        closest = state.closest
-        if not len(closest):
+        closest, rules = state.closest, self.rules
+        if not (len(closest) and closest.distances[0] < rules.widest_cushion):
             return
-        rules = self.rules
         held = rules.held(closest)
-        if not held.any():
-            return
         bodies = closest.bodies
-        cushion = rules.cushion[bodies]
-        for k in np.flatnonzero(held & (cushion > 0.0) & (closest.distances < cushion)).tolist():
-            row, distance, body = closest.rows[k], closest.distances[k], bodies[k]
-            weight = rules.cushion_weight[body] / max(row @ row, 1e-9)
-            hessian += 2.0 * weight * np.outer(row, row)
-            linear += 2.0 * weight * (distance - rules.cushion[body]) * row
+        pressing = np.flatnonzero(held & (closest.distances < rules.cushion.take(bodies)))
+        if not len(pressing):
+            return
+        rows, bodies = closest.rows.take(pressing, axis=0), bodies.take(pressing)            # (m, n), (m,)
+        weights = 2.0 * rules.cushion_weight.take(bodies) / np.maximum(np.einsum("kn,kn->k", rows, rows), 1e-9)
+        hessian += (rows.T * weights) @ rows
+        linear += (weights * (closest.distances.take(pressing) - rules.cushion.take(bodies))) @ rows
