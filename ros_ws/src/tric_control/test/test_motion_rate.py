@@ -1,14 +1,17 @@
 """The motion-rate controller's core, without ROS: the QP step on hand-made problems with known
 solutions, joint and velocity limits under an adversarial objective, collision rows against an
-obstacle, convergence with TRIC's value objective, and refused inputs. Units: rad, m, s."""
+obstacle, convergence with TRIC's value objective, refused inputs, and a limit of one's own stacked
+with the default ones (each limit class has its own test file). Units: rad, m, s."""
 
 import coal
 import numpy as np
 import pinocchio as pin
 import pytest
 
-from tric_control.motion_rate import (CONVERGED_MOTION, CONVERGED_WINDOW, DOMAIN_MARGIN, JOINT_MARGIN, SAFETY,
-                                      MotionRateController, Objective, StepQP, ValueObjective)
+from tric_control.limits import Limit, damper_bounds
+from tric_control.motion_rate import (COLLISION_ROWS, CONVERGED_MOTION, CONVERGED_WINDOW, DOMAIN_MARGIN, DOMAIN_ROWS,
+                                      JOINT_MARGIN, SAFETY, MotionRateController, Objective, StepQP, ValueObjective,
+                                      default_limits)
 from tric_control.objectives import make_objective
 from tric_learning.features import FeatureDefinition, FeatureMap
 from tric_learning.model_file import ModelFile, value_function_arrays
@@ -249,3 +252,39 @@ def test_make_objective_runs_tric_models_and_refuses_the_others(robot):
         make_objective(ModelFile("tric", definition, arrays, {"rho": 50.0}), robot)
     with pytest.raises(ValueError, match="delta must be finite and positive"):
         make_objective(ModelFile("tric", definition, arrays, {"delta": -0.002, "rho": 50.0}), robot)
+
+
+# --- a limit of one's own ------------------------------------------------------------------------
+
+class KeepBelow(Limit):
+    """Joint `joint` stays below `angle` (rad), approached as a velocity damper (the README's example)."""
+
+    rows = 1
+
+    def __init__(self, joint: int, angle: float, damping: float = 0.3):
+        self.joint, self.angle, self.damping = joint, angle, damping
+
+    def constrain(self, state, rows, lower):
+        rows[0] = 0.0
+        rows[0, self.joint] = -1.0       # the margin angle - q falls as q rises
+        damper_bounds(rows, np.array([self.angle - state.q[self.joint]]), self.damping, state.max_step, lower)
+
+    def active(self, state, step, binding):
+        return [f"keep_below:{self.joint}"] if binding[0] else []
+
+
+def test_a_limit_of_one_s_own_is_stacked_with_the_others(robot):
+    """An objective pushing every joint up: with KeepBelow(0, 0.3) added to the default limits,
+    joint 0 approaches 0.3 rad and stops there (named active), while the others still go to their
+    limits; the QP has one row more."""
+    direction = np.ones(robot.n_joints)
+    limits = default_limits(robot, {}) + [KeepBelow(0, 0.3)]
+    controller = MotionRateController(robot, NoPairs(), Push(direction), limits=limits)
+    assert controller.qp.rows == COLLISION_ROWS + DOMAIN_ROWS + 1
+    q, named = np.zeros(robot.n_joints), False
+    for _ in range(400):
+        tick = controller.tick(q, {})
+        q = tick.target
+        named |= "keep_below:0" in tick.active
+    assert 0.29 < q[0] <= 0.3 and named
+    assert np.allclose(q[1:], (robot.upper - JOINT_MARGIN)[1:], atol=1e-6)
