@@ -14,6 +14,7 @@ from tric_learning import dpl
 from tric_learning.features import FeatureDefinition
 from tric_learning.model_file import ModelFile
 from tric_learning.value_function import Scaling
+from tric_sim.collision import Closest
 from tric_sim.robot_model import HOME, RobotModel
 
 SPHERE = {"object": (np.array([0.6, 0.0, 0.35]), np.array([0.0, 0.0, 0.0, 1.0]))}
@@ -32,7 +33,7 @@ class NoPairs:
     """A proximity that reports no close pairs: the controller without collision rows."""
 
     def near(self, q, object_poses, influence):
-        return []
+        return Closest.none(len(q))
 
 
 def policy_model(robot, task: str, kind: str, step_size: float, hidden_units: int = 5, seed: int = 0) -> ModelFile:

@@ -1,23 +1,24 @@
 """The motion-rate controller's core, without ROS: the QP step on hand-made problems with known
 solutions, joint and velocity limits under an adversarial objective, collision rows against an
-obstacle, convergence with TRIC's value objective, and refused inputs. Units: rad, m, s."""
-
-from dataclasses import replace
+obstacle, convergence with TRIC's value objective, refused inputs, and a limit of one's own stacked
+with the default ones (each limit class has its own test file). Units: rad, m, s."""
 
 import coal
 import numpy as np
 import pinocchio as pin
 import pytest
 
-from tric_control.motion_rate import (CONVERGED_MOTION, CONVERGED_WINDOW, DOMAIN_MARGIN, JOINT_MARGIN, PUSH_DEPTH,
-                                      SAFETY, SAFETY_BY_ROLE, TOUCH_DEPTH, MotionRateController, Objective, StepQP,
-                                      ValueObjective)
+from tric_control.limits import Limit, damper_bounds
+from tric_control.motion_rate import (COLLISION_ROWS, CONVERGED_MOTION, CONVERGED_WINDOW, DOMAIN_MARGIN, DOMAIN_ROWS,
+                                      JOINT_MARGIN, SAFETY, MotionRateController, Objective, StepQP, ValueObjective,
+                                      default_limits)
 from tric_control.objectives import make_objective
 from tric_learning.features import FeatureDefinition, FeatureMap
 from tric_learning.model_file import ModelFile, value_function_arrays
 from tric_learning.value_function import Scaling, ValueFunction
-from tric_sim import scene, situations
-from tric_sim.collision import Proximity, coal_shape
+from tric_sim import situations
+from tric_sim.collision import Closest, Proximity
+from tric_sim.shapes import coal_shape
 from tric_sim.robot_model import RobotModel
 
 #: "No bound" for the QP's unused inequality rows, as the controller uses it.
@@ -70,7 +71,7 @@ class NoPairs:
     """A proximity that reports no close pairs: the controller without collision rows."""
 
     def near(self, q, object_poses, influence):
-        return []
+        return Closest.none(len(q))
 
 
 class Push:
@@ -253,29 +254,37 @@ def test_make_objective_runs_tric_models_and_refuses_the_others(robot):
         make_objective(ModelFile("tric", definition, arrays, {"delta": -0.002, "rho": 50.0}), robot)
 
 
-# --- what the hand may press ---------------------------------------------------------------------
+# --- a limit of one's own ------------------------------------------------------------------------
 
-def upside_down(situation):
-    """The situation's box turned over about its x axis, in place: its lid's normal points down."""
-    turned = pin.Quaternion(scene.se3((0, 0, 0), situation.object_orientation).rotation
-                            @ pin.utils.rotate("x", np.pi))
-    return replace(situation, object_orientation=(turned.x, turned.y, turned.z, turned.w)).validate()
+class KeepBelow(Limit):
+    """Joint `joint` stays below `angle` (rad), approached as a velocity damper (the README's example)."""
+
+    rows = 1
+
+    def __init__(self, joint: int, angle: float, damping: float = 0.3):
+        self.joint, self.angle, self.damping = joint, angle, damping
+
+    def constrain(self, state, rows, lower):
+        rows[0] = 0.0
+        rows[0, self.joint] = -1.0       # the margin angle - q falls as q rises
+        damper_bounds(rows, np.array([self.angle - state.q[self.joint]]), self.damping, state.max_step, lower)
+
+    def active(self, state, step, binding):
+        return [f"keep_below:{self.joint}"] if binding[0] else []
 
 
-@pytest.mark.parametrize("situation, body, scene_role, hand_role, hand_safety", [
-    (situations.dataset("sphere_test")[0], "object", "target", "touch", -TOUCH_DEPTH),
-    (upside_down(situations.dataset("box_test")[0]), "lid", "lid", "push", -PUSH_DEPTH),
-    (situations.dataset("box_test")[0], "lid", "lid", "lid", SAFETY),
-    (situations.dataset("box_test")[0], "object", "box_body", "box_body", SAFETY)],
-    ids=["target", "lid_from_beneath", "lid_from_above", "box_body"])
-def test_hand_pairs_get_the_role_of_what_the_hand_may_do_there(robot, situation, body, scene_role, hand_role,
-                                                               hand_safety):
-    """The hand may press into a grasp target (role "touch") and deeper into a lid from beneath
-    ("push"), and keeps SAFETY from a lid it is above (at home, over a closed box) and from a box's
-    body; the arm keeps SAFETY from all of them (the body's own role)."""
-    pairs = Proximity(robot, situation).near(robot.home, {}, influence=10.0)
-    roles = {(pair.name.split("/")[0].startswith(("finger_", "palm")), pair.role)
-             for pair in pairs if pair.name.endswith(f"/{body}")}
-    assert roles == {(True, hand_role), (False, scene_role)}
-    assert SAFETY_BY_ROLE.get(hand_role, SAFETY) == hand_safety
-    assert SAFETY_BY_ROLE.get(scene_role, SAFETY) == SAFETY
+def test_a_limit_of_one_s_own_is_stacked_with_the_others(robot):
+    """An objective pushing every joint up: with KeepBelow(0, 0.3) added to the default limits,
+    joint 0 approaches 0.3 rad and stops there (named active), while the others still go to their
+    limits; the QP has one row more."""
+    direction = np.ones(robot.n_joints)
+    limits = default_limits(robot, {}) + [KeepBelow(0, 0.3)]
+    controller = MotionRateController(robot, NoPairs(), Push(direction), limits=limits)
+    assert controller.qp.rows == COLLISION_ROWS + DOMAIN_ROWS + 1
+    q, named = np.zeros(robot.n_joints), False
+    for _ in range(400):
+        tick = controller.tick(q, {})
+        q = tick.target
+        named |= "keep_below:0" in tick.active
+    assert 0.29 < q[0] <= 0.3 and named
+    assert np.allclose(q[1:], (robot.upper - JOINT_MARGIN)[1:], atol=1e-6)

@@ -4,35 +4,19 @@ within joint limits, velocity bounds and collision constraints. ROS-free.
 TRIC's step minimizes, linearized at the current configuration q_t (g = grad_q (f o phi)(q_t),
 Eq. 10):
 
-    rho (g^T dq + delta)^2 + |dq|^2         s.t.  joint limits, |dq_i| <= v_i * period,
-                                                   collision velocity dampers
+    rho (g^T dq + delta)^2 + |dq|^2 + C_prior         s.t.  the limits' bounds and rows
 
 i.e. it asks f to fall by delta per tick (Sec. 5.2.3: delta makes about 500 ticks from a
-demonstration's start value to its end value) while keeping the step small. The QP has a fixed size
-(n variables, box constraints, COLLISION_ROWS inequality rows) and is solved by proxsuite's dense
-solver, re-used and warm-started tick after tick.
-
-Priors (C_prior of Eq. 9) are constraints:
-- joint limits with a margin and a per-tick step bound (the joints' velocity limits);
-- collision avoidance: for the COLLISION_ROWS closest pairs within INFLUENCE (tric_sim.collision
-  .Proximity: every robot geometry against every scene body, arm links against the rest of the
-  robot), a velocity damper n^T J dq >= -DAMPING * (d - safety) keeps each pair from closing faster
-  than a fraction of its remaining margin. The safety distance is SAFETY for the scene, SELF_SAFETY
-  between the robot's links, -TOUCH_DEPTH for the hand against the grasp target and -PUSH_DEPTH
-  against the lid: as in the paper, where the collision cost rises at the end of a grasp, the fingers
-  come to touch the object (contact is the goal there) and may press into it a few millimetres,
-  which makes the grip; the lid is there to be pushed open, so the hand may press deeper and feels no
-  soft touch prior (with both, measured on the first 12 test boxes: 0 opened, every episode stalled
-  with a finger under the lip; without: 4). Only from beneath, though (Proximity decides): from
-  above, pressing can only shut the lid, and the hand keeps SAFETY from it (without that, measured:
-  fingers pressing the closed lid's top, its hinge forced below 0).
-
-- the model's domain: a learned value function is only known where it was trained. Each kept
-  feature u (scaled to [0, 1] over the demonstrations and noisy samples) is kept within
-  [-DOMAIN_MARGIN, 1 + DOMAIN_MARGIN]: the DOMAIN_ROWS features nearest their bounds get the same
-  kind of damper, du/dq dq >= -DAMPING * (u - bound) (signs mirrored at the upper bound). Without it
-  the linear part of f extrapolates, and the controller drives the hand into configurations never
-  demonstrated (fingers bent backwards) where f keeps falling.
+demonstration's start value to its end value) while keeping the step small. The objective
+(tric_control.objectives) gives its quadratic model; the priors (C_prior of Eq. 9) are limits
+(tric_control.limits), each adding its piece of the QP: by default the joints' limits with a margin
+and a per-tick step bound (JointLimits), velocity dampers on the COLLISION_ROWS closest collision
+pairs within INFLUENCE (CollisionDamper, with the safety distances below), on the DOMAIN_ROWS
+features nearest the bounds of the model's domain (DomainDamper), and the soft side of the task's
+contacts as a cost (SoftContact). What the hand may press, how deep and from which side is the task's
+(tric_sim.scene.contacts, through the Proximity), handed to the limits when they are built. The QP
+has a fixed size (n variables with bounds, the limits' inequality rows) and is solved by proxsuite's
+dense solver, re-used and warm-started tick after tick.
 
 The command is a reference that integrates the steps; it may lead the measured joints by at most
 MAX_LEAD, so that fingers held back by an object keep squeezing it, and a blocked arm does not wind up.
@@ -45,26 +29,20 @@ from dataclasses import dataclass, field
 import numpy as np
 import proxsuite
 
+from tric_control.limits import (UNBOUNDED_BELOW, CollisionDamper, ContactRules, DomainDamper, JointLimits, Limit,
+                                 SoftContact, StepState)
 from tric_sim.collision import Proximity
 from tric_sim.robot_model import RobotModel
 
 COLLISION_ROWS = 10
 DOMAIN_ROWS = 8
 DOMAIN_MARGIN = 0.05
+#: Collision pairs farther apart than this are not considered, m.
 INFLUENCE = 0.05
-#: Distances kept from the scene and between the robot's own links, and how far the hand may press
-#: into the grasp target or the lid, m.
+#: Distances kept from the scene and between the robot's own links, m.
 SAFETY = 0.01
 SELF_SAFETY = 0.002
-TOUCH_DEPTH = 0.005
-PUSH_DEPTH = 0.015
-SAFETY_BY_ROLE = {"self": SELF_SAFETY, "touch": -TOUCH_DEPTH, "push": -PUSH_DEPTH}
-#: Soft touch prior: within TOUCH_SOFT of the grasp target the hand is pushed back with this
-#: weight (relative to the step-size term). 3 mm measured best on the sphere test set (1 cm left the
-#: fingers ~1 cm off the surface, grasp cost 0.085; without the prior the fingers jam: 0.40; 2 mm
-#: lost one of 8 grasps; 3 mm: 0.042 mean, 0.069 max over 15).
-TOUCH_SOFT = 0.003
-TOUCH_WEIGHT = 3.0
+#: The dampers' gain: the fraction of its margin a distance (or a feature's) may lose per tick.
 DAMPING = 0.3
 JOINT_MARGIN = 0.02
 MAX_LEAD = 0.03
@@ -72,6 +50,16 @@ MAX_LEAD = 0.03
 #: in norm) over the last CONVERGED_WINDOW ticks.
 CONVERGED_WINDOW = 100
 CONVERGED_MOTION = 0.01
+
+
+def default_limits(robot: RobotModel, contacts: dict) -> list:
+    """The controller's limits: joint limits, collision and domain dampers, and the soft side of
+    the task's contacts ({scene body name: tric_sim.scene.Contact})."""
+    rules = ContactRules(contacts)
+    return [CollisionDamper(rules, COLLISION_ROWS, SAFETY, SELF_SAFETY, DAMPING),
+            DomainDamper(DOMAIN_ROWS, DAMPING),
+            JointLimits(robot.lower, robot.upper, robot.joint_names, JOINT_MARGIN),
+            SoftContact(rules)]
 
 
 @dataclass
@@ -94,7 +82,7 @@ _SOLVED = (proxsuite.proxqp.QPSolverOutput.PROXQP_SOLVED,
 
 
 class StepQP:
-    """min 1/2 dq^T H dq + c^T dq over dq (n,) with box bounds and `rows` inequality rows
+    """min 1/2 dq^T H dq + c^T dq over dq (n,) with bounds on each variable and `rows` inequality rows
     l <= C dq; solve() returns None when the solver finds no solution."""
 
     def __init__(self, n: int, rows: int):
@@ -107,7 +95,7 @@ class StepQP:
         self.qp.settings.primal_infeasibility_solving = True
         self.qp.settings.initial_guess = proxsuite.proxqp.InitialGuess.WARM_START_WITH_PREVIOUS_RESULT
         self.initialized = False
-        self._upper = np.full(rows, 1e20)
+        self._upper = np.full(rows, -UNBOUNDED_BELOW)
 
     def solve(self, hessian, linear, rows, lower, box_low, box_high) -> np.ndarray:
         if self.initialized:
@@ -118,26 +106,43 @@ class StepQP:
         self.qp.solve()
         if self.qp.results.info.status not in _SOLVED:
             return None
-        return np.clip(self.qp.results.x, box_low, box_high)
+        return np.maximum(np.minimum(self.qp.results.x, box_high), box_low)
 
 
 class MotionRateController:
-    """Runs the motion-rate step for one objective (see tric_control.objectives).
+    """Runs the motion-rate step for one objective (see tric_control.objectives) under limits.
 
     objective(q, object_poses) -> Objective: the quadratic model of the cost in dq (without the
     |dq|^2 term, which this adds), the cost's value and gradient norm, and the domain rows.
+    proximity.near(q, object_poses, INFLUENCE) -> tric_sim.collision.Closest: the collision pairs.
+    contacts: what the hand may press ({scene body name: tric_sim.scene.Contact}), default the
+    proximity's (its situation's task's). limits: the QP's pieces (tric_control.limits.Limit), default
+    default_limits(robot, contacts); the inequality rows are stacked in their order.
     """
 
-    def __init__(self, robot: RobotModel, proximity: Proximity, objective, period: float = 0.01):
+    def __init__(self, robot: RobotModel, proximity: Proximity, objective, period: float = 0.01, *,
+                 contacts: dict = None, limits: list = None):
         self.robot, self.proximity, self.objective, self.period = robot, proximity, objective, period
-        self.qp = StepQP(robot.n_joints, COLLISION_ROWS + DOMAIN_ROWS)
+        if limits is None:
+            limits = default_limits(robot, getattr(proximity, "contacts", {}) if contacts is None else contacts)
+        self.limits = list(limits)
+        n, overridden = robot.n_joints, lambda method: [limit for limit in self.limits
+                                                        if getattr(type(limit), method) is not getattr(Limit, method)]
+        self._costs, self._boxes = overridden("add_cost"), overridden("bound")
+        self._slices, start = [], 0
+        for limit in self.limits:
+            self._slices.append(slice(start, start + limit.rows))
+            start += limit.rows
+        self.qp = StepQP(n, start)
         self.reference = None
         self.values = []
         self.history = []
-        self._step_metric = 2.0 * np.eye(robot.n_joints)        # the |dq|^2 term's Hessian
+        self._step_metric = 2.0 * np.eye(n)        # the |dq|^2 term's Hessian
         self._max_step = robot.velocity_limits * period
-        self._lowest = robot.lower + JOINT_MARGIN                 # the box's joint limits
-        self._highest = robot.upper - JOINT_MARGIN
+        self._state = StepState(max_step=self._max_step)
+        self._hessian, self._linear = np.empty((n, n)), np.empty(n)
+        self._rows, self._lower = np.zeros((start, n)), np.full(start, UNBOUNDED_BELOW)
+        self._low, self._high = np.empty(n), np.empty(n)
 
     def reset(self, q: np.ndarray) -> None:
         self.reference = np.array(q, dtype=float)
@@ -151,48 +156,37 @@ class MotionRateController:
         if self.reference is None:
             self.reset(q)
         previous = self.reference
-        self.reference = q + np.clip(self.reference - q, -MAX_LEAD, MAX_LEAD)
+        self.reference = q + np.maximum(np.minimum(self.reference - q, MAX_LEAD), -MAX_LEAD)
         model = self.objective(q, object_poses)
-        hessian = model.hessian + self._step_metric
-        linear = model.linear
-        pairs = self.proximity.near(q, object_poses, INFLUENCE)[:COLLISION_ROWS]
-        for pair in pairs:
-            # the soft part of the touch prior: the hand is pushed back from the object within
-            # TOUCH_SOFT, as by a spring of stiffness TOUCH_WEIGHT / |row|^2 in the step's metric
-            if pair.role == "touch" and pair.distance < TOUCH_SOFT:
-                weight = TOUCH_WEIGHT / max(pair.row @ pair.row, 1e-9)
-                hessian += 2.0 * weight * np.outer(pair.row, pair.row)
-                linear = linear + 2.0 * weight * (pair.distance - TOUCH_SOFT) * pair.row
-        max_step = self._max_step
-        # each row: the gradient of a margin that must stay >= 0 and the margin now; never ask for
-        # more than half of what a step within the bounds can give. Unused rows: 0 >= -1e20.
-        rows = np.zeros((COLLISION_ROWS + DOMAIN_ROWS, robot.n_joints))
-        margins = np.full(COLLISION_ROWS + DOMAIN_ROWS, np.nan)
-        if pairs:
-            rows[:len(pairs)] = [pair.row for pair in pairs]
-            margins[:len(pairs)] = [pair.distance - SAFETY_BY_ROLE.get(pair.role, SAFETY) for pair in pairs]
-        domain = len(model.domain_margins[:DOMAIN_ROWS])
-        if domain:
-            rows[COLLISION_ROWS:COLLISION_ROWS + domain] = model.domain_rows[:domain]
-            margins[COLLISION_ROWS:COLLISION_ROWS + domain] = model.domain_margins[:domain]
-        used = ~np.isnan(margins)
-        lower = np.where(used, np.minimum(-DAMPING * margins, (0.5 * np.abs(rows)) @ max_step), -1e20)
-        box_low = np.maximum(self._lowest - self.reference, -max_step)
-        box_high = np.minimum(self._highest - self.reference, max_step)
-        box_low, box_high = np.minimum(box_low, 0.0), np.maximum(box_high, 0.0)
-        step = self.qp.solve(hessian, linear, rows, lower, box_low, box_high)
+        state = self._state
+        state.q, state.reference, state.objective = q, self.reference, model
+        state.closest = closest = self.proximity.near(q, object_poses, INFLUENCE)
+        hessian, linear = self._hessian, self._linear
+        np.add(model.hessian, self._step_metric, out=hessian)
+        linear[:] = model.linear
+        for limit in self._costs:
+            limit.add_cost(state, hessian, linear)
+        low, high = self._low, self._high
+        low.fill(-np.inf)
+        high.fill(np.inf)
+        for limit in self._boxes:
+            limit.bound(state, low, high)
+        state.low, state.high = low, high
+        rows, lower = self._rows, self._lower
+        for limit, rows_of in zip(self.limits, self._slices):
+            if limit.rows:
+                limit.constrain(state, rows[rows_of], lower[rows_of])
+        step = self.qp.solve(hessian, linear, rows, lower, low, high)
         if step is None:  # the solver found no step: hold still this tick
             step = np.zeros(robot.n_joints)
         # the command moves by at most one velocity-bounded step per tick, within the joint limits
-        target = previous + np.clip(self.reference + step - previous, -max_step, max_step)
-        self.reference = np.clip(target, robot.lower, robot.upper)
-        binding = (rows @ step <= lower + 1e-7).tolist()
-        active = [pair.name for pair, hit in zip(pairs, binding) if hit]
-        active += [f"feature_range:{name}" for name, hit in zip(model.domain_names[:domain], binding[COLLISION_ROWS:])
-                   if hit]
-        active += [f"joint_limit:{robot.joint_names[i]}" for i in
-                   np.flatnonzero((step <= box_low + 1e-9) & (box_low > -max_step + 1e-9)
-                                  | (step >= box_high - 1e-9) & (box_high < max_step - 1e-9))]
+        max_step = self._max_step
+        target = previous + np.maximum(np.minimum(self.reference + step - previous, max_step), -max_step)
+        self.reference = np.maximum(np.minimum(target, robot.upper), robot.lower)
+        binding = rows @ step <= lower + 1e-7
+        active = []
+        for limit, rows_of in zip(self.limits, self._slices):
+            active += limit.active(state, step, binding[rows_of])
         self.values.append(model.value)
         self.history.append(q)
         if len(self.history) > CONVERGED_WINDOW:
@@ -201,7 +195,7 @@ class MotionRateController:
         else:
             converged = False
         return Tick(target=self.reference.copy(), value=model.value, gradient_norm=model.gradient_norm, step=step,
-                    min_distance=pairs[0].distance if pairs else INFLUENCE, active=active,
+                    min_distance=float(closest.distances[0]) if len(closest) else INFLUENCE, active=active,
                     converged=converged)
 
 
@@ -209,55 +203,57 @@ class MotionRateController:
 class Objective:
     """An objective's quadratic model at q: 1/2 dq^T hessian dq + linear^T dq, the cost's value and
     gradient norm, and the domain rows: the gradients (k, n) of margins (k,) that must stay >= 0,
-    nearest their bound first, with the names of their features."""
+    nearest their bound first, with the names of their features. gradient: the gradient (n,) of the
+    learned value in q, for an objective that has one (else None)."""
 
     hessian: np.ndarray
     linear: np.ndarray
     value: float
     gradient_norm: float
+    gradient: np.ndarray = None
     domain_rows: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
     domain_margins: np.ndarray = field(default_factory=lambda: np.zeros(0))
     domain_names: list = field(default_factory=list)
 
 
-def domain_rows(u: np.ndarray, du_dq: np.ndarray, count: int, moving: np.ndarray):
-    """The count features nearest the bounds of their training range (+-DOMAIN_MARGIN) among the
-    moving ones (indices into the kept features: those a step can change, not, say, the box's
-    position seen from the robot's base), from the scaled kept features u (s,) and their Jacobian
-    du_dq (s, n): the gradients of their margins (count, n), the margins (count,) and the features'
-    indices into the kept features, nearest first."""
-    scaled = u[moving]
-    to_low, to_high = scaled + DOMAIN_MARGIN, 1.0 + DOMAIN_MARGIN - scaled
-    margins = np.minimum(to_low, to_high)
-    nearest = np.argsort(margins)[:count]
-    # the upper bound's margin falls as u rises
-    rows = du_dq[moving[nearest]] * np.where(to_low[nearest] <= to_high[nearest], 1.0, -1.0)[:, None]
-    return rows, margins[nearest], moving[nearest]
-
-
 class ValueObjective:
-    """TRIC's objective: rho (g^T dq + delta)^2 with g = (df/dy)(dphi/dq) at q. After each call,
+    """TRIC's objective: rho (g^T dq + delta)^2 with g = (df/dy)(dphi/dq) at q.
+
+    Its domain rows: the DOMAIN_ROWS kept features nearest the bounds of their training range
+    (scaled u in [-DOMAIN_MARGIN, 1 + DOMAIN_MARGIN]) among those a step can change (not, say, an
+    object's position seen from the robot's base), nearest first: the gradients du/dq of their
+    margins (the upper bound's margin falls as u rises), the margins and their names. After each call,
     scaled_features (s,) and value_gradient (s,) hold u and df/du at that q (for the status)."""
 
     def __init__(self, feature_map, value_function, delta: float, rho: float, feature_names=None):
         if not (delta > 0 and rho > 0):
             raise ValueError("delta and rho must be positive")
         self.features, self.value_function, self.delta, self.rho = feature_map, value_function, delta, rho
+        scaling = value_function.scaling
         names = feature_names or feature_map.definition.feature_names
-        self.kept_names = [names[k] for k in value_function.scaling.kept]
-        self._moving = np.flatnonzero(feature_map.moves_with_q[value_function.scaling.kept])
-        self._factor = value_function.scaling.factor[:, None]
+        self.kept_names = [names[k] for k in scaling.kept]
+        self._kept, self._low, self._span = scaling.kept, scaling.low, scaling.high - scaling.low
+        self._factor = scaling.factor
+        self._weights = np.zeros(scaling.size)                    # df/dy on the raw features
+        moving = np.flatnonzero(feature_map.moves_with_q[scaling.kept])
+        self._moving, self._moving_raw, self._moving_factor = moving, scaling.kept[moving], self._factor[moving]
         self.scaled_features = self.value_gradient = None
 
     def __call__(self, q, object_poses) -> Objective:
         y, jacobian = self.features.with_jacobian(q, object_poses)
-        scaling = self.value_function.scaling
-        u = scaling.transform(y)
+        u = (y.take(self._kept) - self._low) / self._span
         value, df_du = self.value_function.scaled_gradient(u)
         self.scaled_features, self.value_gradient = u, df_du
-        du_dq = jacobian[scaling.kept] * self._factor                          # (s, n)
-        g = df_du @ du_dq
-        rows, margins, nearest = domain_rows(u, du_dq, DOMAIN_ROWS, self._moving)
-        return Objective(hessian=2.0 * self.rho * np.outer(g, g), linear=2.0 * self.rho * self.delta * g,
-                         value=value, gradient_norm=math.sqrt(g @ g), domain_rows=rows, domain_margins=margins,
-                         domain_names=[self.kept_names[k] for k in nearest])
+        weights = self._weights
+        weights[self._kept] = df_du * self._factor
+        g = weights @ jacobian
+        scaled = u.take(self._moving)
+        to_low, to_high = scaled + DOMAIN_MARGIN, (1.0 + DOMAIN_MARGIN) - scaled
+        margins = np.minimum(to_low, to_high)
+        nearest = np.argsort(margins)[:DOMAIN_ROWS]
+        signs = np.where(to_low.take(nearest) <= to_high.take(nearest), 1.0, -1.0)
+        rows = jacobian.take(self._moving_raw.take(nearest), axis=0) * (self._moving_factor.take(nearest) * signs)[:, None]
+        two_rho = 2.0 * self.rho
+        return Objective(hessian=two_rho * (g[:, None] * g), linear=two_rho * self.delta * g, value=value,
+                         gradient_norm=math.sqrt(g @ g), gradient=g, domain_rows=rows, domain_margins=margins.take(nearest),
+                         domain_names=[self.kept_names[k] for k in self._moving.take(nearest).tolist()])
