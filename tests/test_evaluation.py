@@ -116,14 +116,24 @@ def grasp_row(mean, good=15, lift=15, collisions=0, std=0.01, episodes=15):
             "collisions": collisions, "episodes": episodes}
 
 
+def seeded(*rows):
+    """A seeded grasp row (experiments._seeded_grasp_row's shape) from one grasp_row per seed."""
+    means = [row["cost_mean"] for row in rows]
+    return {"seeds": dict(enumerate(rows)), "cost_mean": sum(means) / len(means), "cost_min": min(means),
+            "cost_max_seed": max(means), "good": [r["good"] for r in rows], "lift": [r["lift"] for r in rows],
+            "collisions": [r["collisions"] for r in rows], "episodes": rows[0]["episodes"]}
+
+
 def test_discussions_follow_the_numbers():
     from tric_control import experiments
 
-    close = experiments._table1_discussion({"teacher": grasp_row(0.02), "TRIC K = 30": grasp_row(0.04)})
-    assert "a gap of +0.020 (within the 0.03" in close and "reproduces the paper's result" in close
-    far = experiments._table1_discussion({"teacher": grasp_row(0.02), "TRIC K = 30": grasp_row(0.3, good=9, lift=10)})
-    assert "(beyond the 0.03" in far
-    assert "fall short of the paper in the gap to the teacher, grasps above 0.25, failed lift tests." in far
+    close = experiments._table1_discussion({"teacher": grasp_row(0.02),
+                                            "TRIC K = 30": seeded(grasp_row(0.04), grasp_row(0.045), grasp_row(0.03))})
+    assert "0.040/0.045/0.030 (mean 0.038, min 0.030, max 0.045)" in close and "the gaps +0.020/+0.025/+0.010" in close
+    assert "Every seed reproduces the paper's result" in close
+    far = experiments._table1_discussion({"teacher": grasp_row(0.02), "TRIC K = 30": seeded(
+        grasp_row(0.04), grasp_row(0.3, good=9, lift=10), grasp_row(0.04, collisions=1))})
+    assert "We fall short of the paper with seed 1, seed 2." in far and "collisions 0/0/1" in far
 
     def fig8_rows(costs, few_good=15):
         """Rows of every Fig. 8 setting: costs[(N, M)] for the default variant, 0.1 more for the others."""
@@ -145,20 +155,25 @@ def test_discussions_follow_the_numbers():
     assert "still a clear gain" in text and "both terms together are best" in text
     assert "The means of N = 3, M = 60 (4/15 good) are pulled up by their failed grasps" in text
 
-    cylinders = {"teacher": grasp_row(0.06), "TRIC K = 0": grasp_row(0.5, good=1), "TRIC K = 30": grasp_row(0.55, good=0),
-                 "TRIC K = 0, wide": grasp_row(0.3, good=8), "TRIC K = 30, wide": grasp_row(0.08)}
+    cylinders = {"teacher": grasp_row(0.02, episodes=10),
+                 "TRIC K = 0": seeded(*(grasp_row(0.3, good=6, episodes=10) for _ in range(3))),
+                 "TRIC K = 30": seeded(grasp_row(0.1, good=9, lift=8, episodes=10),
+                                       grasp_row(0.08, good=10, lift=9, episodes=10),
+                                       grasp_row(0.11, good=9, lift=9, episodes=10))}
     text = experiments._table3_discussion(cylinders)
-    assert "the wider samples clearly help" in text and "The better K = 30 model is near the teacher" in text
-    assert "With the wider sigma the linear model is clearly worse than K = 30" in text
-    assert "With the paper's sigma the linear model is not clearly worse" in text
+    assert "Every seed meets the design's targets" in text and "K = 30 beats K = 0 with every seed" in text
+    cylinders["TRIC K = 30"]["seeds"][1] = grasp_row(0.35, good=7, lift=4, episodes=10)
+    text = experiments._table3_discussion(cylinders)
+    assert "seed 1 miss the design's targets" in text and "K = 30 beats K = 0 with seeds 0, 2 only" in text
 
-    def boxes(**opened):
-        return {name: {"opened": count, "episodes": 25, "lid_mean": 0.5, "collisions": 0}
-                for name, count in zip(("TRIC", "TRIC, wide", "DPL joint space", "DPL finger space", "teacher"),
-                                       opened.values())}
-    text = experiments._table4_discussion(boxes(tric=3, wide=24, joint=2, finger=9, teacher=25))
-    assert "TRIC, wide 24, DPL joint space 2 (the paper 2)" in text and "TRIC, wide matches the paper" in text
-    assert "Both DPL variants open fewer boxes than TRIC" in text
-    text = experiments._table4_discussion(boxes(tric=3, wide=6, joint=13, finger=0, teacher=25))
-    assert "Even TRIC, wide falls short of the paper by 18 boxes" in text
-    assert "DPL joint space opens 13, not fewer than TRIC" in text
+    def boxes(tric, joint, finger):
+        rows = {name: {"opened": opened, "episodes": 25} for name, opened in
+                (("TRIC", tric), ("DPL joint space", joint), ("DPL finger space", finger))}
+        rows["teacher"] = {"opened": [25], "episodes": 25}
+        return rows
+    text = experiments._table4_discussion(boxes([24, 23, 25], [2, 1, 3], [9, 8, 7]))
+    assert "TRIC 24/23/25 (mean 24.0, min 23, max 25) (the paper 24)" in text
+    assert "TRIC opens at least 23 with every seed" in text and "Both DPL variants open fewer boxes" in text
+    text = experiments._table4_discussion(boxes([24, 12, 25], [2, 13, 3], [9, 8, 7]))
+    assert "TRIC misses the design's 23 with 1 of 3 seeds (at worst 12)" in text
+    assert "A DPL variant opens as many as 13 with one seed" in text
