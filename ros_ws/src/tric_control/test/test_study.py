@@ -36,3 +36,11 @@ def test_the_seed_summary_gives_each_seed_and_the_mean_min_max():
              "sets": {"box_val": {"opened": opened, "episodes": 25}}} for seed, opened in enumerate((20, 23, 17))]
     text = study.seed_summary(rows)
     assert "v / box over 3 seeds" in text and "box_val opened 20/23/17 (mean 20, min 17, max 23)" in text
+
+
+def test_controller_settings_are_variant_options_that_do_not_change_the_training():
+    name, changes = study.parse_variant("grip=alpha_g=10,hand_lead=0.2,grasp_steps=1500")
+    assert changes == {"alpha_g": 10.0, "hand_lead": 0.2, "grasp_steps": 1500}
+    assert study.training_part(changes) == {"alpha_g": 10.0}
+    with pytest.raises(ValueError, match="hand_lead must be >= 0 rad"):
+        study.parse_variant("v=hand_lead=-0.1")

@@ -19,7 +19,8 @@ has a fixed size (n variables with bounds, the limits' inequality rows) and is s
 dense solver, re-used and warm-started tick after tick.
 
 The command is a reference that integrates the steps; it may lead the measured joints by at most
-MAX_LEAD, so that fingers held back by an object keep squeezing it, and a blocked arm does not wind up.
+MAX_LEAD (the arm: a blocked arm does not wind up) or MAX_HAND_LEAD (the hand: fingers held back by an
+object keep squeezing it, with a force that grows with the lead).
 Units: rad, m, s.
 """
 
@@ -45,7 +46,9 @@ SELF_SAFETY = 0.002
 #: The dampers' gain: the fraction of its margin a distance (or a feature's) may lose per tick.
 DAMPING = 0.3
 JOINT_MARGIN = 0.02
+#: How far the command may lead the measured arm and hand joints, rad (see the module docstring).
 MAX_LEAD = 0.03
+MAX_HAND_LEAD = 0.03
 #: Convergence: the robot has come to rest, its joints having moved less than CONVERGED_MOTION (rad,
 #: in norm) over the last CONVERGED_WINDOW ticks.
 CONVERGED_WINDOW = 100
@@ -117,12 +120,20 @@ class MotionRateController:
     proximity.near(q, object_poses, INFLUENCE) -> tric_sim.collision.Closest: the collision pairs.
     contacts: what the hand may press ({scene body name: tric_sim.scene.Contact}), default the
     proximity's (its situation's task's). limits: the QP's pieces (tric_control.limits.Limit), default
-    default_limits(robot, contacts); the inequality rows are stacked in their order.
+    default_limits(robot, contacts); the inequality rows are stacked in their order. max_lead: how far
+    the command may lead the measured joints, rad, one for all or (n,); default MAX_LEAD on the arm
+    and MAX_HAND_LEAD on the hand.
     """
 
     def __init__(self, robot: RobotModel, proximity: Proximity, objective, period: float = 0.01, *,
-                 contacts: dict = None, limits: list = None):
+                 contacts: dict = None, limits: list = None, max_lead=None):
         self.robot, self.proximity, self.objective, self.period = robot, proximity, objective, period
+        if max_lead is None:
+            max_lead = np.full(robot.n_joints, MAX_LEAD)
+            max_lead[robot.hand_indices] = MAX_HAND_LEAD
+        self.max_lead = np.broadcast_to(np.asarray(max_lead, dtype=float), (robot.n_joints,)).copy()
+        if not np.all(np.isfinite(self.max_lead) & (self.max_lead >= 0)):
+            raise ValueError("max_lead must be finite and >= 0 rad")
         if limits is None:
             limits = default_limits(robot, getattr(proximity, "contacts", {}) if contacts is None else contacts)
         self.limits = list(limits)
@@ -156,7 +167,7 @@ class MotionRateController:
         if self.reference is None:
             self.reset(q)
         previous = self.reference
-        self.reference = q + np.maximum(np.minimum(self.reference - q, MAX_LEAD), -MAX_LEAD)
+        self.reference = q + np.maximum(np.minimum(self.reference - q, self.max_lead), -self.max_lead)
         model = self.objective(q, object_poses)
         state = self._state
         state.q, state.reference, state.objective = q, self.reference, model

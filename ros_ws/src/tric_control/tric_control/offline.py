@@ -38,10 +38,13 @@ class OfflineEvaluator:
         model: a model file path, or None for the teacher.
         max_steps: control ticks per episode at most (0: DEFAULT_MAX_STEPS, the controller node's).
         period: the control period, s.
+        controller_options: keyword arguments of MotionRateController (e.g. max_lead), for studies.
     """
 
-    def __init__(self, task: str, model=None, max_steps: int = 0, period: float = CONTROL_PERIOD):
+    def __init__(self, task: str, model=None, max_steps: int = 0, period: float = CONTROL_PERIOD,
+                 controller_options: dict = None):
         self.task, self.model, self.period = task, model, period
+        self.controller_options = dict(controller_options or {})
         self.max_steps = max_steps or DEFAULT_MAX_STEPS
         self.robot = RobotModel()
         self.objective = self.kind = None
@@ -76,7 +79,8 @@ class OfflineEvaluator:
                 self._snapshot(snapshot, situation)
         else:
             world.reset(situation)
-            controller = MotionRateController(self.robot, Proximity(self.robot, situation), self.objective, self.period)
+            controller = MotionRateController(self.robot, Proximity(self.robot, situation), self.objective, self.period,
+                                              **self.controller_options)
             runner = EpisodeRunner(self.robot, controller, self.max_steps, self.period, self.objects)
             outcome = None
             try:
@@ -111,9 +115,10 @@ class OfflineEvaluator:
 
 
 def evaluate_offline(situations, model=None, max_steps: int = 0, snapshots=None, progress=True,
-                     desc="evaluating offline", jobs: int = 1) -> list:
+                     desc="evaluating offline", jobs: int = 1, controller_options: dict = None) -> list:
     """Run the agent (a model file, or the teacher if None) on every situation offline; [EpisodeRecord]
-    in the situations' order. jobs > 1: that many spawned worker processes, each with its own world."""
+    in the situations' order. jobs > 1: that many spawned worker processes, each with its own world.
+    controller_options: see OfflineEvaluator."""
     tasks = {s.task for s in situations}
     if len(tasks) != 1:
         raise ValueError(f"the situations mix tasks ({', '.join(sorted(tasks))}): evaluate one task at a time")
@@ -125,7 +130,7 @@ def evaluate_offline(situations, model=None, max_steps: int = 0, snapshots=None,
     records = [None] * len(situations)
     with tqdm(total=len(situations), desc=desc, unit="episode", disable=not progress) as bar:
         if jobs <= 1:
-            evaluator = OfflineEvaluator(task, model, max_steps)
+            evaluator = OfflineEvaluator(task, model, max_steps, controller_options=controller_options)
             try:
                 for k, situation in enumerate(situations):
                     bar.set_postfix_str(situation.name)
@@ -136,7 +141,7 @@ def evaluate_offline(situations, model=None, max_steps: int = 0, snapshots=None,
             return records
         spawn = multiprocessing.get_context("spawn")
         with concurrent.futures.ProcessPoolExecutor(jobs, mp_context=spawn, initializer=_start_worker,
-                                                    initargs=(task, model, max_steps)) as pool:
+                                                    initargs=(task, model, max_steps, controller_options)) as pool:
             futures = {pool.submit(_run_in_worker, situation, snapshot): k for k, situation in enumerate(situations)}
             try:
                 for future in concurrent.futures.as_completed(futures):
@@ -153,9 +158,9 @@ def evaluate_offline(situations, model=None, max_steps: int = 0, snapshots=None,
 _worker = {}
 
 
-def _start_worker(task, model, max_steps):
+def _start_worker(task, model, max_steps, controller_options):
     try:
-        _worker["evaluator"] = OfflineEvaluator(task, model, max_steps)
+        _worker["evaluator"] = OfflineEvaluator(task, model, max_steps, controller_options=controller_options)
     except Exception as error:  # an initializer's exception would only break the pool, without its message
         _worker["error"] = error
 

@@ -3,7 +3,10 @@
     tric-study [--variant NAME=OPTIONS ...] [--seeds S ...] [--tasks TASK ...] [--out DIR] [--jobs N]
 
 A variant is a name and TrainingConfig fields to change from the defaults, e.g.
-`--variant balanced=per_step_weights=true,optimizer=lbfgsb,alpha_g=3` (no options: the defaults).
+`--variant balanced=per_step_weights=true,optimizer=lbfgsb,alpha_g=3` (no options: the defaults),
+and controller settings: hand_lead (rad: how far the command may lead the measured hand joints,
+motion_rate.MAX_HAND_LEAD by default), grasp_steps and box_steps (the episodes' step budgets).
+Variants that differ only in controller settings share their models.
 For each variant, seed and task, a model is trained on the reference bags of the task (the seed
 draws the noisy samples and the initial weights) and measured:
 
@@ -31,6 +34,7 @@ import time
 import numpy as np
 
 from tric_control.evaluation import GOOD_GRASP, OPEN_LID, write_json
+from tric_control.motion_rate import MAX_LEAD
 from tric_control.offline import evaluate_offline
 from tric_learning import analysis, model_file
 from tric_learning.recording import bag_paths, load_dataset
@@ -48,8 +52,13 @@ TASKS = {
 }
 
 
+#: Controller settings a variant may change, with their types.
+CONTROLLER_OPTIONS = {"hand_lead": float, "grasp_steps": int, "box_steps": int}
+
+
 def parse_variant(text: str):
-    """(name, {field: value}) from NAME=FIELD=VALUE,FIELD=VALUE; ValueError naming a bad part."""
+    """(name, {field: value}) from NAME=FIELD=VALUE,FIELD=VALUE (TrainingConfig fields and
+    CONTROLLER_OPTIONS); ValueError naming a bad part."""
     name, _, options = text.partition("=")
     if not name or not name.replace("_", "").replace("-", "").isalnum():
         raise ValueError(f"variant '{text}': the name must be letters, digits, - and _")
@@ -57,10 +66,10 @@ def parse_variant(text: str):
     changes = {}
     for option in filter(None, options.split(",")):
         key, _, value = option.partition("=")
-        if key not in fields or key == "seed":
+        if (key not in fields and key not in CONTROLLER_OPTIONS) or key == "seed":
             raise ValueError(f"variant '{name}': unknown option '{key}' (known: "
-                             f"{', '.join(k for k in fields if k != 'seed')})")
-        kind = type(getattr(TrainingConfig(), key))
+                             f"{', '.join([k for k in fields if k != 'seed'] + list(CONTROLLER_OPTIONS))})")
+        kind = CONTROLLER_OPTIONS.get(key) or type(getattr(TrainingConfig(), key))
         if kind is bool:
             if value.lower() not in ("true", "false"):
                 raise ValueError(f"variant '{name}': {key} must be true or false")
@@ -70,8 +79,15 @@ def parse_variant(text: str):
                 changes[key] = kind(value)
             except ValueError:
                 raise ValueError(f"variant '{name}': {key} must be a {kind.__name__}, got '{value}'") from None
-    TrainingConfig(**changes).validate()
+    TrainingConfig(**training_part(changes)).validate()
+    if changes.get("hand_lead", 0.0) < 0 or changes.get("grasp_steps", 1) < 1 or changes.get("box_steps", 1) < 1:
+        raise ValueError(f"variant '{name}': hand_lead must be >= 0 rad and the step budgets >= 1 tick")
     return name, changes
+
+
+def training_part(changes: dict) -> dict:
+    """The TrainingConfig fields of a variant's changes."""
+    return {k: v for k, v in changes.items() if k not in CONTROLLER_OPTIONS}
 
 
 def measure_set(records) -> dict:
@@ -107,18 +123,21 @@ class Study:
         return self._datasets[bags]
 
     def model(self, variant: str, changes: dict, bags: str, seed: int) -> tuple:
-        """(model path, its training record) of the variant on the bags with the seed."""
+        """(model path, its training record) of the variant's training options on the bags with the
+        seed, trained unless a model of the same options was (by any variant)."""
+        config = {**training_part(changes), "seed": seed}
+        for key, record in self.results.get("models", {}).items():
+            path = self._model_path(key)
+            if key.split("/")[1] == bags and record["config"] == config and path.is_file():
+                return path, record
         key = f"{variant}/{bags}/{seed}"
-        path = self.out / "models" / f"{variant}_{bags}_s{seed}.safetensors"
-        record = self.results.get("models", {}).get(key)
-        if path.is_file() and record is not None and record["config"] == {**changes, "seed": seed}:
-            return path, record
+        path = self._model_path(key)
         demos = self.demonstrations(bags)
         print(f"training {variant} on {BAGS / bags}, seed {seed}", flush=True)
-        result = train(demos, self.robot, TrainingConfig(**changes, seed=seed))
+        result = train(demos, self.robot, TrainingConfig(**config))
         model_file.from_training(result, demos).save(path)
         numbers = analysis.key_numbers(result.model, demos, 20)
-        record = {"config": {**changes, "seed": seed}, "train_s": result.train_time_s,
+        record = {"config": config, "train_s": result.train_time_s,
                   "iterations": result.iterations, "losses": result.losses,
                   "falls_moving": numbers["decreasing_share_moving_steps"],
                   "cosine_moving": numbers["mean_cosine_moving_steps"],
@@ -127,13 +146,23 @@ class Study:
         self.save()
         return path, record
 
+    def _model_path(self, key: str) -> pathlib.Path:
+        variant, bags, seed = key.split("/")
+        return self.out / "models" / f"{variant}_{bags}_s{seed}.safetensors"
+
     def run(self, variant: str, changes: dict, task: str, seed: int) -> dict:
         bags, sets, max_steps = TASKS[task]
+        max_steps = changes.get("box_steps" if task == "box" else "grasp_steps", max_steps)
+        options = {}
+        if "hand_lead" in changes:
+            lead = np.full(self.robot.n_joints, MAX_LEAD)
+            lead[self.robot.hand_indices] = changes["hand_lead"]
+            options["max_lead"] = lead
         path, record = self.model(variant, changes, bags, seed)
-        row = {"variant": variant, "task": task, "seed": seed, "model": record, "sets": {}}
+        row = {"variant": variant, "task": task, "seed": seed, "changes": changes, "model": record, "sets": {}}
         for name in sets:
             records = evaluate_offline(dataset(name), str(path), max_steps, jobs=self.jobs,
-                                       desc=f"{variant} s{seed} {name}")
+                                       desc=f"{variant} s{seed} {name}", controller_options=options)
             row["sets"][name] = measure_set(records)
         row["date"] = time.strftime("%Y-%m-%d %H:%M")
         self.results.setdefault("rows", {})[f"{variant}/{task}/{seed}"] = row
