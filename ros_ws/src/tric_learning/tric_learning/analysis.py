@@ -518,7 +518,7 @@ def plot_feature_over_time(values: np.ndarray, gradients: np.ndarray, name: str,
     FigureCanvasAgg(figure)
     value_axes, gradient_axes = figure.subplots(2, 1, sharex=True)
     _light_and_mean(value_axes, values, "tab:blue", f"mean over {len(values)} demonstrations (light: each)")
-    value_axes.set_ylabel(f"{name} (m)")
+    value_axes.set_ylabel("raw value (m)")
     value_axes.set_title(f"(b) the raw value of the feature ranked {rank}: {name}")
     value_axes.grid(alpha=0.3)
     value_axes.legend()
