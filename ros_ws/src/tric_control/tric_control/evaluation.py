@@ -33,7 +33,8 @@ class EpisodeRecord:
     simulator measured it (0: none did). outcome: how the episode ended
     ("converged", "step_budget", "demonstrated", "failed", ...). message: why, when it failed.
     failure: why the task failed, by the hidden metrics' failure class (tric_sim.metrics: "palm off
-    target", "under the lip", ...; "" for a success or a run that failed).
+    target", "under the lip", ...; "collision" whenever the robot collided, even in a success; "" for
+    a success without collision, or a run that failed).
     """
 
     situation: str

@@ -19,16 +19,17 @@ the error of a task variable a grasp expert checks, normalized to [0, 1] (1 = as
 Lift test (grasps): the object is released (given its mass) and the hand raised LIFT_HEIGHT; it passes if the
 object rose by at least LIFT_PASS_FRACTION of that. Box success: lid opened by more than 0.3 rad.
 
-Failure class (TaskMetrics.failure, "" for a success): why an episode failed, from its final state
-before the lift test and the lift test's result (grasp_failure, box_failure). Grasps, the first that
-holds: "collision"; "slipped in the lift test" (a good grasp that the lift test lost); "fingers
-closed before the palm arrived" (the palm farther than PALM_DISTANCE_OK from the surface, the
-fingers flexed more than FLEXED_MARGIN beyond the teacher's open pre-shape); "palm off target" (the
-palm that far, or its palm_alignment term at least PALM_MISALIGNED); then, the palm in place, "fingers
-short of the surface" when finger_contact is the worse finger term, else "fingers on one side of the
-object" (finger_opposition). Boxes: "collision"; "stalled above the lid" (both lifting fingertips
-above the lid's top surface, inside its outline); "under the lip" (a lifting fingertip below the
-lip's level, within LIP_REACH of the lid's outline, outside the box); else "away from the lid".
+Failure class (TaskMetrics.failure, "" for a success without collision): why an episode failed,
+from its final state before the lift test and the lift test's result (grasp_failure, box_failure).
+Grasps, the first that holds: "collision" (even of an otherwise good grasp); "slipped in the lift
+test" (a good grasp that the lift test lost); "fingers closed before the palm arrived" (the palm
+farther than PALM_DISTANCE_OK from the surface, the fingers flexed more than FLEXED_MARGIN beyond
+the teacher's open pre-shape); "palm off target" (the palm that far, or its palm_alignment term at
+least PALM_MISALIGNED); then, the palm in place, "fingers short of the surface" when finger_contact
+is the worse finger term, else "fingers on one side of the object" (finger_opposition). Boxes:
+"collision"; "stalled above the lid" (both lifting fingertips above the lid's top surface, inside
+its outline); "under the lip" (a lifting fingertip below the lip's level, within LIP_REACH of the
+lid's outline, outside the box); else "away from the lid".
 Units: m, rad.
 """
 
