@@ -16,11 +16,11 @@ from tric_sim.robot_model import RobotModel
 BAGS = pathlib.Path(__file__).resolve().parent.parent / "bags" / "sphere"
 
 
-def grasp(name, cost, lift, distance=0.02, margin=0.1, outcome="converged"):
+def grasp(name, cost, lift, distance=0.02, margin=0.1, outcome="converged", failure=""):
     return EpisodeRecord(situation=name, task="grasp", agent="tric", success=cost < 0.25 and lift,
                          grasp_cost=cost, lift_passed=lift, lid_angle=math.nan, min_distance=distance,
                          collided=distance < 0, min_joint_margin=margin, steps=500, wall_time_s=3.0,
-                         outcome=outcome)
+                         outcome=outcome, failure=failure)
 
 
 def test_summary_of_hand_made_records(tmp_path):
@@ -28,17 +28,23 @@ def test_summary_of_hand_made_records(tmp_path):
                            lift_passed=None, lid_angle=math.nan, min_distance=math.nan, collided=False,
                            min_joint_margin=math.nan, steps=0, wall_time_s=0.1, outcome="failed",
                            message="no joint states")
-    records = [grasp("a", 0.1, True), grasp("b", 0.3, False, distance=-0.004, margin=0.02), failed]
+    records = [grasp("a", 0.1, True), grasp("b", 0.3, False, distance=-0.004, margin=0.02, failure="collision"),
+               failed, grasp("d", 0.5, False, failure="palm off target"), grasp("e", 0.6, False, failure="palm off target")]
     summary = summarize(records)
-    assert summary["episodes"] == 3 and summary["failed_runs"] == 1 and summary["successes"] == 1
-    assert summary["grasp_cost_mean"] == pytest.approx(0.2) and summary["grasp_cost_max"] == pytest.approx(0.3)
+    assert summary["episodes"] == 5 and summary["failed_runs"] == 1 and summary["successes"] == 1
+    assert summary["grasp_cost_mean"] == pytest.approx(0.375) and summary["grasp_cost_max"] == pytest.approx(0.6)
     assert summary["good_grasps"] == 1 and summary["lift_passed"] == 1 and summary["collisions"] == 1
+    assert summary["failures"] == {"palm off target": 2, "collision": 1}   # most frequent first
     assert summary["min_distance"] == pytest.approx(-0.004) and summary["min_joint_margin"] == pytest.approx(0.02)
     assert math.isnan(summary["lid_angle_mean"]) and summary["boxes_opened"] == 0
     text = table(records, "title")
-    assert "failed: no joint states" in text and "1/3 succeeded" in text and "1 collisions" in text
+    assert "failed: no joint states" in text and "1/5 succeeded" in text and "1 collisions" in text
+    assert "failures: palm off target 2, collision 1" in text
+    lines = text.splitlines()
+    assert lines[1].endswith(" failure") and lines[4].endswith(" collision") and lines[3].endswith(" -")
     data = json.loads(write_json(tmp_path / "out.json", report(records)).read_text())  # strict JSON
     assert data["summary"]["lid_angle_mean"] is None and data["episodes"][2]["grasp_cost"] is None
+    assert data["episodes"][1]["failure"] == "collision" and data["summary"]["failures"]["palm off target"] == 2
 
 
 def test_bad_arguments_are_refused(tmp_path, capsys):

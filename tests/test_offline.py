@@ -33,11 +33,27 @@ def test_offline_and_node_episodes_agree_on_three_spheres_and_a_box(models):
         assert a.situation == b.situation and a.outcome == b.outcome and a.success == b.success
         assert a.grasp_cost == pytest.approx(b.grasp_cost, abs=COST_AGREEMENT)
         assert a.lift_passed == b.lift_passed and a.steps == b.steps
+        for record in (a, b):    # both paths name the failure class; a collision is one, even of a good grasp
+            assert (record.failure == "") == (record.success and not record.collided)
     boxes = situations.dataset("box_train")[:1]
     [box_offline] = evaluate_offline(boxes, str(models["open_box"]), 1200, progress=False)
     [box_nodes] = evaluate_cli.evaluate(boxes, models["open_box"], 1200, progress=False)
     assert box_offline.success == box_nodes.success and box_offline.outcome == box_nodes.outcome
+    for record in (box_offline, box_nodes):
+        assert (record.failure == "") == (record.success and not record.collided)
     assert box_offline.max_joint_overshoot <= 0.01 and box_nodes.max_joint_overshoot <= 0.01
+
+
+def test_both_paths_name_the_failure_of_an_episode_cut_short(tmp_path):
+    """Five ticks leave the hand at home, far above the sphere with its fingers open: the hidden
+    metrics' failure class reaches the records of both paths."""
+    quick = TrainingConfig(noisy_samples=5, max_iterations=20)  # any model will do: it has no time to move
+    model = train_from_bags(sorted((BAGS / "sphere").glob("*.mcap"))[::9], tmp_path / "quick.safetensors", quick,
+                            RobotModel()).path
+    sphere = situations.dataset("sphere_test")[:1]
+    [offline] = evaluate_offline(sphere, str(model), max_steps=5, progress=False)
+    [nodes] = evaluate_cli.evaluate(sphere, model, max_steps=5, progress=False)
+    assert offline.failure == nodes.failure == "palm off target" and not offline.success
 
 
 def test_offline_cli_writes_the_same_table_and_json(tmp_path, capsys):

@@ -188,7 +188,7 @@ class Evaluator:
             self._snapshot(snapshot / f"{situation.name}.png")  # after the lift test: the teacher judges itself
         record.update(success=bool(metrics.success), min_distance=metrics.min_distance,
                       collided=bool(metrics.collided), steps=int(steps),
-                      max_joint_overshoot=float(metrics.max_joint_overshoot))
+                      max_joint_overshoot=float(metrics.max_joint_overshoot), failure=metrics.failure)
         if grasp:
             record.update(grasp_cost=metrics.grasp_cost, lift_passed=bool(metrics.lift_passed))
         else:

@@ -7,6 +7,7 @@ the smallest joint-limit margin. This module holds what that produces: one Episo
 their summary, the table printed to stdout and the JSON file.
 """
 
+import collections
 import json
 import math
 import pathlib
@@ -31,6 +32,9 @@ class EpisodeRecord:
     the largest distance a measured joint (arm, hand or the lid's hinge) went past its limit, as the
     simulator measured it (0: none did). outcome: how the episode ended
     ("converged", "step_budget", "demonstrated", "failed", ...). message: why, when it failed.
+    failure: why the task failed, by the hidden metrics' failure class (tric_sim.metrics: "palm off
+    target", "under the lip", ...; "collision" whenever the robot collided, even in a success; "" for
+    a success without collision, or a run that failed).
     """
 
     situation: str
@@ -48,6 +52,7 @@ class EpisodeRecord:
     outcome: str
     message: str = ""
     max_joint_overshoot: float = math.nan
+    failure: str = ""
 
     @property
     def failed(self) -> bool:
@@ -87,6 +92,7 @@ def summarize(records) -> dict:
         "max_joint_overshoot": _max(r.max_joint_overshoot for r in records),
         "steps_mean": _mean(r.steps for r in records),
         "wall_time_s_mean": _mean(r.wall_time_s for r in records),
+        "failures": dict(collections.Counter(r.failure for r in records if r.failure).most_common()),
     }
 
 
@@ -103,7 +109,7 @@ def _cell(value, fmt: str) -> str:
 def table(records, title: str = "") -> str:
     """A fixed-width table of the records, with a summary line."""
     header = (f"{'situation':22s} {'agent':10s} {'ok':>3s} {'cost':>6s} {'lift':>4s} {'lid':>5s} "
-              f"{'min d (mm)':>10s} {'margin':>6s} {'over':>5s} {'steps':>5s} {'wall s':>6s}  outcome")
+              f"{'min d (mm)':>10s} {'margin':>6s} {'over':>5s} {'steps':>5s} {'wall s':>6s}  {'outcome':12s} failure")
     lines = [title] if title else []
     lines += [header, "-" * len(header)]
     for r in records:
@@ -112,7 +118,8 @@ def table(records, title: str = "") -> str:
             f"{_cell(r.grasp_cost, '.3f'):>6s} {_cell(r.lift_passed, ''):>4s} {_cell(r.lid_angle, '.2f'):>5s} "
             f"{_cell(r.min_distance * 1e3, '.1f'):>10s} {_cell(r.min_joint_margin, '.3f'):>6s} "
             f"{_cell(r.max_joint_overshoot, '.3f'):>5s} "
-            f"{r.steps:5d} {r.wall_time_s:6.1f}  {r.outcome}{': ' + r.message if r.failed else ''}")
+            f"{r.steps:5d} {r.wall_time_s:6.1f}  {r.outcome:12s} "
+            f"{'(run failed: ' + r.message + ')' if r.failed else r.failure or '-'}")
     s = summarize(records)
     lines.append("-" * len(header))
     parts = [f"{s['successes']}/{s['episodes']} succeeded"]
@@ -124,6 +131,8 @@ def table(records, title: str = "") -> str:
     parts.append(f"{s['collisions']} collisions (closest {_cell(s['min_distance'] * 1e3, '.1f')} mm)")
     if math.isfinite(s["max_joint_overshoot"]):
         parts.append(f"joints at most {s['max_joint_overshoot']:.3f} rad past a limit")
+    if s["failures"]:
+        parts.append("failures: " + ", ".join(f"{name} {count}" for name, count in s["failures"].items()))
     if s["failed_runs"]:
         parts.append(f"{s['failed_runs']} runs failed")
     lines.append("; ".join(parts))

@@ -105,7 +105,7 @@ class OfflineEvaluator:
             lift_passed=bool(judged.lift_passed) if grasp else None,
             lid_angle=float("nan") if grasp else judged.lid_angle, min_distance=judged.min_distance,
             collided=bool(judged.collided), steps=int(steps), wall_time_s=time.monotonic() - started,
-            outcome=outcome, max_joint_overshoot=judged.max_joint_overshoot)
+            outcome=outcome, max_joint_overshoot=judged.max_joint_overshoot, failure=judged.failure)
 
     def _snapshot(self, folder: pathlib.Path, situation) -> None:
         import matplotlib.pyplot as plt

@@ -1,16 +1,25 @@
-"""The model analyses of tric_learning.analysis (paper Fig. 13, 14a, 16, 17a) on hand-made value
-functions and demonstrations, where every number is known: features y = q (identity Jacobians), so
-grad_q (f o phi) = df/dy."""
+"""The model analyses of tric_learning.analysis (paper Fig. 12 to 17) on hand-made value functions
+and demonstrations, where every number is known: features y = q (identity Jacobians), so
+grad_q (f o phi) = df/dy; and, for Fig. 14b, a sphere put where the hand's distance to it is known."""
 
 import warnings
 from types import SimpleNamespace
 
 import numpy as np
+import pinocchio as pin
 import pytest
 
 from tric_learning import analysis
 from tric_learning.dataset import Dataset, Demo
+from tric_learning.features import FeatureDefinition
 from tric_learning.value_function import Scaling, ValueFunction
+from tric_sim import scene, situations
+from tric_sim.robot_model import PALM, RobotModel
+
+
+@pytest.fixture(scope="module")
+def robot():
+    return RobotModel()
 
 
 def demo(name: str, q) -> Demo:
@@ -22,7 +31,7 @@ def demo(name: str, q) -> Demo:
 
 def dataset(*demos) -> Dataset:
     """The demos with two named features (no feature definition is needed beyond the names)."""
-    return Dataset(SimpleNamespace(feature_names=("a", "b")), list(demos))
+    return Dataset(SimpleNamespace(task="grasp", feature_names=("a", "b")), list(demos))
 
 
 def linear(w3, low=None, high=None) -> ValueFunction:
@@ -104,8 +113,152 @@ def test_score_order_and_a_gradient_that_changes_sign():
 def test_figures_are_written(tmp_path):
     model = linear([1.0, 2.0])
     demos = dataset(demo("one", [[0.0, 0.0], [-0.1, -0.2], [-0.2, -0.3]]), demo("two", [[0.1, 0.0], [0.0, -0.1]]))
-    paths = analysis.write_figures(model, demos, tmp_path / "figures", top=2)
+    paths = analysis.write_figures(model, demos, tmp_path / "figures", top=2, feature_rank=2)
     assert [path.name for path in paths] == [analysis.VALUE_FIGURE, analysis.COSINES_FIGURE, analysis.SCORES_FIGURE,
-                                             analysis.GRADIENTS_FIGURE]
+                                             analysis.GRADIENTS_FIGURE, analysis.KERNEL_PCA_FIGURE,
+                                             analysis.FEATURE_FIGURE]
     for path in paths:
         assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def box_dataset(robot, count: int = 2, steps: int = 4) -> Dataset:
+    """count box demos of the real open_box definition: the hand moves from home, the recorded
+    features are random (Fig. 12 only reads them), the lid closed."""
+    definition = FeatureDefinition.for_task("open_box", robot)
+    generator = np.random.default_rng(0)
+    demos = []
+    for situation in situations.dataset("box_train")[:count]:
+        hinge = scene.hinge_placement(situation)
+        poses = {"object": (situation.object_position, situation.object_orientation),
+                 "lid": scene.pose_tuple(hinge),
+                 "lid_edge": scene.pose_tuple(hinge * scene.lid_edge_offset(situation.object_dimensions[0]))}
+        q = robot.home + np.linspace(0.0, 0.3, steps)[:, None] * np.eye(robot.n_joints)[1]
+        demos.append(Demo(situation.name, situation, q, generator.random((steps, definition.size)),
+                          np.zeros((steps, definition.size, robot.n_joints)), [poses] * steps, np.arange(steps)))
+    return Dataset(definition, demos)
+
+
+def test_every_figure_of_box_demos_is_written(tmp_path, robot):
+    demos = box_dataset(robot)
+    model = linear(np.linspace(1.0, 2.0, demos.definition.size))
+    paths = analysis.write_figures(model, demos, tmp_path, top=5, robot=robot)
+    assert [path.name for path in paths][-2:] == [analysis.TASK_SPACES_FIGURE, analysis.COLLISION_FIGURE]
+    for path in paths:
+        assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_feature_paths_are_the_recorded_relative_positions(robot):
+    demos = box_dataset(robot, count=3)
+    names = list(demos.definition.feature_names)
+    paths = analysis.feature_paths(demos, "fingertip_2", "box", count=2)
+    assert len(paths) == 2 and paths[0].shape == (4, 3)
+    column = names.index("p[fingertip_2->box].y")
+    np.testing.assert_array_equal(paths[1][:, 1], demos.demos[1].y[:, column])
+    with pytest.raises(ValueError, match=r"p\[fingertip_1->box\]"):
+        analysis.feature_paths(demos, "fingertip_1", "box")
+
+
+def test_joint_principal_paths_keep_the_geometry_of_a_three_dimensional_motion():
+    generator = np.random.default_rng(1)
+    basis = np.linalg.qr(generator.normal(size=(6, 3)))[0].T            # 3 orthonormal directions in R^6
+    demos = [demo(f"d{k}", generator.normal(size=(5, 3)) @ basis + 0.5) for k in range(3)]
+    paths, share = analysis.joint_principal_paths(Dataset(SimpleNamespace(), demos), count=2)
+    assert len(paths) == 2 and share.sum() == pytest.approx(1.0)
+    assert np.all(np.diff(share) <= 0)
+    original = np.concatenate([d.q for d in demos[:2]])
+    projected = np.concatenate(paths)
+    gaps = lambda x: np.linalg.norm(x[:, None] - x[None], axis=2)    # noqa: E731
+    np.testing.assert_allclose(gaps(projected), gaps(original), atol=1e-12)
+
+
+def sphere_at(robot, position, radius: float) -> Demo:
+    """A one-sample grasp demo at home with a sphere of radius at position (world): its recorded
+    pose, wherever the situation put it."""
+    situation = situations.sphere("probe", (0.5, 0.0, 0.3), radius=radius)
+    poses = {"object": (tuple(position), (0.0, 0.0, 0.0, 1.0))}
+    return Demo("probe", situation, robot.home[None], np.zeros((1, 2)), np.zeros((1, 2, robot.n_joints)), [poses],
+                np.arange(1))
+
+
+def test_hand_distances_to_a_sphere_in_the_palm_and_far_above(robot):
+    robot.forward(robot.home)
+    palm = robot.frame_placement(PALM).translation
+    inside = analysis.hand_body_distances(robot, Dataset(None, [sphere_at(robot, palm, 0.03)]))
+    assert inside[0][0, 0] < 0 and inside[1][0, 0] >= 1 and inside[2] == "target"
+    above = palm + np.array([0.0, 0.0, 1.0])
+    (small,), (count,), _ = analysis.hand_body_distances(robot, Dataset(None, [sphere_at(robot, above, 0.03)]))
+    (large,), _, _ = analysis.hand_body_distances(robot, Dataset(None, [sphere_at(robot, above, 0.13)]))
+    assert 0.7 < small[0] < 1.0 and count[0] == 0
+    assert small[0] - large[0] == pytest.approx(0.10, abs=1e-6)   # a sphere's distance falls with its radius
+    # the pairs within the influence distance: none just below the smallest distance, one or more above it
+    probe = Dataset(None, [sphere_at(robot, above, 0.03)])
+    assert analysis.hand_body_distances(robot, probe, influence=small[0] - 1e-4)[1][0, 0] == 0
+    assert analysis.hand_body_distances(robot, probe, influence=small[0] + 1e-4)[1][0, 0] >= 1
+
+
+def test_hand_distances_to_a_lid_follow_its_pose(robot):
+    demos = box_dataset(robot, count=1, steps=1)
+    closed = analysis.hand_body_distances(robot, demos)
+    robot.forward(robot.home)
+    tip = robot.frame_placement("finger_2_tip").translation
+    poses = demos.demos[0].object_poses[0]
+    side = demos.demos[0].situation.object_dimensions[0]
+    # the lid's hinge frame moved so that the plate's centre is at fingertip 2
+    moved = pin.SE3(np.eye(3), tip) * scene.lid_geometry_offset(side).inverse()
+    demos.demos[0].object_poses[0] = {**poses, "lid": scene.pose_tuple(moved)}
+    touching = analysis.hand_body_distances(robot, demos)
+    assert closed[2] == touching[2] == "lid"
+    assert closed[0][0, 0] > 0.05 and touching[0][0, 0] < 0
+
+
+def test_kernel_pca_bandwidth_centring_and_clusters():
+    points = np.array([[0.0, 0.0], [0.1, 0.0], [0.0, 0.1], [5.0, 5.0], [5.1, 5.0], [5.0, 5.1]])
+    projected, bandwidth = analysis.kernel_pca(points)
+    gaps = np.linalg.norm(points[:, None] - points[None], axis=2)[np.triu_indices(6, 1)]
+    assert bandwidth == pytest.approx(np.median(gaps))
+    assert projected.shape == (6, 2)
+    np.testing.assert_allclose(projected.sum(axis=0), 0.0, atol=1e-9)   # a centred kernel
+    first = projected[:, 0]
+    assert np.sign(first[:3]).tolist() == [np.sign(first[0])] * 3 and np.all(first[:3] * first[3:] < 0)
+    assert np.abs(first).max() == first.max()                          # the sign convention
+    same, bandwidth = analysis.kernel_pca(np.ones((4, 3)))
+    assert bandwidth == 1.0 and np.allclose(same, 0.0)
+
+
+def test_kernel_pca_inputs_hidden_layer_and_values():
+    model = ValueFunction(Scaling(np.arange(2), np.zeros(2), np.ones(2), 2), np.array([[2.0, 0.0]]),
+                          np.array([3.0]), np.array([1.0, -1.0]))
+    demos = dataset(demo("one", [[0.0, 0.0], [0.5, 0.25], [1.0, 1.0]]), demo("two", [[0.2, 0.1], [0.3, 0.3]]))
+    inputs = analysis.kernel_pca_inputs(model, demos)
+    assert inputs["u"].shape == (5, 2) and inputs["z"].shape == (5, 1)
+    np.testing.assert_allclose(inputs["z"][:, 0], 1.0 / (1.0 + np.exp(-2.0 * inputs["u"][:, 0])))
+    np.testing.assert_allclose(inputs["value"], model.value(np.concatenate([d.y for d in demos.demos])))
+    assert inputs["last"].tolist() == [False, False, True, False, True]
+    subsampled = analysis.kernel_pca_inputs(model, demos, limit=2)
+    assert subsampled["last"].sum() == 2 and len(subsampled["u"]) <= 4
+    assert analysis.kernel_pca_inputs(linear([1.0, 1.0]), demos)["z"] is None   # K = 0: no hidden layer
+
+
+def test_relative_spread():
+    points = np.array([[0.0, 0.0], [2.0, 0.0], [10.0, 0.0], [12.0, 0.0]])
+    assert analysis.relative_spread(points, np.array([True, True, False, False])) == pytest.approx(1.0 / np.sqrt(26.0))
+
+
+def test_feature_over_time_picks_the_ranked_feature():
+    model = linear([1.0, -3.0], high=[2.0, 1.0])                       # scores 1 and 3: "b" first
+    demos = dataset(demo("long", [[0.0, 0.5], [0.5, 0.4], [1.0, 0.3]]), demo("short", [[0.3, 0.3], [0.1, 0.2]]))
+    values, gradients, name = analysis.feature_over_time(model, demos, 2)
+    assert name == "a"
+    np.testing.assert_allclose(values[0], [0.0, 0.5, 1.0])
+    np.testing.assert_allclose(values[1, :2], [0.3, 0.1])
+    assert np.isnan(values[1, 2]) and np.isnan(gradients[1, 2])
+    np.testing.assert_allclose(gradients[0], [1.0] * 3)                # df/du = W3 of the linear model
+    assert analysis.feature_over_time(model, demos, 1)[2] == "b"
+    with pytest.raises(ValueError, match="keeps 2 features"):
+        analysis.ranked_feature(model, ("a", "b"), 3)
+
+
+def test_the_command_refuses_a_feature_rank_before_any_work(tmp_path, capsys):
+    assert analysis.main(["model.safetensors", "bags", "--out", str(tmp_path / "x"), "--feature-rank", "0"]) == 2
+    assert "--feature-rank must be at least 1" in capsys.readouterr().err
+    assert not (tmp_path / "x").exists()

@@ -1,6 +1,7 @@
-"""tric-analyze: the paper's analyses of a trained TRIC model, as PNGs (Fig. 13, 14a, 16 and 17a).
+"""tric-analyze: the paper's analyses of a trained TRIC model, as PNGs (Fig. 12, 13, 14a, 14b, 15,
+16 and 17a-c).
 
-    tric-analyze MODEL BAGS... [--out DIR] [--top N]
+    tric-analyze MODEL BAGS... [--out DIR] [--top N] [--feature-rank N]
 
 Fig. 13 (DIR/value_along_demos.png): the value f(y_t) along every demonstration in BAGS (bags or
 folders of bags, the training ones or others of the same feature definition) over normalized time
@@ -12,6 +13,21 @@ Fig. 16 (DIR/feature_scores.png): the kept features' scores s(y) = |W1^T| |W2| +
 sorted, with the selection threshold, and the top N (20) by name.
 Fig. 17a (DIR/mean_gradients.png): the mean over the demonstrations of df/dy at each step (on the
 features rescaled to [0, 1], the paper's y) for the top N features by score.
+Fig. 12 (DIR/box_task_spaces.png, box bags only): the first FIG12_DEMOS box openings in three task
+spaces, in 3D, start green, end red: the joints' first three principal components (over those
+demonstrations' samples), the box in fingertip 2's frame (the recorded p[fingertip_2->box]) and
+fingertip 2 in the box's frame (p[box->fingertip_2]).
+Fig. 14b (DIR/collision_prior.png): the controller's collision prior along the demonstrations: per
+step, the smallest signed distance (m) between the hand (palm and finger links) and the body it may
+touch (the grasp target, or the box's lid), and how many such hand-body pairs are within the
+controller's influence distance CONTROLLER_INFLUENCE; each demonstration light, their mean bold.
+Distances from the recorded q and object poses with coal on the robot's collision model.
+Fig. 15 (DIR/kernel_pca.png): kernel PCA (Gaussian kernel, bandwidth by the median heuristic: the
+median distance between the samples) of every demonstration sample's kept features rescaled to
+[0, 1], and of the hidden layer z = sigmoid(W1 u) (Sec. 5.4.2), in 2-D, coloured by f, the last
+samples ringed; a linear model (K = 0) has no z, and only the first panel is drawn.
+Fig. 17b/c (DIR/feature_over_time.png): the raw value (m) and df/du of the feature ranked
+--feature-rank (8, as the paper's) by score, over the steps: each demonstration light, the mean bold.
 Prints the share of demonstration steps along which f decreases, the mean cosine and the top
 features. Exit status 0, or 2 with one line on stderr when the model or a bag is refused.
 """
@@ -20,18 +36,22 @@ import argparse
 import pathlib
 import sys
 
+import coal
 import matplotlib
 import numpy as np
+import pinocchio as pin
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.cm import ScalarMappable
 from matplotlib.colors import Normalize
 from matplotlib.figure import Figure
+from matplotlib.lines import Line2D
 
 from tric_learning.dataset import Dataset
 from tric_learning.model_file import ModelFile, value_function
 from tric_learning.recording import load_dataset
 from tric_learning.training import MIN_STEP, SELECTED_FRACTION
 from tric_learning.value_function import ValueFunction
+from tric_sim.collision import SceneCollision
 from tric_sim.robot_model import RobotModel
 
 PROG = "tric-analyze"
@@ -39,8 +59,25 @@ VALUE_FIGURE = "value_along_demos.png"
 COSINES_FIGURE = "gradient_cosines.png"
 SCORES_FIGURE = "feature_scores.png"
 GRADIENTS_FIGURE = "mean_gradients.png"
+TASK_SPACES_FIGURE = "box_task_spaces.png"
+COLLISION_FIGURE = "collision_prior.png"
+KERNEL_PCA_FIGURE = "kernel_pca.png"
+FEATURE_FIGURE = "feature_over_time.png"
 #: Features of Fig. 17a also drawn as lines.
 GRADIENT_LINES = 6
+#: Box openings drawn in Fig. 12 (the paper's 5), and the landmarks of its panels (b) and (c).
+FIG12_DEMOS = 5
+FIG12_FINGER, FIG12_OBJECT = "fingertip_2", "box"
+#: The controller's influence distance, m: the collision pairs nearer than this enter its QP
+#: (tric_control.motion_rate.INFLUENCE, which tric_learning may not import; a test keeps them equal).
+CONTROLLER_INFLUENCE = 0.05
+#: The scene bodies the hand may touch (tric_sim.scene roles): Fig. 14b's distances are to these.
+TOUCHED_ROLES = ("target", "lid")
+#: Kernel PCA on at most this many samples (evenly spaced over the demonstrations' samples): its
+#: eigendecomposition grows with the cube of the count.
+KPCA_MAX_SAMPLES = 2000
+#: Fig. 17b/c show the feature of this rank by score, unless --feature-rank says otherwise.
+DEFAULT_FEATURE_RANK = 8
 
 
 def values_along_demos(model: ValueFunction, dataset: Dataset) -> list:
@@ -214,16 +251,310 @@ def plot_scores(ranked: list, path: pathlib.Path, top: int) -> pathlib.Path:
     return path
 
 
-def write_figures(model: ValueFunction, dataset: Dataset, out: pathlib.Path, top: int) -> list:
-    """Fig. 13, 14a, 16 and 17a of model on dataset as out/VALUE_FIGURE, ... (out is created); their paths."""
+def padded(arrays: list) -> np.ndarray:
+    """Per-demo arrays [(T_i, ...)] stacked into (N, T_max, ...), NaN past each one's end."""
+    longest = max(len(a) for a in arrays)
+    out = np.full((len(arrays), longest) + np.shape(arrays[0])[1:], np.nan)
+    for i, values in enumerate(arrays):
+        out[i, :len(values)] = values
+    return out
+
+
+def feature_paths(dataset: Dataset, source: str, target: str, count: int = FIG12_DEMOS) -> list:
+    """The recorded p[source->target] (the position of landmark target in source's frame, m) along
+    the first count demos: [(T, 3)]; ValueError if the feature definition has no such features."""
+    names = list(dataset.definition.feature_names)
+    wanted = [f"p[{source}->{target}].{axis}" for axis in "xyz"]
+    missing = [name for name in wanted if name not in names]
+    if missing:
+        raise ValueError(f"the feature definition has no {', '.join(missing)}")
+    columns = [names.index(name) for name in wanted]
+    return [demo.y[:, columns] for demo in dataset.demos[:count]]
+
+
+def joint_principal_paths(dataset: Dataset, count: int = FIG12_DEMOS):
+    """The first count demos' q projected on the first three principal components of all their
+    samples (centred): ([(T, 3)] in rad, the share of q's variance each component explains (3,))."""
+    demos = dataset.demos[:count]
+    stacked = np.concatenate([demo.q for demo in demos])
+    mean = stacked.mean(axis=0)
+    _, singular, axes = np.linalg.svd(stacked - mean, full_matrices=False)
+    variance = singular ** 2
+    share = variance[:3] / variance.sum() if variance.sum() > 0 else np.zeros(3)
+    components = np.zeros((3, stacked.shape[1]))
+    components[:len(axes[:3])] = axes[:3]
+    return [(demo.q - mean) @ components.T for demo in demos], np.pad(share, (0, 3 - len(share)))
+
+
+def hand_geometries(robot: RobotModel) -> list:
+    """Indices of the robot's collision geometries on the hand (palm and finger links)."""
+    frames = robot.model.frames
+    return [k for k, geometry in enumerate(robot.collision_model.geometryObjects)
+            if frames[geometry.parentFrame].name.startswith(("finger_", "palm"))]
+
+
+def hand_body_distances(robot: RobotModel, dataset: Dataset, influence: float = CONTROLLER_INFLUENCE):
+    """The controller's collision prior along the demos (paper Fig. 14b): at every sample, the
+    smallest signed distance (m) between a hand geometry (hand_geometries) and the scene body the
+    hand may touch (role in TOUCHED_ROLES: the grasp target, or the box's lid, where the sample's
+    object poses put it), and how many hand geometries are nearer to it than influence (m). Returns
+    (distances (N, T_max), counts (N, T_max), the body's role), NaN past a demo's end."""
+    model, data = robot.model, robot.data
+    geometry_model, geometry_data = robot.collision_model, robot.collision_data
+    hand = hand_geometries(robot)
+    request, result = coal.DistanceRequest(), coal.DistanceResult()
+    distances, counts, roles = [], [], set()
+    for demo in dataset.demos:
+        scene = SceneCollision(robot, demo.situation)
+        touched = [k for k, body in enumerate(scene.bodies) if body.role in TOUCHED_ROLES]
+        if not touched:
+            raise ValueError(f"demo '{demo.name}': its scene has no body the hand may touch")
+        body, shape = scene.bodies[touched[0]], scene.body_shapes[touched[0]]
+        roles.add(body.role)
+        demo_distances = np.empty((demo.length, len(hand)))
+        for t, (q, poses) in enumerate(zip(demo.q, demo.object_poses)):
+            pin.updateGeometryPlacements(model, data, geometry_model, geometry_data, q)
+            placement = scene.body_placements(poses, [body])[0]
+            other = coal.Transform3s(placement.rotation, placement.translation)
+            for column, k in enumerate(hand):
+                result.clear()
+                world = geometry_data.oMg[k]
+                demo_distances[t, column] = coal.distance(
+                    geometry_model.geometryObjects[k].geometry, coal.Transform3s(world.rotation, world.translation),
+                    shape, other, request, result)
+        distances.append(demo_distances.min(axis=1))
+        counts.append(np.sum(demo_distances < influence, axis=1).astype(float))
+    return padded(distances), padded(counts), "/".join(sorted(roles))
+
+
+def kernel_pca(points: np.ndarray, components: int = 2):
+    """Kernel PCA of points (S, k) with the Gaussian kernel exp(-|a - b|^2 / (2 h^2)), the bandwidth
+    h the median distance between two of the points (the median heuristic; 1 if they all coincide):
+    (the projections on the leading components (S, components), each sign fixed so that its
+    largest entry is positive; h)."""
+    points = np.asarray(points, dtype=float)
+    squares = np.sum(points ** 2, axis=1)
+    squared = np.maximum(squares[:, None] + squares[None, :] - 2.0 * points @ points.T, 0.0)
+    between = np.sqrt(squared[np.triu_indices(len(points), 1)])
+    bandwidth = float(np.median(between)) if len(between) else 0.0
+    if not bandwidth > 0:
+        bandwidth = 1.0
+    kernel = np.exp(-squared / (2.0 * bandwidth ** 2))
+    row_means = kernel.mean(axis=0)
+    centred = kernel - row_means[:, None] - row_means[None, :] + row_means.mean()
+    eigenvalues, eigenvectors = np.linalg.eigh(centred)
+    order = np.argsort(eigenvalues)[::-1][:components]
+    projections = eigenvectors[:, order] * np.sqrt(np.maximum(eigenvalues[order], 0.0))
+    largest = projections[np.argmax(np.abs(projections), axis=0), np.arange(projections.shape[1])]
+    return projections * np.where(largest < 0, -1.0, 1.0), bandwidth
+
+
+def hidden_layer(model: ValueFunction, u: np.ndarray) -> np.ndarray:
+    """z = sigmoid(W1 u) (Eq. 19) of scaled kept features u (..., s): (..., K)."""
+    return 0.5 * (1.0 + np.tanh(0.5 * (np.asarray(u) @ model.w1.T)))
+
+
+def kernel_pca_inputs(model: ValueFunction, dataset: Dataset, limit: int = KPCA_MAX_SAMPLES) -> dict:
+    """Fig. 15's data on the demos' samples (at most limit of them evenly spaced, and every demo's
+    last): the scaled kept features u (S, s), the hidden layer z (S, K) (None when K = 0), f (S,)
+    and whether each sample is its demo's last (S,)."""
+    u = model.scaling.transform(np.concatenate([demo.y for demo in dataset.demos]))
+    last = np.zeros(len(u), dtype=bool)
+    last[np.cumsum([demo.length for demo in dataset.demos]) - 1] = True
+    chosen = np.unique(np.linspace(0, len(u) - 1, min(limit, len(u))).round().astype(int))
+    chosen = np.union1d(chosen, np.flatnonzero(last)) if len(chosen) < len(u) else chosen
+    u, last = u[chosen], last[chosen]
+    value = u @ model.w3
+    z = None
+    if model.hidden_units:
+        z = hidden_layer(model, u)
+        value = value + z @ model.w2
+    return {"u": u, "z": z, "value": value, "last": last}
+
+
+def relative_spread(points: np.ndarray, subset: np.ndarray) -> float:
+    """The RMS distance of the points selected by subset (mask) to their mean, divided by the same
+    for all points (S, k): how compact a subset is within the whole."""
+    def rms(values):
+        return float(np.sqrt(np.mean(np.sum((values - values.mean(axis=0)) ** 2, axis=1))))
+
+    whole = rms(points)
+    return rms(points[subset]) / whole if whole > 0 else float("nan")
+
+
+def ranked_feature(model: ValueFunction, feature_names, rank: int):
+    """(index into the kept features, index into the raw features, name) of the feature ranked
+    rank (1: the highest score s(y)); ValueError if there are fewer kept features."""
+    kept = len(model.scaling.kept)
+    if not 1 <= rank <= kept:
+        raise ValueError(f"--feature-rank {rank}: the model keeps {kept} features (1 to {kept})")
+    k = int(score_order(model)[rank - 1])
+    raw = int(model.scaling.kept[k])
+    return k, raw, str(feature_names[raw])
+
+
+def feature_over_time(model: ValueFunction, dataset: Dataset, rank: int, gradients: np.ndarray = None):
+    """Fig. 17b/c: the raw value (N, T_max) and df/du (N, T_max) (u: the feature rescaled to
+    [0, 1]) of the feature ranked rank by score along every demo, NaN past a demo's end, and its
+    name. gradients: gradients_along_demos(model, dataset) if already computed."""
+    k, raw, name = ranked_feature(model, dataset.definition.feature_names, rank)
+    if gradients is None:
+        gradients = gradients_along_demos(model, dataset)
+    return padded([demo.y[:, raw] for demo in dataset.demos]), gradients[:, :, k], name
+
+
+def _start_end(axes, path, colour, label):
+    """One 3D path with its start (green) and end (red) marked."""
+    axes.plot(*path.T, color=colour, linewidth=1.4, label=label)
+    axes.scatter(*path[0], color="tab:green", s=30, depthshade=False)
+    axes.scatter(*path[-1], color="tab:red", s=30, depthshade=False)
+
+
+def plot_task_spaces(dataset: Dataset, path: pathlib.Path) -> pathlib.Path:
+    """Fig. 12: the first FIG12_DEMOS box openings in joint space (3 principal components), the box in
+    FIG12_FINGER's frame and FIG12_FINGER in the box's frame."""
+    joints, share = joint_principal_paths(dataset)
+    spaces = [(joints, f"(a) joint space: q on its first 3 principal components\n"
+                       f"({share.sum():.0%} of the variance)", [f"PC{k + 1} of q (rad)" for k in range(3)]),
+              (feature_paths(dataset, FIG12_FINGER, FIG12_OBJECT),
+               f"(b) the box in {FIG12_FINGER}'s frame\np[{FIG12_FINGER}->{FIG12_OBJECT}]",
+               [f"{axis} (m)" for axis in "xyz"]),
+              (feature_paths(dataset, FIG12_OBJECT, FIG12_FINGER),
+               f"(c) {FIG12_FINGER} in the box's frame\np[{FIG12_OBJECT}->{FIG12_FINGER}]",
+               [f"{axis} (m)" for axis in "xyz"])]
+    figure = Figure(figsize=(16.0, 5.8), layout="constrained")
+    FigureCanvasAgg(figure)
+    colours = matplotlib.colormaps["tab10"]
+    names = [demo.name for demo in dataset.demos[:FIG12_DEMOS]]
+    for column, (paths, title, labels) in enumerate(spaces):
+        axes = figure.add_subplot(1, 3, column + 1, projection="3d")
+        for k, (points, name) in enumerate(zip(paths, names)):
+            _start_end(axes, points, colours(k), name)
+        axes.set_title(title, fontsize=10)
+        for setter, label in zip((axes.set_xlabel, axes.set_ylabel, axes.set_zlabel), labels):
+            setter(label, fontsize=8)
+        axes.tick_params(labelsize=7)
+        axes.set_box_aspect(None, zoom=0.88)   # room for the z label
+    handles, labels = figure.axes[0].get_legend_handles_labels()
+    handles += [Line2D([], [], color="tab:green", marker="o", linestyle=""),
+                Line2D([], [], color="tab:red", marker="o", linestyle="")]
+    figure.legend(handles, labels + ["start", "end"], loc="outside lower center", ncol=len(labels) + 2)
+    figure.suptitle(f"{len(names)} box openings in three task spaces (paper Fig. 12)")
+    figure.savefig(path, dpi=120)
+    return path
+
+
+def _light_and_mean(axes, values: np.ndarray, colour: str, label: str):
+    """Each row of values (N, T) as a light line and their mean over the rows as a bold one."""
+    steps = np.arange(values.shape[1])
+    for row in values:
+        axes.plot(steps, row, color=colour, alpha=0.2, linewidth=0.8)
+    axes.plot(steps, mean_over_demos(values), color=colour, linewidth=2.2, label=label)
+
+
+def plot_collision_prior(distances: np.ndarray, counts: np.ndarray, role: str, geometries: int,
+                         path: pathlib.Path, influence: float = CONTROLLER_INFLUENCE) -> pathlib.Path:
+    """Fig. 14b: the hand's smallest distance to the body it may touch (N, T) and the number of
+    hand-body pairs within influence (N, T) by step, each demo light and their mean bold."""
+    body = {"target": "the grasp target", "lid": "the lid"}.get(role, role)
+    figure = Figure(figsize=(8.0, 6.5), layout="constrained")
+    FigureCanvasAgg(figure)
+    distance_axes, count_axes = figure.subplots(2, 1, sharex=True)
+    _light_and_mean(distance_axes, distances, "tab:blue", f"mean over {len(distances)} demonstrations (light: each)")
+    distance_axes.axhline(influence, color="tab:orange", linestyle="--", linewidth=1,
+                          label=f"controller's influence distance {influence * 100:.0f} cm")
+    distance_axes.axhline(0.0, color="grey", linewidth=1)
+    distance_axes.set_ylabel("smallest distance (m)")
+    distance_axes.set_title(f"the hand (palm and finger links) and {body}")
+    distance_axes.grid(alpha=0.3)
+    distance_axes.legend()
+    _light_and_mean(count_axes, counts, "tab:purple", "mean")
+    count_axes.set_ylim(-0.3, geometries + 0.3)
+    count_axes.set_xlabel("step t")
+    count_axes.set_ylabel(f"hand-{role} pairs within {influence * 100:.0f} cm\n(of {geometries})")
+    count_axes.grid(alpha=0.3)
+    count_axes.legend()
+    figure.suptitle("the controller's collision prior along the demonstrations (paper Fig. 14b)")
+    figure.savefig(path, dpi=120)
+    return path
+
+
+def plot_kernel_pca(inputs: dict, path: pathlib.Path) -> pathlib.Path:
+    """Fig. 15: kernel PCA of the scaled features u and of the hidden layer z (when K > 0), coloured
+    by f, each demo's last sample ringed."""
+    panels = [("(a) features u (kept, rescaled to [0, 1])", inputs["u"])]
+    if inputs["z"] is not None:
+        panels.append((f"(b) hidden layer z = sigmoid(W1 u), K = {inputs['z'].shape[1]}", inputs["z"]))
+    figure = Figure(figsize=(6.0 * len(panels) + 1.5, 5.5), layout="constrained")
+    FigureCanvasAgg(figure)
+    norm = Normalize(float(np.min(inputs["value"])), float(np.max(inputs["value"])))
+    last = inputs["last"]
+    for column, (title, points) in enumerate(panels):
+        axes = figure.add_subplot(1, len(panels), column + 1)
+        projected, bandwidth = kernel_pca(points)
+        axes.scatter(*projected.T, c=inputs["value"], cmap="viridis", norm=norm, s=9)
+        axes.scatter(*projected[last].T, facecolors="none", edgecolors="tab:red", s=45, linewidths=1.2,
+                     label="last sample of a demonstration")
+        axes.set_title(f"{title}\nGaussian kernel, median-heuristic bandwidth {bandwidth:.3g}; "
+                       f"last samples' spread {relative_spread(projected, last):.2f} of all", fontsize=9)
+        axes.set_xlabel("kernel principal component 1")
+        axes.set_ylabel("kernel principal component 2")
+        axes.grid(alpha=0.3)
+        axes.legend(fontsize=8)
+    if inputs["z"] is None:
+        figure.axes[0].text(0.02, 0.02, "K = 0: a linear model has no hidden layer z", transform=figure.axes[0].transAxes,
+                            fontsize=8)
+    figure.colorbar(ScalarMappable(cmap="viridis", norm=norm), ax=figure.axes, label="value f")
+    figure.suptitle(f"kernel PCA of {len(last)} demonstration samples (paper Fig. 15)")
+    figure.savefig(path, dpi=120)
+    return path
+
+
+def plot_feature_over_time(values: np.ndarray, gradients: np.ndarray, name: str, rank: int,
+                           path: pathlib.Path) -> pathlib.Path:
+    """Fig. 17b/c: the raw value (N, T) and df/du (N, T) of one feature by step, each demo light and
+    their mean over the demos bold."""
+    figure = Figure(figsize=(8.0, 6.5), layout="constrained")
+    FigureCanvasAgg(figure)
+    value_axes, gradient_axes = figure.subplots(2, 1, sharex=True)
+    _light_and_mean(value_axes, values, "tab:blue", f"mean over {len(values)} demonstrations (light: each)")
+    value_axes.set_ylabel("raw value (m)")
+    value_axes.set_title(f"(b) the raw value of the feature ranked {rank}: {name}")
+    value_axes.grid(alpha=0.3)
+    value_axes.legend()
+    _light_and_mean(gradient_axes, gradients, "tab:red", "mean")
+    gradient_axes.axhline(0.0, color="grey", linewidth=1)
+    gradient_axes.set_xlabel("step t")
+    gradient_axes.set_ylabel("df/du (u: the feature rescaled to [0, 1])")
+    gradient_axes.set_title("(c) the gradient of f along it (> 0: the controller lowers the feature)")
+    gradient_axes.grid(alpha=0.3)
+    gradient_axes.legend()
+    figure.suptitle("one feature along the demonstrations (paper Fig. 17b/c)")
+    figure.savefig(path, dpi=120)
+    return path
+
+
+def write_figures(model: ValueFunction, dataset: Dataset, out: pathlib.Path, top: int,
+                  feature_rank: int = DEFAULT_FEATURE_RANK, robot: RobotModel = None) -> list:
+    """The figures of model on dataset in out (created): Fig. 13, 14a, 16, 17a, 15 and 17b/c, then
+    Fig. 12 for box-opening demos and Fig. 14b when a robot model is given; their paths."""
     out.mkdir(parents=True, exist_ok=True)
     names = dataset.definition.feature_names
     cosines = cosines_along_demos(model, dataset)
-    return [plot_values(values_along_demos(model, dataset), [demo.name for demo in dataset.demos], out / VALUE_FIGURE),
-            plot_cosines(cosines, moving_only(cosines, dataset), out / COSINES_FIGURE),
-            plot_scores(ranked_features(model, names), out / SCORES_FIGURE, top),
-            plot_gradients(mean_over_demos(gradients_along_demos(model, dataset)), model, names,
-                           out / GRADIENTS_FIGURE, top)]
+    gradients = gradients_along_demos(model, dataset)
+    paths = [plot_values(values_along_demos(model, dataset), [demo.name for demo in dataset.demos], out / VALUE_FIGURE),
+             plot_cosines(cosines, moving_only(cosines, dataset), out / COSINES_FIGURE),
+             plot_scores(ranked_features(model, names), out / SCORES_FIGURE, top),
+             plot_gradients(mean_over_demos(gradients), model, names, out / GRADIENTS_FIGURE, top),
+             plot_kernel_pca(kernel_pca_inputs(model, dataset), out / KERNEL_PCA_FIGURE),
+             plot_feature_over_time(*feature_over_time(model, dataset, feature_rank, gradients), feature_rank,
+                                    out / FEATURE_FIGURE)]
+    if dataset.definition.task == "open_box":
+        paths.append(plot_task_spaces(dataset, out / TASK_SPACES_FIGURE))
+    if robot is not None:
+        distances, counts, role = hand_body_distances(robot, dataset)
+        paths.append(plot_collision_prior(distances, counts, role, len(hand_geometries(robot)), out / COLLISION_FIGURE))
+    return paths
 
 
 def key_numbers(model: ValueFunction, dataset: Dataset, top: int) -> dict:
@@ -272,13 +603,19 @@ def main(argv=None) -> int:
     parser.add_argument("--out", default="analysis", metavar="DIR", help="folder for the PNGs (default: analysis)")
     parser.add_argument("--top", type=int, default=20,
                         help="features named in Fig. 16 and shown in Fig. 17a (default %(default)s)")
+    parser.add_argument("--feature-rank", type=int, default=DEFAULT_FEATURE_RANK, metavar="N",
+                        help="the feature of Fig. 17b/c: the N-th by score (default %(default)s, the paper's)")
     args = parser.parse_args(argv)
     try:
         if args.top < 1:
             raise ValueError("--top must be at least 1")
-        dataset = load_dataset(args.bags, RobotModel())
+        if args.feature_rank < 1:
+            raise ValueError("--feature-rank must be at least 1")
+        robot = RobotModel()
+        dataset = load_dataset(args.bags, robot)
         model = value_function(ModelFile.load(args.model, expected=dataset.definition))
-        paths = write_figures(model, dataset, pathlib.Path(args.out), args.top)
+        ranked_feature(model, dataset.definition.feature_names, args.feature_rank)  # refused before any figure
+        paths = write_figures(model, dataset, pathlib.Path(args.out), args.top, args.feature_rank, robot)
     except (ValueError, OSError) as error:
         print(f"{PROG}: {error}", file=sys.stderr)
         return 2

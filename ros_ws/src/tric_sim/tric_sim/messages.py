@@ -130,7 +130,7 @@ def metrics_msg(metrics) -> TaskMetricsMsg:
         lift_height=float(metrics.lift_height), lid_angle=float(metrics.lid_angle),
         success=bool(metrics.success), min_distance=float(metrics.min_distance),
         collided=bool(metrics.collided), max_joint_overshoot=float(metrics.max_joint_overshoot),
-        overshoot_joint=metrics.overshoot_joint)
+        overshoot_joint=metrics.overshoot_joint, failure=metrics.failure)
 
 
 def metrics_dict(msg: TaskMetricsMsg) -> dict:
@@ -142,7 +142,8 @@ def metrics_dict(msg: TaskMetricsMsg) -> dict:
             "success": msg.success, "min_distance": float(msg.min_distance), "collided": msg.collided,
             # bags recorded before these fields existed decode without them: unknown, not zero
             "max_joint_overshoot": _finite_or_none(float(getattr(msg, "max_joint_overshoot", math.nan))),
-            "overshoot_joint": getattr(msg, "overshoot_joint", "")}
+            "overshoot_joint": getattr(msg, "overshoot_joint", ""),
+            "failure": getattr(msg, "failure", None)}
 
 
 def _finite_or_none(value: float):

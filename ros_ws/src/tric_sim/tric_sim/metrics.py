@@ -18,6 +18,18 @@ the error of a task variable a grasp expert checks, normalized to [0, 1] (1 = as
 
 Lift test (grasps): the object is released (given its mass) and the hand raised LIFT_HEIGHT; it passes if the
 object rose by at least LIFT_PASS_FRACTION of that. Box success: lid opened by more than 0.3 rad.
+
+Failure class (TaskMetrics.failure, "" for a success without collision): why an episode failed,
+from its final state before the lift test and the lift test's result (grasp_failure, box_failure).
+Grasps, the first that holds: "collision" (even of an otherwise good grasp); "slipped in the lift
+test" (a good grasp that the lift test lost); "fingers closed before the palm arrived" (the palm
+farther than PALM_DISTANCE_OK from the surface, the fingers flexed more than FLEXED_MARGIN beyond
+the teacher's open pre-shape); "palm off target" (the palm that far, or its palm_alignment term at
+least PALM_MISALIGNED); then, the palm in place, "fingers short of the surface" when finger_contact
+is the worse finger term, else "fingers on one side of the object" (finger_opposition). Boxes:
+"collision"; "stalled above the lid" (both lifting fingertips above the lid's top surface, inside
+its outline); "under the lip" (a lifting fingertip below the lip's level, within LIP_REACH of the
+lid's outline, outside the box); else "away from the lid".
 Units: m, rad.
 """
 
@@ -44,6 +56,16 @@ LIFT_HOLD = 0.5
 LIFT_PASS_FRACTION = 0.7
 #: A signed distance below this between the robot and an avoided body counts as a collision, m.
 COLLISION_DISTANCE = 0.0
+#: Failure classes (see the module docstring): fingers count as flexed when their flexion (proximal +
+#: distal joint, rad, averaged over the three fingers) exceeds the open pre-shape's by this, rad
+#: (a closed sphere grasp: about 1.3 beyond it, a cylinder grasp about 1.0).
+FLEXED_MARGIN = 0.3
+#: A palm_alignment term at or above this is a misaligned palm (about 41 deg off the object).
+PALM_MISALIGNED = 0.5
+#: The fingertips that lift a box's lid (the box features' landmarks), and how far around and below
+#: the lid's outline a fingertip counts as under its lip, m.
+LID_FINGERTIPS = ("finger_2_tip", "finger_3_tip")
+LIP_REACH = 0.05
 
 
 @dataclass
@@ -62,6 +84,7 @@ class TaskMetrics:
     collided: bool = False
     max_joint_overshoot: float = 0.0
     overshoot_joint: str = ""
+    failure: str = ""
 
 
 def object_surface(kind: str, dimensions, placement: pin.SE3, points: np.ndarray):
@@ -120,6 +143,65 @@ def grasp_cost_terms(robot: RobotModel, q, kind: str, dimensions, placement: pin
             "finger_opposition": float(np.clip(opposition, 0.0, 1.0))}
 
 
+def finger_flexion(robot: RobotModel, q) -> float:
+    """The fingers' mean flexion: proximal + distal joint angle, averaged over the three fingers, rad."""
+    index = robot.joint_names.index
+    return float(np.mean([q[index(f"finger_{k}_proximal_joint")] + q[index(f"finger_{k}_distal_joint")]
+                          for k in (1, 2, 3)]))
+
+
+def open_flexion(kind: str) -> float:
+    """The flexion (as finger_flexion) of the teacher's open pre-shape for an object kind, rad."""
+    from tric_sim.teachers import PRESHAPE  # the teachers import this module
+
+    _, proximal, distal = PRESHAPE[kind]
+    return proximal + distal
+
+
+def grasp_failure(robot: RobotModel, q, kind: str, terms: dict, collided: bool, lift_tested: bool,
+                  lift_passed: bool) -> str:
+    """The failure class of a grasp (see the module docstring; "" for a success) from its final
+    configuration q (n,) before the lift test, the object's kind, its cost terms
+    (grasp_cost_terms) and the collision and lift test results."""
+    if collided:
+        return "collision"
+    if np.mean(list(terms.values())) < GOOD_GRASP:
+        return "slipped in the lift test" if lift_tested and not lift_passed else ""
+    palm_far = terms["palm_distance"] > 0.0
+    if palm_far and finger_flexion(robot, q) > open_flexion(kind) + FLEXED_MARGIN:
+        return "fingers closed before the palm arrived"
+    if palm_far or terms["palm_alignment"] >= PALM_MISALIGNED:
+        return "palm off target"
+    if terms["finger_contact"] >= terms["finger_opposition"]:
+        return "fingers short of the surface"
+    return "fingers on one side of the object"
+
+
+def box_failure(robot: RobotModel, q, side: float, object_poses: dict, lid_angle: float, collided: bool) -> str:
+    """The failure class of a box opening (see the module docstring; "" for a success) from its
+    final configuration q (n,), the box's side (m), the object poses ("object": the box body,
+    "lid_edge": the lip; name -> (position, xyzw)), the lid angle and whether the robot collided."""
+    if collided:
+        return "collision"
+    if lid_angle > scene.LID_OPEN_ANGLE:
+        return ""
+    robot.forward(q)
+    tips = np.array([robot.frame_placement(tip).translation for tip in LID_FINGERTIPS])
+    lip = scene.se3(*object_poses["lid_edge"])
+    local = (tips - lip.translation) @ lip.rotation     # in the lip's frame: x towards the free edge
+    depth, width, thickness = scene.lid_extents(side)
+    inside_outline = (local[:, 0] >= -depth) & (local[:, 0] <= 0.0) & (np.abs(local[:, 1]) <= width / 2)
+    if np.all(inside_outline & (local[:, 2] > thickness)):
+        return "stalled above the lid"
+    body = scene.se3(*object_poses["object"])
+    in_box = np.all(np.abs((tips - body.translation) @ body.rotation) <= side / 2, axis=1)
+    near_lip = ((local[:, 0] >= -depth) & (local[:, 0] <= LIP_REACH)
+                & (np.abs(local[:, 1]) <= width / 2 + LIP_REACH) & (local[:, 2] >= -LIP_REACH))
+    if np.any(near_lip & (local[:, 2] < 0.0) & ~in_box):
+        return "under the lip"
+    return "away from the lid"
+
+
 def lift_test(world, robot: RobotModel) -> float:
     """Release the object and raise the hand LIFT_HEIGHT over LIFT_DURATION, then hold LIFT_HOLD;
     returns how far the object rose, m. Changes the world (reset it afterwards)."""
@@ -149,11 +231,13 @@ def evaluate(world, robot: RobotModel, run_lift_test: bool = False) -> TaskMetri
         raise ValueError("no scene: reset the simulator to a situation first")
     metrics = TaskMetrics(task=situation.task, min_distance=float(world.min_distance))
     metrics.collided = metrics.min_distance < COLLISION_DISTANCE
+    q, _ = world.joint_state()
     if situation.task == "open_box":
         metrics.lid_angle = world.lid_angle()
         metrics.success = metrics.lid_angle > scene.LID_OPEN_ANGLE
+        metrics.failure = box_failure(robot, q, situation.object_dimensions[0], world.object_poses(),
+                                      metrics.lid_angle, metrics.collided)
         return _with_overshoot(metrics, world)
-    q, _ = world.joint_state()
     position, orientation = world.object_poses()["object"]
     terms = grasp_cost_terms(robot, q, situation.object_kind, situation.object_dimensions,
                              scene.se3(position, orientation))
@@ -165,6 +249,8 @@ def evaluate(world, robot: RobotModel, run_lift_test: bool = False) -> TaskMetri
         metrics.lift_height = lift_test(world, robot)
         metrics.lift_passed = metrics.lift_height >= LIFT_PASS_FRACTION * LIFT_HEIGHT
         metrics.success = metrics.success and metrics.lift_passed
+    metrics.failure = grasp_failure(robot, q, situation.object_kind, terms, metrics.collided,
+                                    metrics.lift_tested, metrics.lift_passed)
     return _with_overshoot(metrics, world)
 
 
