@@ -55,7 +55,7 @@ from tric_control.offline import evaluate_offline  # noqa: E402
 from tric_learning.record_cli import InProcessGraph, private_domain_id, wait  # noqa: E402
 from tric_learning.recorder_node import RecorderNode  # noqa: E402
 from tric_sim import messages  # noqa: E402
-from tric_sim.simulator_node import SimulatorNode  # noqa: E402
+from tric_sim.simulator_node import IN_PROCESS_LOCKSTEP_TIMEOUT_S, SimulatorNode  # noqa: E402
 from tric_sim.situations import DATASETS, dataset, load_situations  # noqa: E402
 from tric_sim.teacher_node import TeacherNode  # noqa: E402
 from tric_sim.visualizer_node import VisualizerNode, add_view_arguments, open_view  # noqa: E402
@@ -84,7 +84,8 @@ class Evaluator:
         self.recorder = None
         try:
             self.graph.add(SimulatorNode(context=self.graph.context,
-                                         parameter_overrides=[Parameter("mode", value="lockstep")]))
+                                         parameter_overrides=[Parameter("mode", value="lockstep"), Parameter(
+                                             "lockstep_timeout_s", value=IN_PROCESS_LOCKSTEP_TIMEOUT_S)]))
             if view is not None:
                 self.graph.add(VisualizerNode(view=view, context=self.graph.context))
             if record is not None:

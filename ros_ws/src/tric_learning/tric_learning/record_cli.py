@@ -28,7 +28,7 @@ from tric_msgs.action import Demonstrate
 
 from tric_learning.recorder_node import RecorderNode
 from tric_sim import messages
-from tric_sim.simulator_node import SimulatorNode
+from tric_sim.simulator_node import IN_PROCESS_LOCKSTEP_TIMEOUT_S, SimulatorNode
 from tric_sim.situations import DATASETS, dataset, load_situations
 from tric_sim.teacher_node import TeacherNode
 from tric_sim.visualizer_node import VisualizerNode, add_view_arguments, open_view
@@ -90,7 +90,8 @@ def demonstrate_all(situations, out: pathlib.Path, period: float, duration: floa
     run in (None: no visualizer)."""
     graph = InProcessGraph(domain_id)
     try:
-        graph.add(SimulatorNode(context=graph.context, parameter_overrides=[Parameter("mode", value="lockstep")]))
+        graph.add(SimulatorNode(context=graph.context, parameter_overrides=[
+            Parameter("mode", value="lockstep"), Parameter("lockstep_timeout_s", value=IN_PROCESS_LOCKSTEP_TIMEOUT_S)]))
         if view is not None:
             graph.add(VisualizerNode(view=view, context=graph.context))
         graph.add(TeacherNode(context=graph.context))

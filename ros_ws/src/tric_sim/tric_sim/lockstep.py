@@ -110,12 +110,15 @@ class StateStream:
 
     def next_state(self, timeout_s: float, after_ns: int = -1):
         """(stamp_ns, q) of the newest joint state stamped after after_ns that arrives within
-        timeout_s of wall time, or None."""
+        timeout_s of wall time, or None. The simulator publishes a period's object poses before its
+        joint state; when the state comes first, this waits (within the same timeout) for the poses of
+        its period too, so that poses holds them when it returns."""
         deadline = time.monotonic() + timeout_s
+        newest = None
         while True:
             remaining = deadline - time.monotonic()
             if remaining <= 0:
-                return None
+                return newest
             received = self._poller.poll(min(remaining, 0.05))
             for msg in received["poses"]:
                 try:
@@ -123,16 +126,15 @@ class StateStream:
                     self.poses_stamp_ns = messages.time_ns(msg.header.stamp)
                 except ValueError:
                     self.rejected += 1
-            newest = None
             for msg in received["state"]:
                 stamp = messages.time_ns(msg.header.stamp)
-                if stamp <= after_ns:
+                if stamp <= after_ns or (newest is not None and stamp <= newest[0]):
                     continue
                 try:
                     newest = (stamp, messages.joint_positions_from_msg(msg, self.joint_names))
                 except ValueError:
                     self.rejected += 1
-            if newest is not None:
+            if newest is not None and self.poses_stamp_ns >= newest[0]:
                 return newest
 
     def destroy(self) -> None:

@@ -43,6 +43,10 @@ from tric_sim.situations import find_situation
 STATE_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
 #: QoS of /situation: latched for late joiners.
 LATCHED_QOS = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+#: lockstep_timeout_s for a simulator whose commanders run in the same process (the in-process tools):
+#: they answer every state, so a late answer means a busy machine, not a missing commander, and
+#: stepping without it would make the episode depend on the machine's load.
+IN_PROCESS_LOCKSTEP_TIMEOUT_S = 60.0
 
 
 class SimulatorNode(Node):
