@@ -10,7 +10,8 @@ then the simulator judges the final state with the hidden metrics (/simulator/ev
 the lift test for grasps). Prints a table, and writes the per-episode records and their summary to
 the --json file. DATASET is a built-in data set (sphere_test, cylinder_test, obstacle_test,
 box_test, ...); any YAML/JSON situations file of one task works too. --snapshots DIR writes a PNG
-of each final state (before the lift test). The nodes run in a private DDS domain unless --domain-id
+of each final state (before the lift test). The --json file and the --snapshots folder are checked
+before the first episode, and written atomically. The nodes run in a private DDS domain unless --domain-id
 names one. --jobs N runs N such graphs at once, each in a worker process of its own on its own
 domain (the base one and the N - 1 above it), the situations shared out one at a time; the records
 keep the situations' order. Exits 0 when every episode ran (whatever its score), 1 when one could
@@ -43,6 +44,7 @@ from tric_control.controller_node import ControllerNode  # noqa: E402
 from tric_control.evaluation import EpisodeRecord, report, table, write_json  # noqa: E402
 from tric_learning.record_cli import InProcessGraph, private_domain_id, wait  # noqa: E402
 from tric_sim import messages  # noqa: E402
+from tric_sim.output_files import atomic_path, check_output_file, check_output_folder  # noqa: E402
 from tric_sim.simulator_node import SimulatorNode  # noqa: E402
 from tric_sim.situations import DATASETS, dataset, load_situations  # noqa: E402
 from tric_sim.teacher_node import TeacherNode  # noqa: E402
@@ -173,8 +175,8 @@ class Evaluator:
         answer = self._call(self.render_scene, RenderScene.Request(width=480, height=360), "a snapshot")
         if answer.success:
             image = np.frombuffer(bytes(answer.image.data), dtype=np.uint8)
-            path.parent.mkdir(parents=True, exist_ok=True)
-            plt.imsave(path, image.reshape(answer.image.height, answer.image.width, 3))
+            with atomic_path(path) as temporary:
+                plt.imsave(temporary, image.reshape(answer.image.height, answer.image.width, 3))
 
 
 def evaluate(situations, model=None, max_steps: int = 0, snapshots=None, progress=True, desc="evaluating",
@@ -287,7 +289,12 @@ def main(argv=None) -> int:
     try:
         situations = load_situations(args.situations_file) if args.situations_file else dataset(args.dataset)
         if args.model and not pathlib.Path(args.model).is_file():
-            raise ValueError(f"model file {args.model} does not exist")
+            raise ValueError(f"model file {args.model} "
+                             + ("is a folder" if pathlib.Path(args.model).is_dir() else "does not exist"))
+        if args.json:
+            check_output_file(args.json, what="--json file")
+        if args.snapshots:
+            check_output_folder(args.snapshots, "--snapshots folder")
         records = evaluate(situations, None if args.teacher else args.model, args.max_steps, args.snapshots,
                            domain_id=domain_id, jobs=args.jobs)
     except ValueError as error:

@@ -52,6 +52,7 @@ from tric_learning.recording import load_dataset  # noqa: E402
 from tric_learning.model_file import ModelFile  # noqa: E402
 from tric_learning.training import MIN_STEP, SELECTED_FRACTION, TrainingConfig, train, train_from_bags  # noqa: E402
 from tric_sim import situations  # noqa: E402
+from tric_sim.output_files import check_output_folder  # noqa: E402
 from tric_sim.robot_model import RobotModel  # noqa: E402
 
 BAGS = pathlib.Path("bags")
@@ -631,7 +632,11 @@ def main(argv=None) -> int:
     unknown = [name for name in args.names if name not in EXPERIMENTS]
     if unknown:
         parser.error(f"unknown experiment(s) {', '.join(unknown)} (known: {', '.join(EXPERIMENTS)})")
-    out = pathlib.Path(args.out)
+    try:
+        out = check_output_folder(args.out, "--out folder")
+    except ValueError as error:
+        print(f"tric-experiments: {error}", file=sys.stderr)
+        return 2
     runner = Runner(out, args.jobs)
     for name in args.names or list(EXPERIMENTS):
         print(f"\n=== {name}: {EXPERIMENTS[name].__doc__.splitlines()[0]}", flush=True)

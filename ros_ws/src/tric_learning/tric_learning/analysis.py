@@ -32,6 +32,7 @@ from tric_learning.model_file import ModelFile, value_function
 from tric_learning.recording import load_dataset
 from tric_learning.training import MIN_STEP, SELECTED_FRACTION
 from tric_learning.value_function import ValueFunction
+from tric_sim.output_files import check_output_folder
 from tric_sim.robot_model import RobotModel
 
 PROG = "tric-analyze"
@@ -276,6 +277,7 @@ def main(argv=None) -> int:
     try:
         if args.top < 1:
             raise ValueError("--top must be at least 1")
+        check_output_folder(args.out, "--out folder")
         dataset = load_dataset(args.bags, RobotModel())
         model = value_function(ModelFile.load(args.model, expected=dataset.definition))
         paths = write_figures(model, dataset, pathlib.Path(args.out), args.top)

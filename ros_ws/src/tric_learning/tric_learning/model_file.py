@@ -17,6 +17,7 @@ from safetensors.numpy import load_file, save_file
 
 from tric_learning.features import FeatureDefinition
 from tric_learning.value_function import Scaling, ValueFunction
+from tric_sim.output_files import atomic_path
 
 FORMAT = "tric-model"
 VERSION = 1
@@ -35,18 +36,12 @@ class ModelFile:
     def save(self, path) -> pathlib.Path:
         """Write atomically (a temporary file renamed into place; removed again if writing fails)."""
         path = pathlib.Path(path)
-        path.parent.mkdir(parents=True, exist_ok=True)
         meta = {"format": FORMAT, "version": VERSION, "kind": self.kind,
                 "definition": self.definition.to_dict(), "fingerprint": self.definition.fingerprint,
                 "info": self.info}
-        temporary = path.with_name(path.name + ".tmp")
-        try:
+        with atomic_path(path) as temporary:
             save_file({k: np.ascontiguousarray(v) for k, v in self.arrays.items()}, str(temporary),
                       metadata={"tric": json.dumps(meta)})
-            temporary.replace(path)
-        except BaseException:
-            temporary.unlink(missing_ok=True)
-            raise
         return path
 
     @classmethod
@@ -54,6 +49,8 @@ class ModelFile:
         """Read a model file; ValueError if unreadable, not a TRIC model, or (when expected is
         given) trained on another feature definition."""
         path = pathlib.Path(path)
+        if path.is_dir():
+            raise ValueError(f"model file {path} is a folder, not a model file")
         if not path.is_file():
             raise ValueError(f"model file {path} does not exist")
         try:

@@ -131,14 +131,14 @@ class BagRecorder:
     """Writes one episode into one bag (see the module docstring) as its messages come.
 
     The bag is written to "<path>.part" and renamed to path when the episode's outcome arrives
-    (finish()); abort() deletes it. Every sample is flushed, so a recorder killed mid-episode leaves
-    a readable ".part" with everything up to the last sample. A sample is written once a later state
+    (finish()), replacing a bag there only if overwrite; abort() deletes it. Every sample is
+    flushed, so a recorder killed mid-episode leaves a readable ".part" with everything up to the last sample. A sample is written once a later state
     shows it is inside the episode: the episode's last state (stamped with END, which no command
     answered) is not a sample, so 5 s at 125 ms give the paper's T = 40.
     """
 
     def __init__(self, path, robot: RobotModel, situation, episode_id: str, source: str,
-                 start_event: EpisodeEvent, period: float = SAMPLE_PERIOD):
+                 start_event: EpisodeEvent, period: float = SAMPLE_PERIOD, overwrite: bool = False):
         self.definition = FeatureDefinition.for_task(situation.task, robot)
         self.sampler = EpisodeSampler(FeatureMap(self.definition, robot), period)
         self.robot = robot
@@ -148,7 +148,8 @@ class BagRecorder:
         self.pending = None
         self.writer = bags.BagWriter(path, {"tric.episode_id": episode_id, "tric.source": source,
                                             "tric.task": situation.task,
-                                            "tric.fingerprint": self.definition.fingerprint})
+                                            "tric.fingerprint": self.definition.fingerprint},
+                                      overwrite=overwrite)
         for topic, msg_type in TOPIC_TYPES.items():
             self.writer.add_topic(topic, msg_type, latched=topic in (DEFINITION_TOPIC, SITUATION_TOPIC))
         start_ns = messages.time_ns(start_event.header.stamp)

@@ -37,7 +37,6 @@ import time
 
 from rclpy.callback_groups import ReentrantCallbackGroup
 from rclpy.node import Node
-from rcl_interfaces.msg import ParameterDescriptor
 from tric_msgs.msg import TrainingProgress
 from tric_msgs.srv import Train
 
@@ -47,6 +46,7 @@ from tric_learning.training import TrainingConfig, train_from_bags
 from tric_sim import messages
 from tric_sim.lockstep import run_in_thread
 from tric_sim.node_main import run_node
+from tric_sim.parameters import NOT_NEGATIVE, declare
 from tric_sim.robot_model import RobotModel
 
 #: Overall progress spanned by each stage of a training: (start, end) fractions.
@@ -79,11 +79,8 @@ class TrainerNode(Node):
 
     def __init__(self, **kwargs):
         super().__init__("trainer", **kwargs)
-        self.progress_period = float(self.declare_parameter(
-            "progress_period_s", 0.2, ParameterDescriptor(
-                description="least wall seconds between two progress messages of a stage")).value)
-        if not self.progress_period >= 0:
-            raise ValueError("progress_period_s must be >= 0")
+        self.progress_period = declare(self, "progress_period_s", 0.2,
+                                       "least wall seconds between two progress messages of a stage", NOT_NEGATIVE)
         self.robot = RobotModel()
         self._busy = threading.Lock()
         self._last_report = (None, 0.0)  # (stage, monotonic time) of the last progress message

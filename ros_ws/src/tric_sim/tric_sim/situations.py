@@ -13,6 +13,8 @@ from dataclasses import MISSING, asdict, dataclass, fields, replace
 import numpy as np
 import yaml
 
+from tric_sim.output_files import write_text_atomic
+
 #: Object kinds each task accepts.
 TASK_OBJECTS = {"grasp": ("sphere", "cylinder"), "open_box": ("box",)}
 #: Number of dimensions each shape takes: sphere (radius), cylinder (height, radius), box.
@@ -167,11 +169,8 @@ def save_situations(path, situations) -> None:
     """Write situations to a .yaml/.yml or .json file as {"situations": [...]}."""
     path = pathlib.Path(path)
     data = {"situations": [s.to_dict() for s in situations]}
-    path.parent.mkdir(parents=True, exist_ok=True)
-    if path.suffix == ".json":
-        path.write_text(json.dumps(data, indent=1) + "\n")
-    else:
-        path.write_text(yaml.safe_dump(data, sort_keys=False))
+    write_text_atomic(path, json.dumps(data, indent=1) + "\n" if path.suffix == ".json"
+                      else yaml.safe_dump(data, sort_keys=False))
 
 
 def load_situations(path) -> list:
