@@ -567,7 +567,7 @@ def _refusal(path: Path) -> ValueError:
 
 
 def _strict_error(damage: _Damage) -> ValueError:
-    return ValueError(f"{damage} (an unfinished recording?); tolerant=True reads them")
+    return ValueError(f"{damage} (an unfinished recording?); tric-train --tolerant reads those")
 
 
 def _check_type(path: Path, topic: str, type_name: str, expected: Mapping[str, Any]) -> None:

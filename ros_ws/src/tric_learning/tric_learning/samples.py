@@ -142,6 +142,10 @@ def _demo_samples(dataset: Dataset, robot: RobotModel, index: int, count: int, s
                 chosen_step.append(np.full(len(mine), step))
         t = end
     qs, steps = np.concatenate(chosen_q), np.concatenate(chosen_step)
+    if not len(qs):
+        raise ValueError(f"demo '{demo.name}'" + (f" (bag {demo.bag})" if demo.bag else "")
+                         + f": none of its noisy samples (sigma {sigma:g} rad) is inside the joint limits and "
+                         "free of collisions; its robot may start in contact with the scene")
     order = np.argsort(steps, kind="stable")
     qs, steps = qs[order], steps[order]
     ys = features.batch(qs, [demo.object_poses[s - 1] for s in steps])

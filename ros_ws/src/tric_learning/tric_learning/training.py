@@ -154,18 +154,20 @@ def model_output_path(output_path, first_bag: pathlib.Path) -> pathlib.Path:
     return check_output_file(path, (MODEL_SUFFIX,), "the model path")
 
 
-def train_from_bags(paths, output_path, config: TrainingConfig, robot: RobotModel, progress=None) -> BagTraining:
-    """Load the demonstrations in the bags at paths (files or folders, see recording.bag_paths),
-    train on them and write the model file to output_path (see model_output_path). Every input is
-    checked before anything is written: a bad bag, value or path raises ValueError and leaves no
-    file. progress(stage, fraction, losses) as in train(), with the stages "loading" and "saving"
-    before and after it."""
+def train_from_bags(paths, output_path, config: TrainingConfig, robot: RobotModel, progress=None, *,
+                    include_failed: bool = False, tolerant: bool = False, notice=None) -> BagTraining:
+    """Load the demonstrations in the bags at paths (files or folders, see recording.load_dataset
+    for include_failed, tolerant and notice), train on them and write the model file to output_path
+    (see model_output_path). Every input is checked before anything is written: a bad bag, value
+    or path raises ValueError and leaves no file. progress(stage, fraction, losses) as in train(),
+    with the stages "loading" and "saving" before and after it."""
     config.validate()
-    files = bag_paths(paths)
+    files = bag_paths(paths, tolerant, notice)
     path = model_output_path(output_path, files[0])
     report = progress or (lambda *_: None)
     report("loading", 0.0, None)
-    dataset = load_dataset(files, robot, lambda done, total: report("loading", done / total, None))
+    dataset = load_dataset(files, robot, lambda done, total: report("loading", done / total, None),
+                           include_failed=include_failed, tolerant=tolerant, notice=notice)
     result = train(dataset, robot, config, report)
     report("saving", 0.0, result.losses)
     model_file.from_training(result, dataset).save(path)
