@@ -73,9 +73,9 @@ class Situation:
         where = f"situation '{self.name}'"
         if not self.name or not isinstance(self.name, str):
             raise ValueError("a situation needs a non-empty name")
-        if self.task not in TASK_OBJECTS:
+        if not isinstance(self.task, str) or self.task not in TASK_OBJECTS:
             raise ValueError(f"{where}: unknown task '{self.task}' (known: {', '.join(TASK_OBJECTS)})")
-        if self.object_kind not in TASK_OBJECTS[self.task]:
+        if not isinstance(self.object_kind, str) or self.object_kind not in TASK_OBJECTS[self.task]:
             raise ValueError(f"{where}: object kind '{self.object_kind}' does not fit task "
                              f"'{self.task}' (expected one of {', '.join(TASK_OBJECTS[self.task])})")
         _check_vector(self.object_dimensions, OBJECT_DIMENSIONS[self.object_kind],
@@ -83,7 +83,7 @@ class Situation:
         _check_position(self.object_position, f"{where}: object_position")
         _check_quaternion(self.object_orientation, f"{where}: object_orientation")
         for k, obstacle in enumerate(self.obstacles):
-            if obstacle.shape not in OBSTACLE_DIMENSIONS:
+            if not isinstance(obstacle.shape, str) or obstacle.shape not in OBSTACLE_DIMENSIONS:
                 raise ValueError(f"{where}: obstacle {k} has unknown shape '{obstacle.shape}'")
             _check_vector(obstacle.dimensions, OBSTACLE_DIMENSIONS[obstacle.shape],
                           f"{where}: obstacle {k} dimensions", positive=True)
@@ -91,7 +91,7 @@ class Situation:
             _check_quaternion(obstacle.orientation, f"{where}: obstacle {k} orientation")
         if self.initial_joint_positions:
             _check_vector(self.initial_joint_positions, n_joints, f"{where}: initial_joint_positions")
-        if not (isinstance(self.seed, int) and 0 <= self.seed < 2**32):
+        if not (isinstance(self.seed, int) and not isinstance(self.seed, bool) and 0 <= self.seed < 2**32):
             raise ValueError(f"{where}: seed must be an integer in [0, 2^32)")
         if robot is not None:
             check_scene(self, robot)
@@ -170,8 +170,10 @@ def check_scene(situation: Situation, robot) -> Situation:
 
 
 def _obstacle_from_dict(data) -> Obstacle:
-    if not isinstance(data, dict) or set(data) - {f.name for f in fields(Obstacle)}:
-        raise ValueError(f"bad obstacle entry {data!r}")
+    known = {f.name for f in fields(Obstacle)}
+    if not isinstance(data, dict) or set(data) - known or not {"shape", "dimensions", "position"} <= set(data):
+        raise ValueError(f"bad obstacle entry {data!r} (expected the keys shape, dimensions, position and "
+                         "optionally orientation)")
     return Obstacle(shape=data["shape"], dimensions=tuple(float(v) for v in data["dimensions"]),
                     position=tuple(float(v) for v in data["position"]),
                     orientation=tuple(float(v) for v in data.get("orientation", IDENTITY)))
@@ -188,9 +190,12 @@ def _plain(value):
 
 
 def _check_vector(values, size, what, positive=False):
-    array = np.asarray(values, dtype=float)
+    try:
+        array = np.asarray(values, dtype=float)
+    except (TypeError, ValueError):
+        raise ValueError(f"{what} must be {size} number(s), got {values!r}") from None
     if array.shape != (size,):
-        raise ValueError(f"{what} must have {size} value(s), got {len(values)}")
+        raise ValueError(f"{what} must have {size} value(s), got {array.size}")
     if not np.all(np.isfinite(array)):
         raise ValueError(f"{what} has non-finite values")
     if positive and np.any(array <= 0):
