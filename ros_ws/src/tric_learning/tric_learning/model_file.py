@@ -65,7 +65,12 @@ class ModelFile:
             raise ValueError(f"{path} has model format version {meta.get('version')}; this reads {VERSION}")
         if meta.get("kind") not in KINDS:
             raise ValueError(f"{path} holds an unknown model kind '{meta.get('kind')}'")
-        definition = FeatureDefinition.from_dict(meta["definition"])
+        try:
+            definition = FeatureDefinition.from_dict(meta.get("definition"))
+        except ValueError as error:
+            raise ValueError(f"{path}: {error}") from None
+        if not isinstance(meta.get("info", {}), dict):
+            raise ValueError(f"{path}: its 'info' metadata is not a mapping")
         if definition.fingerprint != meta.get("fingerprint"):
             raise ValueError(f"{path}: its feature definition does not match its recorded fingerprint")
         if expected is not None:
@@ -85,7 +90,10 @@ def value_function(model_file: ModelFile) -> ValueFunction:
         raise ValueError(f"the model is a '{model_file.kind}' model, not a TRIC value function")
     a = model_file.arrays
     try:
-        kept, size = a["kept"].astype(int), model_file.definition.size
+        kept, size = a["kept"], model_file.definition.size
+        if kept.ndim != 1 or not np.issubdtype(kept.dtype, np.integer):
+            raise ValueError("the model file's kept feature indices are not a list of integers")
+        kept = kept.astype(int)
         s = len(kept)
         consistent = (a["w1"].ndim == 2 and a["w1"].shape[1] == s and a["w2"].shape == (a["w1"].shape[0],)
                       and a["w3"].shape == (s,) and a["low"].shape == (s,) and a["high"].shape == (s,)
