@@ -6,6 +6,8 @@ give a clear error or a correct result, never a traceback."""
 import json
 import math
 import pathlib
+import subprocess
+import sys
 import tempfile
 
 import numpy as np
@@ -272,3 +274,11 @@ def test_random_model_files_are_refused_clearly(robot, data):
 def test_the_tiny_model_file_of_the_fuzz_test_loads(robot, tmp_path):
     path = _tiny_model_file(robot).save(tmp_path / "tiny.safetensors")
     assert isinstance(_open_model(path), ValueFunction)
+
+
+def test_the_sampling_pool_ends_in_a_process_with_rclpy_signal_handlers():
+    # every node executable calls rclpy.init(), whose SIGTERM handler a forked worker inherits
+    script = ("import rclpy\nfrom tric_learning import samples\nrclpy.init()\npool = samples.worker_pool(2)\n"
+              "pool.terminate()\nprint('ended')\n")
+    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0 and done.stdout == "ended\n", done.stderr

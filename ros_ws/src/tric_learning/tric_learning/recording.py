@@ -134,9 +134,10 @@ class BagRecorder:
 
     The bag is written to "<path>.part" and renamed to path when the episode's outcome arrives
     (finish()), replacing a bag there only if overwrite; abort() deletes it. Every sample is
-    flushed, so a recorder killed mid-episode leaves a readable ".part" with everything up to the last sample. A sample is written once a later state
-    shows it is inside the episode: the episode's last state (stamped with END, which no command
-    answered) is not a sample, so 5 s at 125 ms give the paper's T = 40.
+    flushed, so a recorder killed mid-episode leaves a readable ".part" with everything up to the
+    last sample. A sample is written once a later state shows it is inside the episode: the
+    episode's last state (stamped with END, which no command answered) is not a sample, so 5 s at
+    125 ms give the paper's T = 40.
     """
 
     def __init__(self, path, robot: RobotModel, situation, episode_id: str, source: str,

@@ -8,6 +8,7 @@ so they are drawn once per training, reproducibly from a seed. Units: rad.
 """
 
 import multiprocessing
+import signal
 from dataclasses import dataclass
 
 import numpy as np
@@ -77,7 +78,7 @@ def generate(dataset: Dataset, robot: RobotModel, count: int, sigma: float, seed
         global _JOB
         _JOB = job
         try:
-            with multiprocessing.get_context("fork").Pool(workers) as pool:
+            with worker_pool(workers) as pool:
                 for done, (i, result) in enumerate(pool.imap_unordered(_forked_demo, range(len(dataset.demos)))):
                     results[i] = result
                     if progress is not None:
@@ -99,6 +100,19 @@ def generate(dataset: Dataset, robot: RobotModel, count: int, sigma: float, seed
 
 
 _JOB = None
+
+
+def worker_pool(workers: int):
+    """A pool of `workers` forked processes in which SIGTERM and SIGINT act as by default. A worker
+    forked from a process where rclpy.init() installed its signal handlers (every node executable)
+    would otherwise ignore the SIGTERM with which the pool may end it (rclpy's handler only wakes a
+    thread that the fork did not copy), and the pool's exit, so the training, would wait for ever."""
+    return multiprocessing.get_context("fork").Pool(workers, initializer=_default_signal_handling)
+
+
+def _default_signal_handling():
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    signal.signal(signal.SIGINT, signal.default_int_handler)
 
 
 def _forked_demo(index: int):
