@@ -154,3 +154,12 @@ def test_overwrite_replaces_a_bag_of_the_same_name(tmp_path):
     assert sorted(p.name for p in out.iterdir()) == ["sphere_grid_04.mcap"]  # no sphere_grid_04_1.mcap copy
     assert (out / "sphere_grid_04.mcap").stat().st_ino != first
     assert bags.bag_info(out / "sphere_grid_04.mcap").complete
+
+
+def test_a_bag_the_recorder_cannot_write_is_reported_not_taken_for_a_success(tmp_path):
+    (tmp_path / "sphere_grid_04.mcap").mkdir()  # in the way of the bag, which overwrite may not replace
+    rows = demonstrate_all(situations.sphere_grid()[4:5], tmp_path, 0.125, 1.0, progress=False, overwrite=True)
+    (_, result, path), = rows
+    assert path is None and not result.success
+    assert result.message == (f"not recorded: bag {tmp_path / 'sphere_grid_04.mcap'} exists already; "
+                              "refusing to overwrite it")

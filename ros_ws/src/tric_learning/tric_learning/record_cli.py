@@ -118,7 +118,7 @@ def demonstrate_all(situations, out: pathlib.Path, period: float, duration: floa
             path = recorder.finished[-1] if len(recorder.finished) > done_before else None
             if path is None and result.success:
                 result.success = False
-                result.message = (f"the recorder {recorder.failed[-1][1]}" if len(recorder.failed) > failed_before
+                result.message = (f"not recorded: {recorder.failed[-1][1]}" if len(recorder.failed) > failed_before
                                   else "the recorder wrote no bag within 30 s")
             rows.append((situation, result, path))
         return rows

@@ -149,7 +149,7 @@ class RecorderNode(Node):
             self._recorder = BagRecorder(path, self.robot, situation, event.episode_id, event.source, event,
                                          self.period, overwrite=self.overwrite)
         except (ValueError, OSError) as error:
-            self._failed(event.episode_id, f"not recorded: {error}")
+            self._failed(event.episode_id, str(error))
             return
         self._episode_id = event.episode_id
         self._ended_at = None
@@ -172,7 +172,7 @@ class RecorderNode(Node):
             path = recorder.finish(outcome)
         except OSError as error:
             recorder.abort()
-            self._failed(self._episode_id, f"its bag could not be written: {error}")
+            self._failed(self._episode_id, f"its bag could not be finished: {error}")
             return
         self.finished.append(path)
         self.get_logger().info(f"wrote {path} ({len(recorder.sampler.samples)} samples)")
@@ -180,7 +180,7 @@ class RecorderNode(Node):
     def _failed(self, episode_id: str, reason: str):
         """An episode that could not be recorded: logged and kept in `failed` as (episode id, reason)."""
         self.failed.append((episode_id, reason))
-        self.get_logger().error(f"episode '{episode_id}' {reason}")
+        self.get_logger().error(f"episode '{episode_id}' not recorded: {reason}")
 
     def _check_outcome_timeout(self):
         with self._lock:
