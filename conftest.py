@@ -1,6 +1,15 @@
-"""Test-session set-up shared by every test: an isolated DDS domain and no display."""
+"""Test-session set-up shared by every test: an isolated DDS domain, no display, and reproducible
+fuzzing (hypothesis)."""
 
 import os
+
+from hypothesis import settings
+
+# The fuzz tests (each sets its own bounded max_examples) draw the same examples on every run and
+# keep no example database in the work tree; HYPOTHESIS_PROFILE=explore draws new ones each run.
+settings.register_profile("ci", derandomize=True, database=None)
+settings.register_profile("explore", derandomize=False, database=None)
+settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))
 
 
 def pytest_configure(config):

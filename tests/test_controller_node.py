@@ -210,3 +210,38 @@ def test_lockstep_episode_aborts_without_joint_states(ros_context, spin, model_p
 def test_bad_parameters_are_refused(ros_context, name, value, reason):
     with pytest.raises(ValueError, match=reason):
         make_controller(ros_context, **{name: value})
+
+
+@pytest.mark.parametrize("mode", ["lockstep", "realtime"])
+def test_the_simulator_stopping_mid_episode_leaves_the_robot_held_and_aborts(ros_context, executor, spin,
+                                                                               model_path, mode):
+    simulator = SimulatorNode(context=ros_context, parameter_overrides=[Parameter("mode", value=mode)])
+    controller = make_controller(ros_context, mode=mode, state_timeout_s=0.5, use_sim_time=mode == "realtime")
+    observer = Observer(ros_context)
+    states = []
+    observer.create_subscription(JointState, "/joint_states", states.append, KEEP_ALL)
+    spin(simulator, controller, observer)
+    situation = situations.dataset("sphere_test")[0]
+    assert call(observer, ResetScene, "/simulator/reset_scene",
+                ResetScene.Request(situation=messages.situation_to_msg(situation))).success
+    assert load(observer, model_path).success
+    wait_for(lambda: controller.scene is not None and controller.scene.situation == situation, what="the situation")
+    client = ActionClient(observer, Execute, "/controller/execute")
+    assert client.wait_for_server(timeout_sec=10.0)
+    goal_future = client.send_goal_async(Execute.Goal(max_steps=100000))
+    handle = wait_for(lambda: goal_future.result() if goal_future.done() else None, what="goal response")
+    result_future = handle.get_result_async()
+    wait_for(lambda: len(observer.commands) >= 30, what="30 commands")
+    executor.remove_node(simulator)  # the simulator stops in the middle of the episode
+    simulator.destroy_node()
+    wrapped = wait_for(lambda: result_future.result() if result_future.done() else None, 10.0, "the abort")
+    assert wrapped.status == GoalStatus.STATUS_ABORTED and wrapped.result.outcome == "failed"
+    assert wrapped.result.message.startswith("no joint states for 0.5 s: is the")
+    # the robot holds: no command moves it on after the last state (lockstep answers states only;
+    # realtime holds the last measured positions once the state is STALE_PERIODS periods old)
+    last_state = messages.time_ns(states[-1].header.stamp)
+    after = [c for c in observer.commands if messages.time_ns(c.header.stamp) > last_state]
+    assert len(after) <= 3 and (mode == "realtime" or not after)
+    assert all(np.allclose(c.position, states[-1].position, atol=1e-3) for c in after)
+    wait_for(lambda: observer.events and observer.events[-1].event == EpisodeEvent.ABORT, what="ABORT on /episode")
+    client.destroy()

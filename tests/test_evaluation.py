@@ -62,6 +62,26 @@ def test_bad_arguments_are_refused(tmp_path, capsys):
         evaluate_cli.evaluate(situations.sphere_grid()[:1], None, jobs=0, progress=False)
 
 
+def test_output_paths_and_impossible_situations_are_refused_before_the_first_episode(tmp_path, capsys):
+    (tmp_path / "plain").write_text("x")
+    refusals = [
+        (["--teacher", "sphere_test", "--json", str(tmp_path)], f"--json file {tmp_path} is a folder"),
+        (["--teacher", "sphere_test", "--json", "/proc/x.json"], "--json file /proc/x.json cannot be written"),
+        (["--teacher", "sphere_test", "--snapshots", str(tmp_path / "plain")],
+         f"--snapshots folder {tmp_path / 'plain'} cannot be used: {tmp_path / 'plain'} is a file"),
+        (["--model", str(tmp_path), "sphere_test"], f"model file {tmp_path} is a folder"),
+    ]
+    inside = situations.sphere("inside_the_base", (0.0, 0.0, 0.05))
+    situations.save_situations(tmp_path / "impossible.yaml", [inside])
+    refusals.append((["--teacher", "--situations-file", str(tmp_path / "impossible.yaml")],
+                     "situation 'inside_the_base': the object (sphere) intersects the robot's base_link"))
+    for arguments, reason in refusals:
+        assert evaluate_cli.main(arguments) == 2
+        error = capsys.readouterr().err
+        assert error.startswith("tric-eval: ") and reason in error and error.count("\n") == 1, error
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["impossible.yaml", "plain"]
+
+
 @pytest.mark.slow
 def test_teacher_and_tric_grasp_an_unseen_sphere_through_the_nodes(tmp_path):
     chosen = situations.dataset("sphere_test")[3:4]

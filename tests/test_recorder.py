@@ -15,7 +15,7 @@ import yaml
 from mcap.reader import make_reader
 from rosbags.highlevel import AnyReader
 
-from tric_learning import bags
+from tric_learning import bags, record_cli
 from tric_learning.record_cli import demonstrate_all
 from tric_learning.recording import SAMPLES_TOPIC, load_dataset
 from tric_sim import scene, scene_view, situations
@@ -181,3 +181,37 @@ def _samples_in(path: pathlib.Path) -> int:
         return sum(1 for _ in bags.read_bag(path, topics=[SAMPLES_TOPIC], tolerant=True))
     except ValueError:
         return 0
+
+
+def test_tric_record_checks_its_folder_before_recording(tmp_path, capsys):
+    plain = tmp_path / "plain"
+    plain.write_text("x")
+    assert record_cli.main(["sphere_train", "--out", str(plain)]) == 2
+    assert capsys.readouterr().err == f"tric-record: --out {plain} cannot be used: {plain} is a file, not a folder\n"
+    assert record_cli.main(["sphere_train", "--out", str(tmp_path)]) == 2
+    assert capsys.readouterr().err == (f"tric-record: --out {tmp_path} is not empty (plain); give --overwrite to "
+                                       "record into it anyway\n")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["plain"]
+
+
+def test_overwrite_replaces_a_bag_of_the_same_name(tmp_path):
+    situation_file = tmp_path / "one.yaml"
+    situations.save_situations(situation_file, situations.sphere_grid()[4:5])
+    out = tmp_path / "bags"
+    arguments = ["--situations-file", str(situation_file), "--out", str(out), "--duration", "1.0"]
+    record_cli.main(arguments)  # a 1 s demonstration does not grasp (status 1), but it is recorded
+    first = (out / "sphere_grid_04.mcap").stat().st_ino
+    assert record_cli.main(arguments) == 2  # the folder is not empty any more
+    record_cli.main(arguments + ["--overwrite"])
+    assert sorted(p.name for p in out.iterdir()) == ["sphere_grid_04.mcap"]  # no sphere_grid_04_1.mcap copy
+    assert (out / "sphere_grid_04.mcap").stat().st_ino != first
+    assert bags.bag_info(out / "sphere_grid_04.mcap").complete
+
+
+def test_a_bag_the_recorder_cannot_write_is_reported_not_taken_for_a_success(tmp_path):
+    (tmp_path / "sphere_grid_04.mcap").mkdir()  # in the way of the bag, which overwrite may not replace
+    rows = demonstrate_all(situations.sphere_grid()[4:5], tmp_path, 0.125, 1.0, progress=False, overwrite=True)
+    (_, result, path), = rows
+    assert path is None and not result.success
+    assert result.message == (f"not recorded: bag {tmp_path / 'sphere_grid_04.mcap'} exists already; "
+                              "refusing to overwrite it")

@@ -4,6 +4,7 @@ the tric-train and tric-analyze commands, on three recorded sphere demonstration
 import contextlib
 import io
 import math
+import shutil
 
 import numpy as np
 import pytest
@@ -108,6 +109,7 @@ def test_bad_requests_are_refused_and_write_nothing(ros_context, spin, bag_dir, 
     listener = spin(TrainerNode(context=ros_context), ProgressListener(ros_context))[1]
     inputs = tmp_path / "inputs"
     (inputs / "empty").mkdir(parents=True)
+    (inputs / "empty.safetensors").mkdir()
     foreign = inputs / "notes.mcap"
     foreign.write_text("not a bag")
     good = sorted(bag_dir.glob("*.mcap"))[0]
@@ -131,6 +133,8 @@ def test_bad_requests_are_refused_and_write_nothing(ros_context, spin, bag_dir, 
         (train_request([bag_dir], out, model_kind="svm"), "unknown model_kind 'svm'"),
         (train_request([bag_dir], tmp_path / "model.txt"), "must end in .safetensors"),
         (train_request([bag_dir], inputs), "must end in .safetensors"),
+        (train_request([bag_dir], "/proc/x.safetensors"), "cannot be written: /proc refuses new files"),
+        (train_request([bag_dir], inputs / "empty.safetensors"), "is a folder"),
     ]
     for request, reason in refusals:
         response = call(listener, Train, "/trainer/train", request, 30.0)
@@ -139,8 +143,30 @@ def test_bad_requests_are_refused_and_write_nothing(ros_context, spin, bag_dir, 
     assert sorted(p.name for p in tmp_path.rglob("*") if p.is_file()) == ["notes.mcap", "truncated.mcap"]
     failed = lambda: [m for m in listener.messages if m.stage == "failed"]  # noqa: E731
     wait_for(lambda: len(failed()) == len(refusals), 10.0, "a 'failed' message per refusal")
-    assert [m.message for m in failed()][-1].endswith("must end in .safetensors")
+    assert [m.message for m in failed()][-1].endswith("is a folder; give a file path")
     assert {m.stage for m in listener.messages} == {"loading", "failed"}  # bad bags are found while loading
+
+
+def test_a_client_that_goes_away_leaves_the_service_usable(ros_context, spin, bag_dir, tmp_path):
+    listener = spin(TrainerNode(context=ros_context), ProgressListener(ros_context))[1]
+    leaving = Node("test_leaving_client", context=ros_context)
+    client = leaving.create_client(Train, "/trainer/train")
+    assert client.wait_for_service(timeout_sec=10.0)
+    pending = client.call_async(train_request([bag_dir], tmp_path / "abandoned.safetensors"))
+    wait_for(lambda: listener.messages, 60.0, "the first progress message")
+    client.remove_pending_request(pending)  # the caller gives up on its answer ...
+    leaving.destroy_node()                  # ... and goes away while the training runs
+    wait_for(lambda: listener.messages[-1].stage in ("done", "failed"), 120.0, "the abandoned training's end")
+
+    folder = tmp_path / "bags"
+    shutil.copytree(bag_dir, folder)
+    first = sorted(folder.glob("*.mcap"))[0]
+    part = folder / "killed.mcap.part"
+    part.write_bytes(first.read_bytes()[: first.stat().st_size // 2])
+    response = call(listener, Train, "/trainer/train", train_request([folder], tmp_path / "next.safetensors"), 120.0)
+    assert response.success, response.message
+    assert f"skipped {part}: an unfinished recording" in response.message
+    assert (tmp_path / "abandoned.safetensors").is_file()  # the abandoned training finished its work
 
 
 def test_dpl_kinds_are_routed_to_dpl_training(ros_context, spin, bag_dir, tmp_path):

@@ -60,7 +60,6 @@ from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.task import Future
-from rcl_interfaces.msg import ParameterDescriptor
 from sensor_msgs.msg import JointState
 from tric_msgs.action import Execute
 from tric_msgs.msg import ControllerStatus, EpisodeEvent, ObjectPoses, Situation as SituationMsg
@@ -72,6 +71,7 @@ from tric_sim import messages
 from tric_sim.collision import Proximity
 from tric_sim.lockstep import StateStream, command_msg, run_in_thread
 from tric_sim.node_main import run_node
+from tric_sim.parameters import AT_LEAST_ONE, POSITIVE, Range, declare
 from tric_sim.robot_model import RobotModel
 
 from tric_control.episode import DEFAULT_MAX_STEPS, EpisodeRunner
@@ -145,23 +145,13 @@ class ControllerNode(Node):
 
     def __init__(self, **kwargs):
         super().__init__("controller", **kwargs)
-        self.task = self._parameter("task", "grasp", "the task: 'grasp' or 'open_box'")
-        model_path = self._parameter("model_path", "", "a model file to load at start (empty: none)")
-        self.mode = self._parameter("mode", "lockstep", "'lockstep' (answer every joint state) or 'realtime'")
-        rate = self._parameter("control_rate_hz", 100.0, "control ticks per second")
-        self.max_steps = self._parameter("max_steps", DEFAULT_MAX_STEPS, "an episode's default step budget")
-        self.state_timeout = self._parameter(
-            "state_timeout_s", 10.0, "wall seconds without joint states before an episode aborts")
-        if self.task not in TASK_LANDMARKS:
-            raise ValueError(f"parameter task must be one of {', '.join(TASK_LANDMARKS)}, got '{self.task}'")
-        if self.mode not in MODES:
-            raise ValueError(f"parameter mode must be 'lockstep' or 'realtime', got '{self.mode}'")
-        if not (math.isfinite(rate) and 1.0 <= rate <= 1000.0):
-            raise ValueError(f"parameter control_rate_hz must be in [1, 1000], got {rate:g}")
-        if self.max_steps < 1:
-            raise ValueError(f"parameter max_steps must be at least 1, got {self.max_steps}")
-        if not (math.isfinite(self.state_timeout) and self.state_timeout > 0):
-            raise ValueError(f"parameter state_timeout_s must be positive, got {self.state_timeout:g}")
+        self.task = declare(self, "task", "grasp", "the task models must match", tuple(TASK_LANDMARKS))
+        model_path = declare(self, "model_path", "", "a model file to load at start (empty: none)")
+        self.mode = declare(self, "mode", "lockstep", "answer every joint state, or tick on a timer", MODES)
+        rate = declare(self, "control_rate_hz", 100.0, "control ticks per second", Range(1.0, 1000.0))
+        self.max_steps = declare(self, "max_steps", DEFAULT_MAX_STEPS, "an episode's default step budget", AT_LEAST_ONE)
+        self.state_timeout = declare(self, "state_timeout_s", 10.0,
+                                     "wall seconds without joint states before an episode aborts", POSITIVE)
         self.period = 1.0 / rate
         self.period_ns = int(round(1e9 / rate))
         self.robot = RobotModel()
@@ -195,22 +185,6 @@ class ControllerNode(Node):
         self.get_logger().info(
             f"controller for '{self.task}' in {self.mode} mode at {rate:g} Hz; model: "
             + (f"{self.model.path} ({self.model.kind})" if self.model else "none (call ~/load_model)"))
-
-    def _parameter(self, name, default, description):
-        """Declare a parameter; its value converted to the default's type, or ValueError."""
-        value = self.declare_parameter(
-            name, default, ParameterDescriptor(description=description, dynamic_typing=True)).value
-        kind = type(default)
-        if kind is str:
-            ok = isinstance(value, str)
-        elif isinstance(value, bool) or not isinstance(value, (int, float)):
-            ok = False
-        else:
-            ok = kind is float or float(value).is_integer()
-        if not ok:
-            what = {str: "a string", int: "an integer", float: "a number"}[kind]
-            raise ValueError(f"parameter {name} must be {what}, got {value!r}")
-        return kind(value)
 
     def destroy_node(self):
         self._stop.set()

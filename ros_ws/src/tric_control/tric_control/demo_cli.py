@@ -41,6 +41,7 @@ from tric_control.evaluate_cli import evaluate  # noqa: E402
 from tric_control.evaluation import GOOD_GRASP, report, summarize, write_json  # noqa: E402
 from tric_learning.record_cli import demonstrate_all, private_domain_id  # noqa: E402
 from tric_learning.training import TrainingConfig, train_from_bags  # noqa: E402
+from tric_sim.output_files import atomic_path, check_output_folder  # noqa: E402
 from tric_sim.robot_model import RobotModel  # noqa: E402
 from tric_sim.situations import dataset  # noqa: E402
 from tric_sim.visualizer_node import add_view_arguments, open_view  # noqa: E402
@@ -107,10 +108,12 @@ def plot(teacher, tric, snapshot: pathlib.Path, out: pathlib.Path):
     axis.set_title("Table 1: grasping a sphere at unseen positions")
     axis.legend()
     figure.tight_layout()
-    figure.savefig(out / "demo.png", dpi=110)
+    with atomic_path(out / "demo.png") as temporary:
+        figure.savefig(temporary, dpi=110)
     plt.close(figure)
     if snapshot.is_file():
-        shutil.copy(snapshot, out / "demo_grasp.png")
+        with atomic_path(out / "demo_grasp.png") as temporary:
+            shutil.copy(snapshot, temporary)
 
 
 def main(argv=None) -> int:
@@ -131,7 +134,11 @@ def main(argv=None) -> int:
         print("tric-demo: --viz shows one graph: the evaluations run with --jobs 1", file=sys.stderr)
         args.jobs = 1
     started = time.monotonic()
-    out = pathlib.Path(args.out)
+    try:
+        out = check_output_folder(args.out, "--out folder")
+    except ValueError as error:
+        print(f"tric-demo: {error}", file=sys.stderr)
+        return 2
     work = out / "demo"
     work.mkdir(parents=True, exist_ok=True)
     domain_id = private_domain_id()

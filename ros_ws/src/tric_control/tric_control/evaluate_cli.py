@@ -11,7 +11,8 @@ then the simulator judges the final state with the hidden metrics (/simulator/ev
 the lift test for grasps). Prints a table, and writes the per-episode records and their summary to
 the --json file. DATASET is a built-in data set (sphere_test, cylinder_test, obstacle_test,
 box_test, ...); any YAML/JSON situations file of one task works too. --snapshots DIR writes a PNG
-of each final state (before the lift test). The nodes run in a private DDS domain unless --domain-id
+of each final state (before the lift test). The --json file and the --snapshots folder are checked
+before the first episode, and written atomically. The nodes run in a private DDS domain unless --domain-id
 names one. --jobs N runs N such graphs at once, each in a worker process of its own on its own
 domain (the base one and the N - 1 above it), the situations shared out one at a time; the records
 keep the situations' order. --offline runs the same episodes without nodes: the controller core (or
@@ -55,6 +56,7 @@ from tric_control.offline import evaluate_offline  # noqa: E402
 from tric_learning.record_cli import InProcessGraph, private_domain_id, wait  # noqa: E402
 from tric_learning.recorder_node import RecorderNode  # noqa: E402
 from tric_sim import messages  # noqa: E402
+from tric_sim.output_files import atomic_path, check_output_file, check_output_folder  # noqa: E402
 from tric_sim.simulator_node import IN_PROCESS_LOCKSTEP_TIMEOUT_S, SimulatorNode  # noqa: E402
 from tric_sim.situations import DATASETS, dataset, load_situations  # noqa: E402
 from tric_sim.teacher_node import TeacherNode  # noqa: E402
@@ -236,8 +238,8 @@ class Evaluator:
         answer = self._call(self.render_scene, RenderScene.Request(width=480, height=360), "a snapshot")
         if answer.success:
             image = np.frombuffer(bytes(answer.image.data), dtype=np.uint8)
-            path.parent.mkdir(parents=True, exist_ok=True)
-            plt.imsave(path, image.reshape(answer.image.height, answer.image.width, 3))
+            with atomic_path(path) as temporary:
+                plt.imsave(temporary, image.reshape(answer.image.height, answer.image.width, 3))
 
 
 def evaluate(situations, model=None, max_steps: int = 0, snapshots=None, progress=True, desc="evaluating",
@@ -365,7 +367,12 @@ def main(argv=None) -> int:
     try:
         situations = load_situations(args.situations_file) if args.situations_file else dataset(args.dataset)
         if args.model and not pathlib.Path(args.model).is_file():
-            raise ValueError(f"model file {args.model} does not exist")
+            raise ValueError(f"model file {args.model} "
+                             + ("is a folder" if pathlib.Path(args.model).is_dir() else "does not exist"))
+        if args.json:
+            check_output_file(args.json, what="--json file")
+        if args.snapshots:
+            check_output_folder(args.snapshots, "--snapshots folder")
         model = None if args.teacher else args.model
         if args.offline:
             records = evaluate_offline(situations, model, args.max_steps, args.snapshots, jobs=args.jobs)

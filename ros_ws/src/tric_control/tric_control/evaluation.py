@@ -15,6 +15,8 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
+from tric_sim.output_files import write_text_atomic
+
 #: A grasp is good below this cost (the paper's convention); a box is open beyond this lid angle, rad.
 GOOD_GRASP = 0.25
 OPEN_LID = 0.3
@@ -156,8 +158,5 @@ def report(records) -> dict:
 
 
 def write_json(path, data: dict) -> pathlib.Path:
-    """Write data to path as strict JSON (NaN and inf as null); the path."""
-    path = pathlib.Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps(_json_safe(data), indent=2) + "\n")
-    return path
+    """Write data to path as strict JSON (NaN and inf as null), atomically; the path."""
+    return write_text_atomic(path, json.dumps(_json_safe(data), indent=2) + "\n")

@@ -50,6 +50,7 @@ from tric_learning.recording import load_dataset  # noqa: E402
 from tric_learning.model_file import ModelFile  # noqa: E402
 from tric_learning.training import MIN_STEP, SELECTED_FRACTION, TrainingConfig, train, train_from_bags  # noqa: E402
 from tric_sim import situations  # noqa: E402
+from tric_sim.output_files import atomic_path, check_output_folder, write_text_atomic  # noqa: E402
 from tric_sim.robot_model import RobotModel  # noqa: E402
 
 BAGS = pathlib.Path("bags")
@@ -635,7 +636,7 @@ def write_report(out: pathlib.Path) -> pathlib.Path:
         lines += [f"![{name}]({figure})" for figure in data.get("figures", [f"{name}.png"])]
         lines += ["", f"Run {data['date']} in {data['wall_s']:.0f} s.", ""]
     path = out / "REPORT.md"
-    path.write_text("\n".join(lines))
+    write_text_atomic(path, "\n".join(lines))
     return path
 
 
@@ -656,7 +657,11 @@ def main(argv=None) -> int:
     unknown = [name for name in args.names if name not in EXPERIMENTS]
     if unknown:
         parser.error(f"unknown experiment(s) {', '.join(unknown)} (known: {', '.join(EXPERIMENTS)})")
-    out = pathlib.Path(args.out)
+    try:
+        out = check_output_folder(args.out, "--out folder")
+    except ValueError as error:
+        print(f"tric-experiments: {error}", file=sys.stderr)
+        return 2
     runner = Runner(out, args.jobs)
     for name in args.names or list(EXPERIMENTS):
         print(f"\n=== {name}: {EXPERIMENTS[name].__doc__.splitlines()[0]}", flush=True)
@@ -668,7 +673,8 @@ def main(argv=None) -> int:
             return 2
         if "figure" in result:  # one matplotlib figure, for out/<name>.png; else the experiment wrote its "figures"
             result["figure"].tight_layout()
-            result["figure"].savefig(out / f"{name}.png", dpi=110)
+            with atomic_path(out / f"{name}.png") as temporary:
+                result["figure"].savefig(temporary, dpi=110)
             plt.close(result.pop("figure"))
         result.update(date=time.strftime("%Y-%m-%d %H:%M"), wall_s=time.monotonic() - started)
         write_json(out / f"{name}.json", result)

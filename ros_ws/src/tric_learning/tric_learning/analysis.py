@@ -52,6 +52,7 @@ from tric_learning.recording import load_dataset
 from tric_learning.training import MIN_STEP, SELECTED_FRACTION
 from tric_learning.value_function import ValueFunction
 from tric_sim.collision import SceneCollision
+from tric_sim.output_files import atomic_path, check_output_folder
 from tric_sim.robot_model import RobotModel
 
 PROG = "tric-analyze"
@@ -168,7 +169,8 @@ def plot_values(curves: list, names: list, path: pathlib.Path) -> pathlib.Path:
     axes.grid(alpha=0.3)
     mappable = ScalarMappable(cmap=colours, norm=Normalize(0, max(len(curves) - 1, 1)))
     figure.colorbar(mappable, ax=axes, label="demonstration")
-    figure.savefig(path, dpi=120)
+    with atomic_path(path) as temporary:
+        figure.savefig(temporary, dpi=120)
     return path
 
 
@@ -194,7 +196,8 @@ def plot_cosines(cosines: np.ndarray, moving: np.ndarray, path: pathlib.Path) ->
     mean_axes.set_ylabel("mean over demos")
     mean_axes.grid(alpha=0.3)
     mean_axes.legend()
-    figure.savefig(path, dpi=120)
+    with atomic_path(path) as temporary:
+        figure.savefig(temporary, dpi=120)
     return path
 
 
@@ -222,7 +225,8 @@ def plot_gradients(mean_gradient: np.ndarray, model: ValueFunction, feature_name
     line_axes.set_ylabel("df/dy")
     line_axes.grid(alpha=0.3)
     line_axes.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
-    figure.savefig(path, dpi=120)
+    with atomic_path(path) as temporary:
+        figure.savefig(temporary, dpi=120)
     return path
 
 
@@ -247,7 +251,8 @@ def plot_scores(ranked: list, path: pathlib.Path, top: int) -> pathlib.Path:
     top_axes.invert_yaxis()
     top_axes.set_xlabel("score s(y)")
     top_axes.set_title(f"top {len(shown)}")
-    figure.savefig(path, dpi=120)
+    with atomic_path(path) as temporary:
+        figure.savefig(temporary, dpi=120)
     return path
 
 
@@ -611,6 +616,7 @@ def main(argv=None) -> int:
             raise ValueError("--top must be at least 1")
         if args.feature_rank < 1:
             raise ValueError("--feature-rank must be at least 1")
+        check_output_folder(args.out, "--out folder")
         robot = RobotModel()
         dataset = load_dataset(args.bags, robot)
         model = value_function(ModelFile.load(args.model, expected=dataset.definition))

@@ -279,14 +279,15 @@ class BagWriter:
     """
 
     def __init__(self, path: str | os.PathLike, custom_data: Mapping[str, str] | None = None,
-                 chunk_size: int = DEFAULT_CHUNK_SIZE):
+                 chunk_size: int = DEFAULT_CHUNK_SIZE, overwrite: bool = False):
         """path: the finished bag's file; custom_data: rosbag2 custom_data (str -> str), also
-        settable later with set_custom_data(); chunk_size: uncompressed bytes per chunk at most."""
+        settable later with set_custom_data(); chunk_size: uncompressed bytes per chunk at most;
+        overwrite: replace a bag at path on close() (else a bag there is refused at once)."""
         self.path = Path(path)
         if self.path.suffix != BAG_SUFFIX:
             raise ValueError(f"bag path {self.path} must end in '{BAG_SUFFIX}' "
                              "(ros2 bag tells the storage plugin by it)")
-        if self.path.exists():
+        if self.path.exists() and not (overwrite and self.path.is_file()):
             raise FileExistsError(f"bag {self.path} exists already; refusing to overwrite it")
         self.part_path = self.path.with_name(self.path.name + PART_SUFFIX)
         self._state = "open"
@@ -594,7 +595,7 @@ def _refusal(path: Path) -> ValueError:
 
 
 def _strict_error(damage: _Damage) -> ValueError:
-    return ValueError(f"{damage} (an unfinished recording?); tolerant=True reads them")
+    return ValueError(f"{damage} (an unfinished recording?); tric-train --tolerant reads those")
 
 
 def _check_type(path: Path, topic: str, type_name: str, expected: Mapping[str, Any]) -> None:

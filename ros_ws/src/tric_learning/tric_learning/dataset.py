@@ -21,6 +21,7 @@ class Demo:
     q: (T, n) joint positions, rad. y: (T, d) features. jacobians: (T, d, n) dy/dq.
     object_poses: T dicts {object name: (position, xyzw)} the features were computed with.
     stamps_ns: (T,) simulated time of each sample. metrics: the teacher's outcome (plain dict).
+    bag: the file it was read from ("" when it was not read from a bag).
     """
 
     name: str
@@ -32,6 +33,7 @@ class Demo:
     stamps_ns: np.ndarray
     metrics: dict = field(default_factory=dict)
     source: str = ""
+    bag: str = ""
 
     @property
     def length(self) -> int:
@@ -51,7 +53,7 @@ class Dataset:
             raise ValueError("the dataset holds no demonstrations")
         n, d = len(self.definition.joint_names), self.definition.size
         for demo in self.demos:
-            where = f"demo '{demo.name}'"
+            where = f"demo '{demo.name}'" + (f" (bag {demo.bag})" if demo.bag else "")
             if demo.length < 3:
                 raise ValueError(f"{where} has {demo.length} samples; at least 3 are needed")
             for key, shape in (("q", (demo.length, n)), ("y", (demo.length, d)),
@@ -66,8 +68,9 @@ class Dataset:
             if np.any(np.diff(demo.stamps_ns) <= 0):
                 raise ValueError(f"{where}: sample stamps are not increasing")
         names = [demo.name for demo in self.demos]
-        if len(set(names)) != len(names):
-            raise ValueError("two demonstrations share a name")
+        twice = sorted({name for name in names if names.count(name) > 1})
+        if twice:
+            raise ValueError(f"demonstration names occur twice: {', '.join(twice)}")
         return self
 
     @property

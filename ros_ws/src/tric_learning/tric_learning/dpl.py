@@ -183,18 +183,20 @@ def train_dpl(dataset: Dataset, robot: RobotModel, config: DplConfig = DplConfig
 
 
 def train_dpl_from_bags(paths, output_path, config: DplConfig, robot: RobotModel, progress=None, *,
-                        kind: str) -> BagTraining:
+                        kind: str, include_failed: bool = False, tolerant: bool = False,
+                        notice=None) -> BagTraining:
     """As training.train_from_bags (the same arguments, then the kind), for a DPL kind: every input
     is checked before anything is written (a bad bag, value, kind or path raises ValueError and
     leaves no file). progress(stage, fraction, losses) with the stages "loading", "optimizing" and
     "saving"."""
     config.validate()
     check_kind(kind)
-    files = bag_paths(paths)
+    files = bag_paths(paths, tolerant, notice)
     path = model_output_path(output_path, files[0])
     report = progress or (lambda *_: None)
     report("loading", 0.0, None)
-    dataset = load_dataset(files, robot, lambda done, total: report("loading", done / total, None))
+    dataset = load_dataset(files, robot, lambda done, total: report("loading", done / total, None),
+                           include_failed=include_failed, tolerant=tolerant, notice=notice)
     result = train_dpl(dataset, robot, config, kind, report)
     report("saving", 0.0, result.losses)
     to_model_file(result, dataset).save(path)

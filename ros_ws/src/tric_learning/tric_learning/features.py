@@ -95,7 +95,7 @@ class FeatureDefinition:
                              tuple(data["landmark_sources"]),
                              tuple((int(i), int(j)) for i, j in data["pairs"]),
                              tuple(data["joint_names"]), str(data["robot_model"]))
-        except (KeyError, TypeError, ValueError) as error:
+        except (KeyError, TypeError, ValueError, OverflowError) as error:
             raise ValueError(f"malformed feature definition: {error!r}") from None
         count = len(definition.landmark_names)
         if len(definition.landmark_sources) != count:

@@ -17,6 +17,7 @@ from safetensors.numpy import load_file, save_file
 
 from tric_learning.features import FeatureDefinition
 from tric_learning.value_function import Scaling, ValueFunction
+from tric_sim.output_files import atomic_path
 
 FORMAT = "tric-model"
 VERSION = 1
@@ -35,18 +36,12 @@ class ModelFile:
     def save(self, path) -> pathlib.Path:
         """Write atomically (a temporary file renamed into place; removed again if writing fails)."""
         path = pathlib.Path(path)
-        path.parent.mkdir(parents=True, exist_ok=True)
         meta = {"format": FORMAT, "version": VERSION, "kind": self.kind,
                 "definition": self.definition.to_dict(), "fingerprint": self.definition.fingerprint,
                 "info": self.info}
-        temporary = path.with_name(path.name + ".tmp")
-        try:
+        with atomic_path(path) as temporary:
             save_file({k: np.ascontiguousarray(v) for k, v in self.arrays.items()}, str(temporary),
                       metadata={"tric": json.dumps(meta)})
-            temporary.replace(path)
-        except BaseException:
-            temporary.unlink(missing_ok=True)
-            raise
         return path
 
     @classmethod
@@ -54,6 +49,8 @@ class ModelFile:
         """Read a model file; ValueError if unreadable, not a TRIC model, or (when expected is
         given) trained on another feature definition."""
         path = pathlib.Path(path)
+        if path.is_dir():
+            raise ValueError(f"model file {path} is a folder, not a model file")
         if not path.is_file():
             raise ValueError(f"model file {path} does not exist")
         try:
@@ -68,7 +65,12 @@ class ModelFile:
             raise ValueError(f"{path} has model format version {meta.get('version')}; this reads {VERSION}")
         if meta.get("kind") not in KINDS:
             raise ValueError(f"{path} holds an unknown model kind '{meta.get('kind')}'")
-        definition = FeatureDefinition.from_dict(meta["definition"])
+        try:
+            definition = FeatureDefinition.from_dict(meta.get("definition"))
+        except ValueError as error:
+            raise ValueError(f"{path}: {error}") from None
+        if not isinstance(meta.get("info", {}), dict):
+            raise ValueError(f"{path}: its 'info' metadata is not a mapping")
         if definition.fingerprint != meta.get("fingerprint"):
             raise ValueError(f"{path}: its feature definition does not match its recorded fingerprint")
         if expected is not None:
@@ -88,7 +90,10 @@ def value_function(model_file: ModelFile) -> ValueFunction:
         raise ValueError(f"the model is a '{model_file.kind}' model, not a TRIC value function")
     a = model_file.arrays
     try:
-        kept, size = a["kept"].astype(int), model_file.definition.size
+        kept, size = a["kept"], model_file.definition.size
+        if kept.ndim != 1 or not np.issubdtype(kept.dtype, np.integer):
+            raise ValueError("the model file's kept feature indices are not a list of integers")
+        kept = kept.astype(int)
         s = len(kept)
         consistent = (a["w1"].ndim == 2 and a["w1"].shape[1] == s and a["w2"].shape == (a["w1"].shape[0],)
                       and a["w3"].shape == (s,) and a["low"].shape == (s,) and a["high"].shape == (s,)

@@ -1,11 +1,12 @@
 """tric-record: record teacher demonstrations to MCAP bags, through the real nodes.
 
-    tric-record DATASET|--situations-file FILE [--out DIR] [--period S] [--duration S] [--domain-id N]
-                [--viz [--viz-port P]]
+    tric-record DATASET|--situations-file FILE [--out DIR] [--overwrite] [--period S] [--duration S]
+                [--domain-id N] [--viz [--viz-port P]]
 
 Runs the simulator (lockstep), the teacher and the recorder nodes in one process: for each situation
 the teacher demonstrates (action /teacher/demonstrate) and the recorder writes one bag
 DIR/<situation>.mcap. DATASET is a built-in data set (sphere_train, cylinder_train, box_train, ...).
+DIR must be new or empty unless --overwrite is given (then a bag of the same name is replaced).
 Prints a table of the demonstrations' outcomes; exits non-zero if any failed. --viz serves a live
 Foxglove view of the run (tric_sim.visualizer_node) on ws://127.0.0.1:P (default 8765).
 """
@@ -28,6 +29,7 @@ from tric_msgs.action import Demonstrate
 
 from tric_learning.recorder_node import RecorderNode
 from tric_sim import messages
+from tric_sim.output_files import check_output_folder
 from tric_sim.simulator_node import IN_PROCESS_LOCKSTEP_TIMEOUT_S, SimulatorNode
 from tric_sim.situations import DATASETS, dataset, load_situations
 from tric_sim.teacher_node import TeacherNode
@@ -84,10 +86,11 @@ def wait(future, timeout: float, what: str):
 
 
 def demonstrate_all(situations, out: pathlib.Path, period: float, duration: float, progress=True,
-                    domain_id: int = None, view=None):
-    """Demonstrate and record every situation; returns [(situation, result, bag path or None)].
+                    domain_id: int = None, view=None, overwrite: bool = False):
+    """Demonstrate and record every situation; returns [(situation, result, bag path or None)]
+    (None with result.message saying why, when the recorder could not write the bag).
     domain_id: the graph's DDS domain (None: the environment's); view: a FoxgloveView to show the
-    run in (None: no visualizer)."""
+    run in (None: no visualizer); overwrite: the recorder's parameter."""
     graph = InProcessGraph(domain_id)
     try:
         graph.add(SimulatorNode(context=graph.context, parameter_overrides=[
@@ -96,7 +99,8 @@ def demonstrate_all(situations, out: pathlib.Path, period: float, duration: floa
             graph.add(VisualizerNode(view=view, context=graph.context))
         graph.add(TeacherNode(context=graph.context))
         recorder = graph.add(RecorderNode(context=graph.context, parameter_overrides=[
-            Parameter("output_dir", value=str(out)), Parameter("sample_period_s", value=period)]))
+            Parameter("output_dir", value=str(out)), Parameter("sample_period_s", value=period),
+            Parameter("overwrite", value=overwrite)]))
         client_node = graph.add(Node("tric_record", context=graph.context))
         client = ActionClient(client_node, Demonstrate, "/teacher/demonstrate")
         graph.start()
@@ -106,7 +110,7 @@ def demonstrate_all(situations, out: pathlib.Path, period: float, duration: floa
         bar = tqdm(situations, desc="demonstrating", unit="demo", disable=not progress)
         for situation in bar:
             bar.set_postfix_str(situation.name)
-            done_before = len(recorder.finished)
+            done_before, failed_before = len(recorder.finished), len(recorder.failed)
             goal = Demonstrate.Goal(situation=messages.situation_to_msg(situation), episode_id=situation.name,
                                     duration=duration)
             handle = wait(client.send_goal_async(goal), 30.0, "the teacher to accept the goal")
@@ -114,9 +118,14 @@ def demonstrate_all(situations, out: pathlib.Path, period: float, duration: floa
                 raise RuntimeError(f"the teacher refused '{situation.name}'")
             result = wait(handle.get_result_async(), 600.0, f"the demonstration of '{situation.name}'").result
             deadline = time.monotonic() + 30.0
-            while len(recorder.finished) == done_before and result.success and time.monotonic() < deadline:
+            while (len(recorder.finished) == done_before and len(recorder.failed) == failed_before
+                   and result.success and time.monotonic() < deadline):
                 time.sleep(0.01)
             path = recorder.finished[-1] if len(recorder.finished) > done_before else None
+            if path is None and result.success:
+                result.success = False
+                result.message = (f"not recorded: {recorder.failed[-1][1]}" if len(recorder.failed) > failed_before
+                                  else "the recorder wrote no bag within 30 s")
             rows.append((situation, result, path))
         return rows
     finally:
@@ -127,7 +136,11 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(prog="tric-record", description=__doc__.splitlines()[0])
     parser.add_argument("dataset", nargs="?", choices=sorted(DATASETS), help="a built-in data set")
     parser.add_argument("--situations-file", help="a YAML/JSON situations file instead of DATASET")
-    parser.add_argument("--out", default="recordings", help="folder for the bags (default: recordings)")
+    parser.add_argument("--out", default="recordings",
+                        help="folder for the bags, empty or new unless --overwrite (default: recordings)")
+    parser.add_argument("--overwrite", action="store_true",
+                        help="record into a folder that holds files already: a bag of the same name is "
+                             "replaced, other files are kept")
     parser.add_argument("--period", type=float, default=0.125, help="sampling period, simulated s")
     parser.add_argument("--duration", type=float, default=0.0,
                         help="demonstration length, simulated s (default: 5 s grasps, 8 s boxes)")
@@ -138,13 +151,15 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     if bool(args.dataset) == bool(args.situations_file):
         parser.error("give either DATASET or --situations-file")
-    try:
-        situations = load_situations(args.situations_file) if args.situations_file else dataset(args.dataset)
-    except ValueError as error:
-        print(f"tric-record: {error}", file=sys.stderr)
-        return 2
     if not args.period > 0 or args.duration < 0:
         parser.error("--period must be positive and --duration not negative")
+    try:
+        situations = load_situations(args.situations_file) if args.situations_file else dataset(args.dataset)
+        out = check_output_folder(args.out, "--out", must_be_empty=not args.overwrite)
+    except ValueError as error:
+        hint = "; give --overwrite to record into it anyway" if "is not empty" in str(error) else ""
+        print(f"tric-record: {error}{hint}", file=sys.stderr)
+        return 2
     domain_id = private_domain_id() if args.domain_id is None else args.domain_id
     if not 0 <= domain_id <= 232:
         parser.error("--domain-id must be in [0, 232]")
@@ -156,8 +171,8 @@ def main(argv=None) -> int:
         return 2
     start = time.monotonic()
     try:
-        rows = demonstrate_all(situations, pathlib.Path(args.out), args.period, args.duration,
-                               domain_id=domain_id, view=view)
+        rows = demonstrate_all(situations, out, args.period, args.duration, domain_id=domain_id, view=view,
+                               overwrite=args.overwrite)
     finally:
         if view is not None:
             view.close()

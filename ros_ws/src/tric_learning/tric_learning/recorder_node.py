@@ -13,9 +13,12 @@ Each bag also carries the scene for 3D replay in Foxglove (/robot_description, /
 /scene_markers: tric_learning.scene_recording) and, when `status_topic` is set, the controller's
 status of every tick.
 
-Parameters: output_dir ("recordings"), sample_period_s (0.125), sources (["teacher"]: the episode
-sources to record), outcome_timeout_s (30), status_topic ("": none; "/controller/status" to record a
-controller's episodes with their status).
+Parameters (checked at startup: a bad one ends the node with exit status 2): output_dir
+("recordings": a folder that can be written, created if missing), sample_period_s (0.125, > 0),
+sources (["teacher"]: the episode sources to record), outcome_timeout_s (30, > 0), overwrite (false:
+an episode whose bag name is taken is written to <name>_1.mcap, ...; true: its new bag replaces the
+old one when it is finished), status_topic ("": none; "/controller/status" to record a controller's
+episodes with their status).
 """
 
 import pathlib
@@ -26,7 +29,6 @@ from collections import deque
 
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
-from rcl_interfaces.msg import ParameterDescriptor
 from sensor_msgs.msg import JointState
 from tric_msgs.msg import ControllerStatus, EpisodeEvent, ObjectPoses
 
@@ -35,6 +37,8 @@ from tric_learning.recording import SAMPLE_PERIOD, BagRecorder
 from tric_sim import messages
 from tric_sim.lockstep import TopicPoller
 from tric_sim.node_main import run_node
+from tric_sim.output_files import check_output_folder
+from tric_sim.parameters import POSITIVE, declare
 from tric_sim.robot_model import RobotModel
 
 #: Deep enough to hold a whole 5 s episode at 100 Hz should the recording thread fall behind.
@@ -45,25 +49,24 @@ BACKLOG = 20
 
 
 class RecorderNode(Node):
-    """Records episodes to bags (see the module docstring). `finished` lists the bags written."""
+    """Records episodes to bags (see the module docstring). `finished` lists the bags written,
+    `failed` the (episode id, reason) of episodes that could not be recorded."""
 
     def __init__(self, **kwargs):
         super().__init__("recorder", **kwargs)
-        describe = lambda text: ParameterDescriptor(description=text)  # noqa: E731
-        self.output_dir = pathlib.Path(self.declare_parameter(
-            "output_dir", "recordings", describe("folder the bags are written to")).value)
-        self.period = float(self.declare_parameter(
-            "sample_period_s", SAMPLE_PERIOD, describe("simulated seconds between samples")).value)
-        self.sources = list(self.declare_parameter(
-            "sources", ["teacher"], describe("episode sources to record")).value)
-        self.outcome_timeout = float(self.declare_parameter(
-            "outcome_timeout_s", 30.0, describe("wall seconds to wait for an ended episode's outcome")).value)
-        self.status_topic = str(self.declare_parameter(
-            "status_topic", "", describe("the controller's status topic to record (empty: none)")).value)
-        if not self.period > 0 or not self.outcome_timeout > 0:
-            raise ValueError("sample_period_s and outcome_timeout_s must be positive")
+        self.output_dir = check_output_folder(
+            declare(self, "output_dir", "recordings", "folder the bags are written to"), "parameter output_dir")
+        self.period = declare(self, "sample_period_s", SAMPLE_PERIOD, "simulated seconds between samples", POSITIVE)
+        self.sources = declare(self, "sources", ["teacher"], "episode sources to record")
+        self.outcome_timeout = declare(self, "outcome_timeout_s", 30.0,
+                                       "wall seconds to wait for an ended episode's outcome", POSITIVE)
+        self.overwrite = declare(self, "overwrite", False,
+                                 "replace a bag of the same name (false: add a numbered copy beside it)")
+        self.status_topic = declare(self, "status_topic", "",
+                                    "the controller's status topic to record (empty: none)")
         self.robot = RobotModel()
         self.finished = []
+        self.failed = []
         self._lock = threading.Lock()
         self._recorder = None
         self._ended_at = None
@@ -153,13 +156,12 @@ class RecorderNode(Node):
     def _start(self, event):
         try:
             situation = messages.situation_from_msg(event.situation, self.robot.n_joints)
-        except ValueError as error:
-            self.get_logger().error(f"episode '{event.episode_id}' not recorded: {error}")
+            path = self._free_path(event.episode_id or situation.name)
+            self._recorder = BagRecorder(path, self.robot, situation, event.episode_id, event.source, event,
+                                         self.period, self.status_topic, overwrite=self.overwrite)
+        except (ValueError, OSError) as error:
+            self._failed(event.episode_id, str(error))
             return
-        self.output_dir.mkdir(parents=True, exist_ok=True)
-        path = self._free_path(event.episode_id or situation.name)
-        self._recorder = BagRecorder(path, self.robot, situation, event.episode_id, event.source, event,
-                                     self.period, self.status_topic)
         self._episode_id = event.episode_id
         self._ended_at = None
         self._outcome = None
@@ -167,17 +169,29 @@ class RecorderNode(Node):
             self._write(kind, msg)
 
     def _free_path(self, name: str) -> pathlib.Path:
+        """The bag path for an episode name: <name>.mcap, or with overwrite false and that name
+        taken, the first free <name>_<k>.mcap."""
         safe = "".join(c if c.isalnum() or c in "-_." else "_" for c in name) or "episode"
         path, k = self.output_dir / f"{safe}{bags.BAG_SUFFIX}", 1
-        while path.exists() or path.with_name(path.name + bags.PART_SUFFIX).exists():
+        while not self.overwrite and (path.exists() or path.with_name(path.name + bags.PART_SUFFIX).exists()):
             path, k = self.output_dir / f"{safe}_{k}{bags.BAG_SUFFIX}", k + 1
         return path
 
     def _close(self, outcome):
         recorder, self._recorder, self._outcome = self._recorder, None, None
-        path = recorder.finish(outcome)
+        try:
+            path = recorder.finish(outcome)
+        except OSError as error:
+            recorder.abort()
+            self._failed(self._episode_id, f"its bag could not be finished: {error}")
+            return
         self.finished.append(path)
         self.get_logger().info(f"wrote {path} ({len(recorder.sampler.samples)} samples)")
+
+    def _failed(self, episode_id: str, reason: str):
+        """An episode that could not be recorded: logged and kept in `failed` as (episode id, reason)."""
+        self.failed.append((episode_id, reason))
+        self.get_logger().error(f"episode '{episode_id}' not recorded: {reason}")
 
     def _check_outcome_timeout(self):
         with self._lock:

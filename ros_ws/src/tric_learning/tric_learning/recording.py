@@ -19,6 +19,7 @@ tric.fingerprint and, once known, tric.outcome (the metrics as JSON).
 """
 
 import json
+import logging
 import pathlib
 from dataclasses import dataclass
 
@@ -46,6 +47,7 @@ TOPIC_TYPES = {DEFINITION_TOPIC: FeatureDefinitionMsg, SITUATION_TOPIC: Situatio
 
 #: Default sampling period of demonstrations, s (the paper's 125 ms).
 SAMPLE_PERIOD = 0.125
+_log = logging.getLogger(__name__)
 
 
 @dataclass
@@ -136,14 +138,16 @@ class BagRecorder:
     """Writes one episode into one bag (see the module docstring) as its messages come.
 
     The bag is written to "<path>.part" and renamed to path when the episode's outcome arrives
-    (finish()); abort() deletes it. Every sample is flushed, so a recorder killed mid-episode leaves
-    a readable ".part" with everything up to the last sample. A sample is written once a later state
-    shows it is inside the episode: the episode's last state (stamped with END, which no command
-    answered) is not a sample, so 5 s at 125 ms give the paper's T = 40.
+    (finish()), replacing a bag there only if overwrite; abort() deletes it. Every sample is
+    flushed, so a recorder killed mid-episode leaves a readable ".part" with everything up to the
+    last sample. A sample is written once a later state shows it is inside the episode: the
+    episode's last state (stamped with END, which no command answered) is not a sample, so 5 s at
+    125 ms give the paper's T = 40.
     """
 
     def __init__(self, path, robot: RobotModel, situation, episode_id: str, source: str,
-                 start_event: EpisodeEvent, period: float = SAMPLE_PERIOD, status_topic: str = ""):
+                 start_event: EpisodeEvent, period: float = SAMPLE_PERIOD, status_topic: str = "",
+                 overwrite: bool = False):
         """status_topic: also record the controller's status from this topic (empty: none)."""
         self.definition = FeatureDefinition.for_task(situation.task, robot)
         self.sampler = EpisodeSampler(FeatureMap(self.definition, robot), period)
@@ -154,7 +158,8 @@ class BagRecorder:
         self.pending = None
         self.writer = bags.BagWriter(path, {"tric.episode_id": episode_id, "tric.source": source,
                                             "tric.task": situation.task,
-                                            "tric.fingerprint": self.definition.fingerprint})
+                                            "tric.fingerprint": self.definition.fingerprint},
+                                      overwrite=overwrite)
         for topic, msg_type in TOPIC_TYPES.items():
             self.writer.add_topic(topic, msg_type, latched=topic in (DEFINITION_TOPIC, SITUATION_TOPIC))
         start_ns = messages.time_ns(start_event.header.stamp)
@@ -231,15 +236,25 @@ class BagRecorder:
         self.writer.discard()
 
 
-def bag_paths(paths) -> list:
-    """The .mcap files among paths (files, or folders whose *.mcap files are taken in name order);
-    ValueError for a path that does not exist or holds no bag."""
+def bag_paths(paths, tolerant: bool = False, notice=None) -> list:
+    """The bags among paths: files, or folders whose *.mcap files are taken in name order; with
+    tolerant, a folder's unfinished *.mcap.part files too. Each .part file left out is named through
+    notice(text) (default: logged as a warning). ValueError for a path that does not exist or
+    holds no bag."""
+    notice = notice or _log.warning
     found = []
     for path in map(pathlib.Path, paths):
         if path.is_dir():
             inside = sorted(path.glob("*" + bags.BAG_SUFFIX))
+            unfinished = sorted(path.glob("*" + bags.BAG_SUFFIX + bags.PART_SUFFIX))
+            if tolerant:
+                inside = sorted(inside + unfinished)
+            else:
+                for part in unfinished:
+                    notice(f"skipped {part}: an unfinished recording (tric-train --tolerant reads it)")
             if not inside:
-                raise ValueError(f"{path} holds no {bags.BAG_SUFFIX} bags")
+                raise ValueError(f"{path} holds no {bags.BAG_SUFFIX} bags"
+                                 + (f" (only {len(unfinished)} unfinished .part files)" if unfinished else ""))
             found += inside
         elif path.is_file():
             found.append(path)
@@ -250,14 +265,20 @@ def bag_paths(paths) -> list:
     return found
 
 
-def load_dataset(paths, robot: RobotModel = None, progress=None) -> Dataset:
+def load_dataset(paths, robot: RobotModel = None, progress=None, *, include_failed: bool = False,
+                 tolerant: bool = False, notice=None) -> Dataset:
     """A Dataset of the demonstrations in the bags at paths (see bag_paths). Every bag must be a
-    finished TRIC recording of the same feature definition, on this robot; anything else is
-    refused with a ValueError that names the bag and the problem. progress(done, total) after each."""
-    files = bag_paths(paths)
-    definition, demos = None, []
+    TRIC recording of the same feature definition, on this robot, of a demonstration that succeeded
+    by its recorded outcome (include_failed: of any outcome, or none); anything else is refused
+    with a ValueError that names the bags and the problem. tolerant: unfinished and damaged bags
+    are read up to their damage instead of refused. Bags skipped, read tolerantly or taken despite
+    their outcome are named through notice(text) (default: logged as a warning). progress(done,
+    total) after each bag."""
+    notice = notice or _log.warning
+    files = bag_paths(paths, tolerant, notice)
+    definition, demos, failed, origin = None, [], [], {}
     for k, path in enumerate(files):
-        demo, bag_definition = _load_demo(path)
+        demo, bag_definition = _load_demo(path, tolerant, notice)
         if definition is None:
             definition = bag_definition
             if robot is not None:
@@ -270,17 +291,43 @@ def load_dataset(paths, robot: RobotModel = None, progress=None) -> Dataset:
                 definition.check_same(bag_definition, f"bag {path}")
             except ValueError as error:
                 raise ValueError(f"{error}; the first bag was {files[0]}") from None
+        if demo.name in origin:
+            raise ValueError(f"bags {origin[demo.name]} and {path} both hold the demonstration '{demo.name}' "
+                             "(recorded twice into one folder?); give only one of them")
+        origin[demo.name] = path
+        outcome = _outcome_problem(demo.metrics)
+        if outcome:
+            failed.append(f"{path} ({outcome})")
         demos.append(demo)
         if progress is not None:
             progress(k + 1, len(files))
+    if failed and not include_failed:
+        raise ValueError(f"{len(failed)} of {len(files)} bags are not successful demonstrations: "
+                         f"{'; '.join(failed)}. Leave them out, or include them on purpose "
+                         "(tric-train --include-failed)")
+    for entry in failed:
+        notice(f"included {entry}, as include_failed asks")
     try:
         return Dataset(definition, demos).check()
     except ValueError as error:
         raise ValueError(f"the bags do not make a dataset: {error}") from None
 
 
-def _load_demo(path: pathlib.Path):
-    info = bags.bag_info(path)
+def _outcome_problem(metrics: dict) -> str:
+    """Why a demonstration's recorded outcome (its metrics) is not a success; "" when it is one."""
+    if not metrics:
+        return "no recorded outcome"
+    if metrics.get("success") is True:
+        return ""
+    details = [f"{key.replace('_', ' ')} {metrics[key]:.3g}" for key in ("grasp_cost", "lid_angle")
+               if isinstance(metrics.get(key), (int, float)) and not isinstance(metrics.get(key), bool)]
+    return "failed" + (f": {', '.join(details)}" if details else "")
+
+
+def _load_demo(path: pathlib.Path, tolerant: bool = False, notice=None):
+    info = bags.bag_info(path, tolerant=tolerant)
+    if not info.complete and notice is not None:
+        notice(f"reading {path} up to its end or damage: it is not a finished bag")
     if SAMPLES_TOPIC not in info.topics or DEFINITION_TOPIC not in info.topics:
         raise ValueError(f"bag {path} is not a TRIC demonstration (no {SAMPLES_TOPIC} or {DEFINITION_TOPIC})")
     definition = situation = None
@@ -288,7 +335,7 @@ def _load_demo(path: pathlib.Path):
     expected = {DEFINITION_TOPIC: FeatureDefinitionMsg, SITUATION_TOPIC: SituationMsg,
                 SAMPLES_TOPIC: FeatureSample, "/episode": EpisodeEvent}
     try:
-        for message in bags.read_bag(path, topics=list(expected), expected_types=expected):
+        for message in bags.read_bag(path, topics=list(expected), expected_types=expected, tolerant=tolerant):
             if message.topic == DEFINITION_TOPIC:
                 definition = definition_from_msg(message.message)
             elif message.topic == SITUATION_TOPIC:
@@ -308,7 +355,14 @@ def _load_demo(path: pathlib.Path):
         raise ValueError(f"bag {path} has {len(samples)} samples; a demonstration needs at least 3")
     stamps, qs, ys, jacobians, poses = zip(*samples)
     name = info.custom_data.get("tric.episode_id", path.stem)
+    if not metrics and "tric.outcome" in info.custom_data:
+        try:
+            metrics = json.loads(info.custom_data["tric.outcome"])
+        except json.JSONDecodeError:
+            raise ValueError(f"bag {path}: its recorded outcome is not JSON") from None
+        if not isinstance(metrics, dict):
+            raise ValueError(f"bag {path}: its recorded outcome is not a mapping")
     demo = Demo(name=name, situation=situation, q=np.array(qs), y=np.array(ys), jacobians=np.array(jacobians),
                 object_poses=list(poses), stamps_ns=np.array(stamps, dtype=np.int64), metrics=metrics,
-                source=source)
+                source=source, bag=str(path))
     return demo, definition

@@ -8,6 +8,7 @@ so they are drawn once per training, reproducibly from a seed. Units: rad.
 """
 
 import multiprocessing
+import signal
 from dataclasses import dataclass
 
 import numpy as np
@@ -77,7 +78,7 @@ def generate(dataset: Dataset, robot: RobotModel, count: int, sigma: float, seed
         global _JOB
         _JOB = job
         try:
-            with multiprocessing.get_context("fork").Pool(workers) as pool:
+            with worker_pool(workers) as pool:
                 for done, (i, result) in enumerate(pool.imap_unordered(_forked_demo, range(len(dataset.demos)))):
                     results[i] = result
                     if progress is not None:
@@ -99,6 +100,19 @@ def generate(dataset: Dataset, robot: RobotModel, count: int, sigma: float, seed
 
 
 _JOB = None
+
+
+def worker_pool(workers: int):
+    """A pool of `workers` forked processes in which SIGTERM and SIGINT act as by default. A worker
+    forked from a process where rclpy.init() installed its signal handlers (every node executable)
+    would otherwise ignore the SIGTERM with which the pool may end it (rclpy's handler only wakes a
+    thread that the fork did not copy), and the pool's exit, so the training, would wait for ever."""
+    return multiprocessing.get_context("fork").Pool(workers, initializer=_default_signal_handling)
+
+
+def _default_signal_handling():
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    signal.signal(signal.SIGINT, signal.default_int_handler)
 
 
 def _forked_demo(index: int):
@@ -142,6 +156,10 @@ def _demo_samples(dataset: Dataset, robot: RobotModel, index: int, count: int, s
                 chosen_step.append(np.full(len(mine), step))
         t = end
     qs, steps = np.concatenate(chosen_q), np.concatenate(chosen_step)
+    if not len(qs):
+        raise ValueError(f"demo '{demo.name}'" + (f" (bag {demo.bag})" if demo.bag else "")
+                         + f": none of its noisy samples (sigma {sigma:g} rad) is inside the joint limits and "
+                         "free of collisions; its robot may start in contact with the scene")
     order = np.argsort(steps, kind="stable")
     qs, steps = qs[order], steps[order]
     ys = features.batch(qs, [demo.object_poses[s - 1] for s in steps])

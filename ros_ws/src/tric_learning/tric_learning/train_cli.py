@@ -2,13 +2,16 @@
 
     tric-train BAGS... [--kind {tric,dpl_joint,dpl_finger}] [--out MODEL] [--hidden-units K]
                [--noisy-samples M] [--sigma RAD] [--alpha-n A] [--alpha-g A] [--alpha-w A] [--l2 W]
-               [--iterations N] [--correlation-threshold C] [--seed S]
+               [--iterations N] [--correlation-threshold C] [--seed S] [--include-failed] [--tolerant]
 
 BAGS are MCAP bags written by tric-record or the recorder node, or folders of them. MODEL defaults to
 model.safetensors next to the first bag; the hyper-parameters default to the paper's (Sec. 5.2).
 --kind dpl_joint / dpl_finger trains the DPL baseline instead (tric_learning.dpl, Sec. 5.3.2): it
 takes --hidden-units, --l2, --iterations, --correlation-threshold and --seed; the other
 hyper-parameters are TRIC's and ignored.
+Bags whose recorded outcome is a failure are refused unless --include-failed; damaged and unfinished
+(.part) bags unless --tolerant, which reads them up to their damage (a folder's .part files are
+skipped without it). Every bag skipped, read tolerantly or included despite its outcome is named.
 Shows the progress of loading, sampling and optimization (with the loss terms), then a summary.
 Exit status 0 on success, 2 when a bag, value or path is refused (one line on stderr, nothing
 written), 130 when interrupted.
@@ -93,6 +96,10 @@ def parse_arguments(argv):
                         help="drop features correlated above this with an earlier one, in (0, 1] (default %(default)s)")
     parser.add_argument("--seed", metavar="S", type=int, default=defaults.seed,
                         help="seed of the noisy samples and initial weights (default %(default)s)")
+    parser.add_argument("--include-failed", action="store_true",
+                        help="train on demonstrations whose recorded outcome is a failure too")
+    parser.add_argument("--tolerant", action="store_true",
+                        help="read unfinished (.part) and damaged bags up to their damage")
     parser.add_argument("--quiet", action="store_true", help="no progress bars")
     return parser.parse_args(argv)
 
@@ -150,9 +157,11 @@ def main(argv=None) -> int:
         job = train_from_bags
     try:
         config.validate()
-        bars = StageBars(len(bag_paths(args.bags)), config.max_iterations, enabled=not args.quiet)
+        bars = StageBars(len(bag_paths(args.bags, args.tolerant, notice=lambda _: None)), config.max_iterations,
+                         enabled=not args.quiet)
         try:
-            run = job(args.bags, args.out, config, RobotModel(), bars)
+            run = job(args.bags, args.out, config, RobotModel(), bars, include_failed=args.include_failed,
+                      tolerant=args.tolerant, notice=lambda text: tqdm.write(f"{PROG}: {text}", file=sys.stderr))
         finally:
             bars.close()
     except (ValueError, OSError) as error:

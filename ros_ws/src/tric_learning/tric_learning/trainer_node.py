@@ -7,16 +7,20 @@ Services:
 - ~/train (tric_msgs/srv/Train): bags + hyper-parameters -> model file, final loss terms, kept and
   selected feature counts, times. Refused with success false and a message saying why (nothing is
   written) when the model kind is unknown, a hyper-parameter is out of range (see
-  training.TrainingConfig, dpl.DplConfig), a bag path does not exist or is not a finished TRIC recording of the
-  same feature definition as the others, or the output path is not a writable .safetensors path.
-  Request fields are taken as given (the .srv's defaults are the paper's), except hidden_units -1
-  (the kind's default: 30 for tric, 60 for DPL) and an empty output_path (model.safetensors next to
-  the first bag); so 0 is a value: hidden_units 0 is the linear model, noisy_samples 0 is refused. The
-  DPL kinds ("dpl_joint", "dpl_finger": Sec. 5.3.2) take hidden_units, max_iterations,
-  correlation_threshold and seed (the others are TRIC's and ignored; the L2 weight is DplConfig's);
-  their answer has loss_total = the minimized least-squares objective, loss_n, loss_g, loss_w NaN,
-  selected_features 0 and the training MSE in the message. The training runs in a worker thread
-  while the executor keeps spinning; a request that comes meanwhile is answered at once with success
+  training.TrainingConfig, dpl.DplConfig), a bag path does not exist or is not a finished TRIC
+  recording of the same feature definition as the others, a bag's recorded outcome is a failure
+  (unless include_failed), or the output path is not a writable .safetensors path. tolerant reads
+  unfinished (.part) and damaged bags up to their damage; without it a folder's .part files are
+  skipped. The answer's message names every bag skipped, read tolerantly or included despite its
+  outcome. Request fields are taken as given (the .srv's defaults are the paper's), except
+  hidden_units -1 (the kind's default: 30 for tric, 60 for DPL) and an empty output_path
+  (model.safetensors next to the first bag); so 0 is a value: hidden_units 0 is the linear model,
+  noisy_samples 0 is refused. The DPL kinds ("dpl_joint", "dpl_finger": Sec. 5.3.2) take
+  hidden_units, max_iterations, correlation_threshold and seed (the others are TRIC's and ignored;
+  the L2 weight is DplConfig's); their answer has loss_total = the minimized least-squares
+  objective, loss_n, loss_g, loss_w NaN, selected_features 0 and the training MSE in the message.
+  The training runs in a worker thread while the executor keeps spinning; a request that comes
+  meanwhile is answered at once with success
   false and a message starting "busy".
 
 Topics:
@@ -37,7 +41,6 @@ import time
 
 from rclpy.callback_groups import ReentrantCallbackGroup
 from rclpy.node import Node
-from rcl_interfaces.msg import ParameterDescriptor
 from tric_msgs.msg import TrainingProgress
 from tric_msgs.srv import Train
 
@@ -47,6 +50,7 @@ from tric_learning.training import TrainingConfig, train_from_bags
 from tric_sim import messages
 from tric_sim.lockstep import run_in_thread
 from tric_sim.node_main import run_node
+from tric_sim.parameters import NOT_NEGATIVE, declare
 from tric_sim.robot_model import RobotModel
 
 #: Overall progress spanned by each stage of a training: (start, end) fractions.
@@ -79,11 +83,8 @@ class TrainerNode(Node):
 
     def __init__(self, **kwargs):
         super().__init__("trainer", **kwargs)
-        self.progress_period = float(self.declare_parameter(
-            "progress_period_s", 0.2, ParameterDescriptor(
-                description="least wall seconds between two progress messages of a stage")).value)
-        if not self.progress_period >= 0:
-            raise ValueError("progress_period_s must be >= 0")
+        self.progress_period = declare(self, "progress_period_s", 0.2,
+                                       "least wall seconds between two progress messages of a stage", NOT_NEGATIVE)
         self.robot = RobotModel()
         self._busy = threading.Lock()
         self._last_report = (None, 0.0)  # (stage, monotonic time) of the last progress message
@@ -105,10 +106,13 @@ class TrainerNode(Node):
     async def _train(self, request: Train.Request, response: Train.Response) -> Train.Response:
         start = time.monotonic()
         self._last_report = (None, 0.0)
+        notes = []
         try:
             config = training_config(request)
             job = (train_from_bags if request.model_kind == "tric"
                    else functools.partial(train_dpl_from_bags, kind=request.model_kind))
+            job = functools.partial(job, include_failed=request.include_failed, tolerant=request.tolerant,
+                                    notice=functools.partial(self._notice, notes))
             run = await run_in_thread(self, job, list(request.bag_paths), request.output_path,
                                       config, self.robot, functools.partial(self._report, config.max_iterations))
         except (ValueError, OSError) as error:
@@ -136,10 +140,18 @@ class TrainerNode(Node):
             response.message = (f"{request.model_kind} {summary}: training MSE {losses['mse']:.3g} per output "
                                 f"(mean |error| {losses['mean_abs_error']:.3g}), {response.input_features} "
                                 f"features kept; wrote {run.path}")
+        if notes:
+            response.message += f" ({'; '.join(notes)})"
         self._publish("done", 1.0, losses, message=response.message, iteration=result.iterations,
                       max_iterations=config.max_iterations)
         self.get_logger().info(response.message)
         return response
+
+    def _notice(self, notes: list, text: str) -> None:
+        """What the dataset loader names (skipped, tolerantly read or included bags): logged, and
+        kept for the answer."""
+        notes.append(text)
+        self.get_logger().warning(text)
 
     def _fail(self, response: Train.Response, message: str) -> Train.Response:
         response.success, response.message = False, message

@@ -17,7 +17,6 @@ train_from_bags() is the whole job that the trainer node and tric-train share: b
 train() -> model file.
 """
 
-import os
 import pathlib
 import time
 from dataclasses import asdict, dataclass
@@ -30,6 +29,7 @@ from tric_learning import model_file, samples
 from tric_learning.dataset import Dataset
 from tric_learning.recording import bag_paths, load_dataset
 from tric_learning.value_function import Scaling, ValueFunction
+from tric_sim.output_files import check_output_file
 from tric_sim.robot_model import RobotModel
 
 #: A demonstration step (between two samples) shorter than this has no direction for L_g: the hand
@@ -161,28 +161,23 @@ def model_output_path(output_path, first_bag: pathlib.Path) -> pathlib.Path:
     """Where the model goes: output_path, or DEFAULT_MODEL_NAME next to first_bag when output_path
     is empty; ValueError if it is not a writable .safetensors file path."""
     path = pathlib.Path(output_path) if output_path else first_bag.parent / DEFAULT_MODEL_NAME
-    if path.suffix != MODEL_SUFFIX:
-        raise ValueError(f"the model path {path} must end in {MODEL_SUFFIX}")
-    if path.is_dir():
-        raise ValueError(f"the model path {path} is a folder")
-    existing = next(parent for parent in path.absolute().parents if parent.exists())
-    if not existing.is_dir() or not os.access(existing, os.W_OK | os.X_OK):
-        raise ValueError(f"the model path {path} cannot be written ({existing} is not a writable folder)")
-    return path
+    return check_output_file(path, (MODEL_SUFFIX,), "the model path")
 
 
-def train_from_bags(paths, output_path, config: TrainingConfig, robot: RobotModel, progress=None) -> BagTraining:
-    """Load the demonstrations in the bags at paths (files or folders, see recording.bag_paths),
-    train on them and write the model file to output_path (see model_output_path). Every input is
-    checked before anything is written: a bad bag, value or path raises ValueError and leaves no
-    file. progress(stage, fraction, losses) as in train(), with the stages "loading" and "saving"
-    before and after it."""
+def train_from_bags(paths, output_path, config: TrainingConfig, robot: RobotModel, progress=None, *,
+                    include_failed: bool = False, tolerant: bool = False, notice=None) -> BagTraining:
+    """Load the demonstrations in the bags at paths (files or folders, see recording.load_dataset
+    for include_failed, tolerant and notice), train on them and write the model file to output_path
+    (see model_output_path). Every input is checked before anything is written: a bad bag, value
+    or path raises ValueError and leaves no file. progress(stage, fraction, losses) as in train(),
+    with the stages "loading" and "saving" before and after it."""
     config.validate()
-    files = bag_paths(paths)
+    files = bag_paths(paths, tolerant, notice)
     path = model_output_path(output_path, files[0])
     report = progress or (lambda *_: None)
     report("loading", 0.0, None)
-    dataset = load_dataset(files, robot, lambda done, total: report("loading", done / total, None))
+    dataset = load_dataset(files, robot, lambda done, total: report("loading", done / total, None),
+                           include_failed=include_failed, tolerant=tolerant, notice=notice)
     result = train(dataset, robot, config, report)
     report("saving", 0.0, result.losses)
     model_file.from_training(result, dataset).save(path)

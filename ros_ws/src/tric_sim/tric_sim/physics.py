@@ -136,8 +136,9 @@ class PhysicsWorld:
     def reset(self, situation: Situation) -> None:
         """Replace the scene by the situation's and put the robot at its initial configuration.
         The clock advances by one control period, so that the new scene's first state is stamped
-        after every state of the previous one (subscribers tell the scenes apart by stamp)."""
-        situation.validate(self.robot.n_joints)
+        after every state of the previous one (subscribers tell the scenes apart by stamp).
+        ValueError for an invalid or physically impossible situation (situations.check_scene)."""
+        situation.validate(self.robot.n_joints, self.robot)
         q0 = (self.robot.check_configuration(situation.initial_joint_positions, "initial_joint_positions")
               if situation.initial_joint_positions else self.robot.home.copy())
         self.release_object()

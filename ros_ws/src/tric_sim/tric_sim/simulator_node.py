@@ -26,7 +26,6 @@ from rclpy.callback_groups import MutuallyExclusiveCallbackGroup
 from rclpy.event_handler import PublisherEventCallbacks
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
-from rcl_interfaces.msg import ParameterDescriptor
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import Image, JointState
 from tric_msgs.msg import ObjectPoses, Situation as SituationMsg
@@ -35,6 +34,7 @@ from tric_msgs.srv import EvaluateTask, RenderScene, ResetScene
 from tric_sim import messages, metrics
 from tric_sim.lockstep import TopicPoller
 from tric_sim.node_main import run_node
+from tric_sim.parameters import POSITIVE, Range, declare
 from tric_sim.physics import PhysicsWorld
 from tric_sim.robot_model import RobotModel
 from tric_sim.situations import find_situation
@@ -54,21 +54,17 @@ class SimulatorNode(Node):
 
     def __init__(self, **kwargs):
         super().__init__("simulator", **kwargs)
-        self.mode = self._parameter("mode", "realtime", "'realtime' or 'lockstep'")
-        if self.mode not in ("realtime", "lockstep"):
-            raise ValueError(f"parameter mode must be 'realtime' or 'lockstep', got '{self.mode}'")
-        control_rate = self._parameter("control_rate_hz", 100.0, "control periods per second")
-        physics_rate = self._parameter("physics_rate_hz", 300.0,
-                                       "physics steps per second (>= 240, a multiple of the control rate)")
-        iterations = self._parameter("solver_iterations", 10, "constraint-solver iterations per step")
-        gui = self._parameter("gui", False, "open the PyBullet GUI (needs a display)")
-        self.lockstep_timeout = self._parameter(
-            "lockstep_timeout_s", 1.0, "lockstep: wall seconds to wait for a command before stepping anyway")
-        situation_name = self._parameter("situation", "sphere_test_00", "initial situation's name")
-        situations_file = self._parameter("situations_file", "",
-                                          "YAML/JSON situations file to find `situation` in; empty: built-in sets")
-        if self.lockstep_timeout <= 0:
-            raise ValueError("parameter lockstep_timeout_s must be positive")
+        self.mode = declare(self, "mode", "realtime", "how the simulation advances", ("realtime", "lockstep"))
+        control_rate = declare(self, "control_rate_hz", 100.0, "control periods per second", Range(1.0, 1000.0))
+        physics_rate = declare(self, "physics_rate_hz", 300.0,
+                               "physics steps per second (a multiple of the control rate)", Range(240.0, 100000.0))
+        iterations = declare(self, "solver_iterations", 10, "constraint-solver iterations per step", Range(1, 1000))
+        gui = declare(self, "gui", False, "open the PyBullet GUI (needs a display)")
+        self.lockstep_timeout = declare(self, "lockstep_timeout_s", 1.0,
+                                        "lockstep: wall seconds to wait for a command before stepping anyway", POSITIVE)
+        situation_name = declare(self, "situation", "sphere_test_00", "initial situation's name")
+        situations_file = declare(self, "situations_file", "",
+                                  "YAML/JSON situations file to find `situation` in; empty: built-in sets")
 
         self.robot = RobotModel()
         self.world = PhysicsWorld(self.robot, physics_rate, control_rate, iterations, gui)
@@ -110,19 +106,6 @@ class SimulatorNode(Node):
         self.get_logger().info(
             f"simulating '{self.world.situation.name}' in {self.mode} mode: control "
             f"{control_rate:g} Hz, physics {physics_rate:g} Hz ({self.world.substeps} substeps)")
-
-    def _parameter(self, name, default, description):
-        """Declare a parameter; its value converted to the default's type, or ValueError."""
-        value = self.declare_parameter(
-            name, default, ParameterDescriptor(description=description, dynamic_typing=True)).value
-        try:
-            if isinstance(default, bool):
-                if not isinstance(value, bool):
-                    raise TypeError
-                return value
-            return type(default)(value)
-        except (TypeError, ValueError):
-            raise ValueError(f"parameter {name} must be a {type(default).__name__}, got {value!r}") from None
 
     def destroy_node(self):
         self._stop.set()

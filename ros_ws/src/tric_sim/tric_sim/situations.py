@@ -13,6 +13,8 @@ from dataclasses import MISSING, asdict, dataclass, fields, replace
 import numpy as np
 import yaml
 
+from tric_sim.output_files import write_text_atomic
+
 #: Object kinds each task accepts.
 TASK_OBJECTS = {"grasp": ("sphere", "cylinder"), "open_box": ("box",)}
 #: Number of dimensions each shape takes: sphere (radius), cylinder (height, radius), box.
@@ -34,6 +36,8 @@ BOX_YAW = 0.4
 #: Workspace in which any object or obstacle centre must lie (a sanity bound, m).
 WORKSPACE_LOW = np.array([-0.2, -0.8, -0.05])
 WORKSPACE_HIGH = np.array([1.2, 0.8, 1.2])
+#: How deep the object may reach into the table top, m (a box stands on it, touching it exactly).
+TABLE_TOLERANCE = 1e-3
 
 IDENTITY = (0.0, 0.0, 0.0, 1.0)
 
@@ -63,14 +67,15 @@ class Situation:
     initial_joint_positions: tuple = ()
     seed: int = 0
 
-    def validate(self, n_joints: int = 14) -> "Situation":
-        """Return self, or raise ValueError naming the first problem."""
+    def validate(self, n_joints: int = 14, robot=None) -> "Situation":
+        """Return self, or raise ValueError naming the first problem. With a robot
+        (tric_sim.robot_model.RobotModel), the scene is checked against it too (see check_scene)."""
         where = f"situation '{self.name}'"
         if not self.name or not isinstance(self.name, str):
             raise ValueError("a situation needs a non-empty name")
-        if self.task not in TASK_OBJECTS:
+        if not isinstance(self.task, str) or self.task not in TASK_OBJECTS:
             raise ValueError(f"{where}: unknown task '{self.task}' (known: {', '.join(TASK_OBJECTS)})")
-        if self.object_kind not in TASK_OBJECTS[self.task]:
+        if not isinstance(self.object_kind, str) or self.object_kind not in TASK_OBJECTS[self.task]:
             raise ValueError(f"{where}: object kind '{self.object_kind}' does not fit task "
                              f"'{self.task}' (expected one of {', '.join(TASK_OBJECTS[self.task])})")
         _check_vector(self.object_dimensions, OBJECT_DIMENSIONS[self.object_kind],
@@ -78,7 +83,7 @@ class Situation:
         _check_position(self.object_position, f"{where}: object_position")
         _check_quaternion(self.object_orientation, f"{where}: object_orientation")
         for k, obstacle in enumerate(self.obstacles):
-            if obstacle.shape not in OBSTACLE_DIMENSIONS:
+            if not isinstance(obstacle.shape, str) or obstacle.shape not in OBSTACLE_DIMENSIONS:
                 raise ValueError(f"{where}: obstacle {k} has unknown shape '{obstacle.shape}'")
             _check_vector(obstacle.dimensions, OBSTACLE_DIMENSIONS[obstacle.shape],
                           f"{where}: obstacle {k} dimensions", positive=True)
@@ -86,8 +91,10 @@ class Situation:
             _check_quaternion(obstacle.orientation, f"{where}: obstacle {k} orientation")
         if self.initial_joint_positions:
             _check_vector(self.initial_joint_positions, n_joints, f"{where}: initial_joint_positions")
-        if not (isinstance(self.seed, int) and 0 <= self.seed < 2**32):
+        if not (isinstance(self.seed, int) and not isinstance(self.seed, bool) and 0 <= self.seed < 2**32):
             raise ValueError(f"{where}: seed must be an integer in [0, 2^32)")
+        if robot is not None:
+            check_scene(self, robot)
         return self
 
     def to_dict(self) -> dict:
@@ -120,9 +127,53 @@ class Situation:
         return cls(**values).validate()
 
 
+def check_scene(situation: Situation, robot) -> Situation:
+    """situation, or ValueError if it cannot physically be: its object (or the box's lid) reaching
+    into the table by more than TABLE_TOLERANCE, or its object, lid or an obstacle intersecting the
+    robot (any link, its base too) in its initial configuration (initial_joint_positions, else the
+    robot's home). robot: a tric_sim.robot_model.RobotModel."""
+    # imported here: tric_sim.scene and tric_sim.collision import this module
+    import coal
+    import pinocchio as pin
+
+    from tric_sim.collision import coal_shape
+    from tric_sim.scene import lid_geometry_offset, scene_bodies, se3
+
+    where = f"situation '{situation.name}'"
+    q = np.asarray(situation.initial_joint_positions or robot.home, dtype=float)
+    data, geometry_data = robot.model.createData(), pin.GeometryData(robot.collision_model)
+    pin.updateGeometryPlacements(robot.model, data, robot.collision_model, geometry_data, q)
+    robot_parts = [(robot.model.frames[g.parentFrame].name, g.geometry, placement) for g, placement
+                   in zip(robot.collision_model.geometryObjects, geometry_data.oMg)]
+    table, *bodies = scene_bodies(situation)
+    table_shape, table_placement = coal_shape(table.shape, table.dimensions), se3(table.position, table.orientation)
+
+    def distance(shape, placement, other_shape, other_placement) -> float:
+        return coal.distance(shape, coal.Transform3s(placement.rotation, placement.translation),
+                             other_shape, coal.Transform3s(other_placement.rotation, other_placement.translation),
+                             coal.DistanceRequest(), coal.DistanceResult())
+
+    for body in bodies:
+        what = body.name.replace("_", " ") if body.role == "obstacle" else f"the {body.name}"
+        shape, placement = coal_shape(body.shape, body.dimensions), se3(body.position, body.orientation)
+        if body.role == "lid":
+            placement = placement * lid_geometry_offset(situation.object_dimensions[0])
+        if body.role != "obstacle":
+            depth = -distance(shape, placement, table_shape, table_placement)
+            if depth > TABLE_TOLERANCE:
+                raise ValueError(f"{where}: {what} ({body.shape}) reaches {depth * 100:.1f} cm into the table")
+        for link, robot_shape, robot_placement in robot_parts:
+            if distance(shape, placement, robot_shape, robot_placement) < 0.0:
+                raise ValueError(f"{where}: {what} ({body.shape}) intersects the robot's {link} in its "
+                                 "initial configuration")
+    return situation
+
+
 def _obstacle_from_dict(data) -> Obstacle:
-    if not isinstance(data, dict) or set(data) - {f.name for f in fields(Obstacle)}:
-        raise ValueError(f"bad obstacle entry {data!r}")
+    known = {f.name for f in fields(Obstacle)}
+    if not isinstance(data, dict) or set(data) - known or not {"shape", "dimensions", "position"} <= set(data):
+        raise ValueError(f"bad obstacle entry {data!r} (expected the keys shape, dimensions, position and "
+                         "optionally orientation)")
     return Obstacle(shape=data["shape"], dimensions=tuple(float(v) for v in data["dimensions"]),
                     position=tuple(float(v) for v in data["position"]),
                     orientation=tuple(float(v) for v in data.get("orientation", IDENTITY)))
@@ -139,9 +190,12 @@ def _plain(value):
 
 
 def _check_vector(values, size, what, positive=False):
-    array = np.asarray(values, dtype=float)
+    try:
+        array = np.asarray(values, dtype=float)
+    except (TypeError, ValueError):
+        raise ValueError(f"{what} must be {size} number(s), got {values!r}") from None
     if array.shape != (size,):
-        raise ValueError(f"{what} must have {size} value(s), got {len(values)}")
+        raise ValueError(f"{what} must have {size} value(s), got {array.size}")
     if not np.all(np.isfinite(array)):
         raise ValueError(f"{what} has non-finite values")
     if positive and np.any(array <= 0):
@@ -167,15 +221,13 @@ def save_situations(path, situations) -> None:
     """Write situations to a .yaml/.yml or .json file as {"situations": [...]}."""
     path = pathlib.Path(path)
     data = {"situations": [s.to_dict() for s in situations]}
-    path.parent.mkdir(parents=True, exist_ok=True)
-    if path.suffix == ".json":
-        path.write_text(json.dumps(data, indent=1) + "\n")
-    else:
-        path.write_text(yaml.safe_dump(data, sort_keys=False))
+    write_text_atomic(path, json.dumps(data, indent=1) + "\n" if path.suffix == ".json"
+                      else yaml.safe_dump(data, sort_keys=False))
 
 
-def load_situations(path) -> list:
-    """Read a situations file (YAML or JSON, a list or {"situations": [...]}); each is validated."""
+def load_situations(path, robot=None) -> list:
+    """Read a situations file (YAML or JSON, a list or {"situations": [...]}); each is validated and
+    its scene checked against robot (check_scene; default: a new RobotModel)."""
     path = pathlib.Path(path)
     try:
         text = path.read_text()
@@ -194,6 +246,12 @@ def load_situations(path) -> list:
     names = [s.name for s in situations]
     if len(set(names)) != len(names):
         raise ValueError(f"{path}: situation names must be unique")
+    if robot is None:
+        from tric_sim.robot_model import RobotModel  # Pinocchio's model: only when a file is read
+
+        robot = RobotModel()
+    for situation in situations:
+        check_scene(situation, robot)
     return situations
 
 

@@ -11,7 +11,6 @@ the demonstration side by side, with their times.
 """
 
 import argparse
-import pathlib
 import sys
 
 import matplotlib
@@ -19,6 +18,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
+from tric_sim.output_files import atomic_path, check_output_folder  # noqa: E402
 from tric_sim.physics import PhysicsWorld  # noqa: E402
 from tric_sim.robot_model import RobotModel  # noqa: E402
 from tric_sim.situations import find_situation  # noqa: E402
@@ -63,11 +63,10 @@ def main(argv=None) -> int:
         parser.error("--strip takes 2 to 12 frames")
     try:
         chosen = [find_situation(name, args.situations_file) for name in args.situations]
+        out = check_output_folder(args.out, "--out folder")
     except ValueError as error:
         print(f"tric-snapshot: {error}", file=sys.stderr)
         return 2
-    out = pathlib.Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
     robot = RobotModel()
     world = PhysicsWorld(robot)
     try:
@@ -75,14 +74,16 @@ def main(argv=None) -> int:
             if args.strip:
                 path = out / f"{situation.name}_strip.png"
                 figure = demonstration_strip(world, robot, situation, args.strip, args.size)
-                figure.savefig(path, dpi=100)
+                with atomic_path(path) as temporary:
+                    figure.savefig(temporary, dpi=100)
                 plt.close(figure)
                 print(path)
                 continue
             world.reset(situation)
             world.step()
             path = out / f"{situation.name}.png"
-            plt.imsave(path, world.render(*args.size))
+            with atomic_path(path) as temporary:
+                plt.imsave(temporary, world.render(*args.size))
             print(path)
     finally:
         world.close()

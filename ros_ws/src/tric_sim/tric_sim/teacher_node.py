@@ -14,7 +14,6 @@ import threading
 from rclpy.action import ActionServer, CancelResponse, GoalResponse
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
-from rcl_interfaces.msg import ParameterDescriptor
 from sensor_msgs.msg import JointState
 from tric_msgs.action import Demonstrate
 from tric_msgs.msg import EpisodeEvent
@@ -23,6 +22,7 @@ from tric_msgs.srv import EvaluateTask, ResetScene
 from tric_sim import messages
 from tric_sim.lockstep import StateStream, command_msg, run_in_thread
 from tric_sim.node_main import run_node
+from tric_sim.parameters import POSITIVE, declare
 from tric_sim.robot_model import RobotModel
 from tric_sim.teachers import DEFAULT_DURATION, make_teacher
 
@@ -39,11 +39,9 @@ class TeacherNode(Node):
 
     def __init__(self, **kwargs):
         super().__init__("teacher", **kwargs)
-        simulator = self.declare_parameter(
-            "simulator", "/simulator", ParameterDescriptor(description="the simulator node's name")).value
-        self.state_timeout = float(self.declare_parameter(
-            "state_timeout_s", 10.0,
-            ParameterDescriptor(description="wall seconds without joint states before a goal aborts")).value)
+        simulator = declare(self, "simulator", "/simulator", "the simulator node's name")
+        self.state_timeout = declare(self, "state_timeout_s", 10.0,
+                                     "wall seconds without joint states before a goal aborts", POSITIVE)
         self.robot = RobotModel()
         self.command_pub = self.create_publisher(JointState, "/joint_command", STATE_QOS)
         self.episode_pub = self.create_publisher(EpisodeEvent, "/episode", EVENT_QOS)

@@ -1,0 +1,143 @@
+"""Fail before work, never after: output paths checked and written atomically; situations that
+cannot physically be refused; generated (fuzzed) situation data refused clearly or accepted."""
+
+import math
+
+import pytest
+import yaml
+from hypothesis import HealthCheck, event, given, settings, strategies as st
+
+from tric_sim import situations as S
+from tric_sim.output_files import atomic_path, check_output_file, check_output_folder, write_text_atomic
+from tric_sim.physics import PhysicsWorld
+from tric_sim.robot_model import RobotModel
+
+
+@pytest.fixture(scope="module")
+def robot():
+    return RobotModel()
+
+
+def test_output_file_checks_name_the_problem_and_create_nothing(tmp_path):
+    (tmp_path / "folder.json").mkdir()
+    (tmp_path / "plain").write_text("x")
+    refusals = {
+        tmp_path / "folder.json": "is a folder",
+        tmp_path / "plain" / "out.json": "plain is a file, not a folder",
+        "/proc/x.safetensors": "/proc refuses new files",
+    }
+    for path, reason in refusals.items():
+        with pytest.raises(ValueError, match=reason):
+            check_output_file(path, what="--json file")
+    with pytest.raises(ValueError, match=r"the model path .*m\.json must end in \.safetensors"):
+        check_output_file(tmp_path / "m.json", (".safetensors",), "the model path")
+    assert check_output_file(tmp_path / "new" / "deeper" / "r.json") == tmp_path / "new" / "deeper" / "r.json"
+    assert sorted(p.name for p in tmp_path.rglob("*")) == ["folder.json", "plain"]
+
+
+def test_output_folder_checks_refuse_files_unwritable_and_non_empty_folders(tmp_path):
+    (tmp_path / "plain").write_text("x")
+    with pytest.raises(ValueError, match="plain is a file, not a folder"):
+        check_output_folder(tmp_path / "plain" / "bags")
+    with pytest.raises(ValueError, match="refuses new files"):
+        check_output_folder("/proc/bags")
+    with pytest.raises(ValueError, match=r"--out .* is not empty \(plain\)"):
+        check_output_folder(tmp_path, "--out", must_be_empty=True)
+    assert check_output_folder(tmp_path, "--out") == tmp_path
+    assert check_output_folder(tmp_path / "new", must_be_empty=True) == tmp_path / "new"
+    assert not (tmp_path / "new").exists()
+
+
+def test_atomic_writes_replace_whole_files_or_leave_the_old_one(tmp_path):
+    path = tmp_path / "sub" / "result.json"
+    write_text_atomic(path, "first\n")
+    assert path.read_text() == "first\n"
+    with pytest.raises(RuntimeError):
+        with atomic_path(path) as temporary:
+            temporary.write_text("half")
+            raise RuntimeError("the writer failed")
+    assert path.read_text() == "first\n"
+    assert [p.name for p in path.parent.iterdir()] == ["result.json"]  # no temporary left
+
+
+@pytest.mark.parametrize("situation, reason", [
+    (S.sphere("in_base", (0.0, 0.0, 0.05)), "the object \\(sphere\\) intersects the robot's base_link"),
+    (S.sphere("through_table", (0.6, 0.0, 0.1), radius=0.3), "the object \\(sphere\\) reaches 20.0 cm into the table"),
+    (S.Situation(name="sunk_box", task="open_box", object_kind="box", object_dimensions=(0.2,),
+                 object_position=(0.6, 0.0, 0.05)), "the object \\(box\\) reaches 5.0 cm into the table"),
+    (S.Situation(name="plate_in_arm", task="grasp", object_kind="sphere", object_dimensions=(0.04,),
+                 object_position=(0.6, 0.0, 0.3),
+                 obstacles=(S.Obstacle("box", (0.3, 0.3, 0.3), (0.0, 0.0, 0.4)),)),
+     "obstacle 0 \\(box\\) intersects the robot's"),
+])
+def test_physically_impossible_situations_are_refused(robot, situation, reason, tmp_path):
+    with pytest.raises(ValueError, match=f"situation '{situation.name}': {reason}"):
+        situation.validate(robot=robot)
+    path = tmp_path / "situations.yaml"
+    path.write_text(yaml.safe_dump({"situations": [situation.to_dict()]}))
+    with pytest.raises(ValueError, match=reason):
+        S.load_situations(path, robot)
+    world = PhysicsWorld(robot)
+    try:
+        with pytest.raises(ValueError, match=reason):
+            world.reset(situation)
+    finally:
+        world.close()
+
+
+def test_every_built_in_situation_is_physically_possible(robot):
+    for name in S.DATASETS:
+        for situation in S.dataset(name):
+            assert S.check_scene(situation, robot) is situation
+
+
+# --- fuzzed situation data ----------------------------------------------------------------------
+
+ANYTHING = st.recursive(st.none() | st.booleans() | st.integers() | st.floats() | st.text(max_size=8),
+                        lambda inner: st.lists(inner, max_size=4) | st.dictionaries(st.text(max_size=8), inner,
+                                                                                       max_size=4),
+                        max_leaves=8)
+NUMBER = st.floats(allow_nan=True, allow_infinity=True) | st.integers(-10**6, 10**6)
+VECTOR = st.lists(NUMBER, min_size=0, max_size=5) | ANYTHING
+FIELDS = {
+    "name": st.text(max_size=12) | ANYTHING,
+    "task": st.sampled_from(["grasp", "open_box", "juggle"]) | ANYTHING,
+    "object_kind": st.sampled_from(["sphere", "cylinder", "box", "cone"]) | ANYTHING,
+    "object_dimensions": VECTOR,
+    "object_position": VECTOR,
+    "object_orientation": VECTOR,
+    "obstacles": st.lists(st.fixed_dictionaries({}, optional={
+        "shape": st.sampled_from(["box", "sphere", "x"]) | ANYTHING, "dimensions": VECTOR, "position": VECTOR,
+        "orientation": VECTOR}), max_size=2) | ANYTHING,
+    "initial_joint_positions": VECTOR,
+    "seed": NUMBER | ANYTHING,
+}
+SITUATION_DATA = st.fixed_dictionaries({}, optional=dict(FIELDS, unknown_field=ANYTHING))
+
+
+#: A valid sphere situation with one field replaced by a generated value.
+NEAR_VALID = st.sampled_from(sorted(FIELDS)).flatmap(
+    lambda key: FIELDS[key].map(lambda value: {**S.sphere("fuzzed", (0.6, 0.1, 0.3)).to_dict(), key: value}))
+
+#: Spheres anywhere in the workspace, of any size: some inside the robot or the table.
+SPHERES = st.tuples(*(st.floats(lo, hi) for lo, hi in zip(S.WORKSPACE_LOW, S.WORKSPACE_HIGH)),
+                    st.floats(0.001, 0.8)).map(lambda v: S.sphere("fuzzed", v[:3], radius=v[3]).to_dict())
+
+
+@settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(data=SITUATION_DATA | NEAR_VALID | SPHERES)
+def test_generated_situation_data_is_refused_clearly_or_valid(robot, data):
+    try:
+        situation = S.Situation.from_dict(data)
+    except ValueError as error:
+        assert str(error)
+        event("refused")
+        return
+    assert isinstance(situation.name, str) and situation.name
+    assert all(math.isfinite(v) for v in situation.object_position + situation.object_dimensions)
+    try:
+        S.check_scene(situation, robot)
+        event("valid, physically possible")
+    except ValueError as error:
+        assert f"situation '{situation.name}'" in str(error)
+        event("valid, physically impossible")

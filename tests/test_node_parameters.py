@@ -1,0 +1,56 @@
+"""Every node checks its parameters at startup: a value of the wrong type, not finite, or out of
+range ends `ros2 run PKG NODE` with one line naming the parameter and exit status 2."""
+
+import math
+
+import pytest
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+
+from tric_control import controller_node
+from tric_learning import recorder_node, trainer_node
+from tric_sim import simulator_node, teacher_node
+from tric_sim.parameters import AT_LEAST_ONE, POSITIVE, Range, declare
+
+
+@pytest.mark.parametrize("node, assignment, message", [
+    (simulator_node, "control_rate_hz:=0.0", "simulator: parameter control_rate_hz must be in [1, 1000], got 0.0"),
+    (simulator_node, "physics_rate_hz:=.inf", "simulator: parameter physics_rate_hz must be finite, got inf"),
+    (simulator_node, "control_rate_hz:=.nan", "simulator: parameter control_rate_hz must be finite, got nan"),
+    (simulator_node, "solver_iterations:=-5", "simulator: parameter solver_iterations must be in [1, 1000], got -5"),
+    (simulator_node, "lockstep_timeout_s:=0.0", "simulator: parameter lockstep_timeout_s must be positive, got 0.0"),
+    (simulator_node, "mode:=fast", "simulator: parameter mode must be one of 'realtime', 'lockstep', got 'fast'"),
+    (teacher_node, "state_timeout_s:=-1", "teacher: parameter state_timeout_s must be positive, got -1"),
+    (recorder_node, "sample_period_s:=0.0", "recorder: parameter sample_period_s must be positive, got 0.0"),
+    (recorder_node, "outcome_timeout_s:=.inf", "recorder: parameter outcome_timeout_s must be finite, got inf"),
+    (recorder_node, "sources:=[1,2]", "recorder: parameter sources must be a list of strings, got [1, 2]"),
+    (recorder_node, "output_dir:=/proc/bags",
+     "recorder: parameter output_dir /proc/bags cannot be written: /proc refuses new files"),
+    (trainer_node, "progress_period_s:=-0.5", "trainer: parameter progress_period_s must be at least 0, got -0.5"),
+    (controller_node, "max_steps:=2.5", "controller: parameter max_steps must be an integer, got 2.5"),
+    (controller_node, "state_timeout_s:=.nan", "controller: parameter state_timeout_s must be finite, got nan"),
+])
+def test_a_bad_parameter_ends_the_node_with_one_line_and_status_2(node, assignment, message, capsys):
+    assert node.main(["node", "--ros-args", "-p", assignment]) == 2
+    error = capsys.readouterr().err
+    assert error.startswith(message) and error.count("\n") == 1, error
+
+
+def test_declare_converts_numbers_and_checks_types_and_ranges(ros_context):
+    values = {"rate": 100, "count": 3.0, "flag": True, "names": ["a"], "ratio": 0.5}
+    node = Node("parameters_test", context=ros_context,
+                parameter_overrides=[Parameter(k, value=v) for k, v in values.items()])
+    try:
+        rate = declare(node, "rate", 10.0, "a rate", POSITIVE)
+        assert rate == 100.0 and isinstance(rate, float)
+        count = declare(node, "count", 1, "a count", AT_LEAST_ONE)
+        assert count == 3 and isinstance(count, int)
+        assert declare(node, "flag", False, "a flag") is True
+        assert declare(node, "names", ["x"], "names") == ["a"]
+        with pytest.raises(ValueError, match=r"parameter ratio must be in \(0, 0.25\], got 0.5"):
+            declare(node, "ratio", 0.1, "a ratio", Range(0.0, 0.25, low_open=True))
+        assert declare(node, "default", math.pi, "unset: the default") == math.pi
+        description = node.describe_parameter("rate").description
+        assert description == "a rate (positive)"
+    finally:
+        node.destroy_node()
