@@ -132,11 +132,11 @@ def check_scene(situation: Situation, robot) -> Situation:
     into the table by more than TABLE_TOLERANCE, or its object, lid or an obstacle intersecting the
     robot (any link, its base too) in its initial configuration (initial_joint_positions, else the
     robot's home). robot: a tric_sim.robot_model.RobotModel."""
-    # imported here: tric_sim.scene and tric_sim.collision import this module
+    # imported here: tric_sim.scene and tric_sim.shapes import this module
     import coal
     import pinocchio as pin
 
-    from tric_sim.collision import coal_shape
+    from tric_sim.shapes import coal_shape
     from tric_sim.scene import lid_geometry_offset, scene_bodies, se3
 
     where = f"situation '{situation.name}'"
