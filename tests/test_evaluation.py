@@ -203,3 +203,21 @@ def test_discussions_follow_the_numbers():
     text = experiments._table4_discussion(boxes([24, 12, 25], [2, 13, 3], [9, 8, 7]))
     assert "TRIC misses the design's 23 with 1 of 3 seeds (at worst 12)" in text
     assert "A DPL variant opens as many as 13 with one seed" in text
+
+
+def test_analysis_discussion_judges_every_task_and_seed():
+    from tric_control import experiments
+
+    def numbers(cosine, falls):
+        return {"mean_cosine_moving_steps": cosine, "decreasing_share_moving_steps": falls,
+                "mean_cosine_moving_early": cosine, "mean_cosine_moving_late": cosine + 0.1, "late_from_step": 30,
+                "selected_features": 40, "kept_features": 130, "top_gradients_changing_sign": 3,
+                "top_features": [{"name": "d[object,fingertip_1]", "score": 1.0},
+                                 {"name": "p[palm->object].x", "score": 0.5}]}
+    rows = {"sphere": {0: numbers(-0.85, 0.97), 1: numbers(-0.82, 0.96), 2: numbers(-0.7, 0.97)},
+            "cylinder": {0: numbers(-0.6, 0.9), 1: numbers(-0.6, 0.9), 2: numbers(-0.6, 0.9)},
+            "box": {0: numbers(-0.81, 1.0), 1: numbers(-0.81, 1.0), 2: numbers(-0.81, 1.0)}}
+    text = experiments._analysis_discussion(rows)
+    assert "sphere: mean cosine -0.850/-0.820/-0.700" in text and "2 of 3 seeds meet" in text
+    assert "cylinder: mean cosine" in text and "0 of 3 seeds meet" in text and "box:" in text
+    assert "worse late, as in the paper" in text and "2 relate a hand landmark to the object" in text

@@ -15,8 +15,9 @@ NAME (default: all, in this order):
   table3    cylinders: the teacher, TRIC K = 0 and TRIC K = 30 (paper Table 3).
   exp4      the sphere model facing an obstacle in the approach path, never seen in training.
   table4    boxes opened out of 25: TRIC, DPL in joint space, DPL in finger space, the teacher.
-  analysis  the sphere model on its training demonstrations (paper Fig. 13, 14a, 16, 17a): f along
-            every demo, the cosines of L_g, the feature scores and the mean gradient df/dy by step.
+  analysis  the sphere, cylinder and box models on their demonstrations (paper Fig. 12-17), three
+            seeds each: f along every demo, the cosines of L_g, the collision prior, kernel PCA,
+            the feature scores and the mean gradients df/dy by step.
 
 Models are trained on the reference bags in bags/ (kept in DIR/models and re-used when present).
 Every evaluation runs --jobs (default: the number of CPUs) graphs of simulator, teacher and
@@ -548,70 +549,81 @@ def _table4_discussion(rows: dict) -> str:
     return text
 
 
+#: The analysis' tasks: the bags each model is trained on, and the model's name.
+ANALYSIS_TASKS = {"sphere": "sphere_k30", "cylinder": "cylinder_k30", "box": "box_k30"}
+#: The design's targets for the learned value along the demonstrations (design.md section 5): the
+#: mean L_g cosine over the moving steps at most, and the share of them along which f falls at least.
+COSINE_TARGET, FALLING_TARGET = -0.8, 0.95
+
+
 def model_analysis(runner: Runner, count: int) -> dict:
-    """The sphere model (K = 30) on its 27 training demonstrations: Fig. 13, 14a, 16 and 17a."""
-    dataset = load_dataset([BAGS / "sphere"], runner.robot)
-    model = model_file.value_function(ModelFile.load(runner.model("sphere_k30", "sphere"), expected=dataset.definition))
-    figures = analysis.write_figures(model, dataset, runner.out / "analysis", TOP_FEATURES)
-    numbers = analysis.key_numbers(model, dataset, TOP_FEATURES)
-    n, late = numbers["demos"], numbers["late_from_step"]
-    text = "\n".join([
-        f"f decreases on {numbers['decreasing_share_all_steps']:.1%} of the steps of the {n} demonstrations, on "
-        f"{numbers['decreasing_share_moving_steps']:.1%} of those that move (>= {MIN_STEP} rad); "
-        f"{numbers['demos_ending_lower']}/{n} demonstrations end lower than they start",
-        f"mean cosine of grad_q (f o phi) and the step: {numbers['mean_cosine_moving_steps']:.3f} over the "
-        f"{numbers['moving_steps']} steps that move ({numbers['mean_cosine_moving_early']:.3f} before step {late}, "
-        f"{numbers['mean_cosine_moving_late']:.3f} from it), {numbers['mean_cosine_all_steps']:.3f} over all steps",
-        f"features selected (score above {SELECTED_FRACTION:.0%} of the largest): {numbers['selected_features']} "
-        f"of {numbers['kept_features']} kept",
-        f"top {TOP_FEATURES} features whose mean gradient changes sign over time: "
-        f"{numbers['top_gradients_changing_sign']}",
-        "top features: " + ", ".join(f"{t['name']} {t['score']:.3g}" for t in numbers["top_features"][:8])])
-    return {**numbers, "table": text, "figures": [str(path.relative_to(runner.out)) for path in figures],
+    """The models of spheres, cylinders and boxes (three training seeds each) on their demonstrations:
+    Fig. 13, 14a, 14b, 15, 16, 17a-c (and Fig. 12 for boxes) of the seed-0 models, and for every seed
+    the share of moving steps along which f falls, the mean L_g cosine and the selected features."""
+    rows, figures = {}, []
+    for task, name in ANALYSIS_TASKS.items():
+        dataset = load_dataset([BAGS / task], runner.robot)
+        rows[task] = {}
+        for seed in SEEDS:
+            model = model_file.value_function(ModelFile.load(runner.model(name, task, seed=seed),
+                                                             expected=dataset.definition))
+            rows[task][seed] = analysis.key_numbers(model, dataset, TOP_FEATURES)
+            if seed == SEEDS[0]:
+                paths = analysis.write_figures(model, dataset, runner.out / "analysis" / task, TOP_FEATURES,
+                                               robot=runner.robot)
+                figures += [str(path.relative_to(runner.out)) for path in paths]
+    lines = [f"{'task':9s} {'seed':>4s} {'f falls (moving)':>17s} {'mean cosine':>12s} {'early':>7s} {'late':>7s} "
+             f"{'demos ending lower':>19s} {'selected':>9s}"]
+    for task, seeds in rows.items():
+        for seed, n in seeds.items():
+            lines.append(f"{task:9s} {seed:4d} {n['decreasing_share_moving_steps']:17.1%} "
+                         f"{n['mean_cosine_moving_steps']:12.3f} {n['mean_cosine_moving_early']:7.3f} "
+                         f"{n['mean_cosine_moving_late']:7.3f} {n['demos_ending_lower']:>12d}/{n['demos']:<6d} "
+                         f"{n['selected_features']:4d}/{n['kept_features']}")
+    sphere = rows["sphere"][SEEDS[0]]
+    lines.append("top features of the sphere model (seed 0): "
+                 + ", ".join(f"{t['name']} {t['score']:.3g}" for t in sphere["top_features"][:8]))
+    return {"rows": rows, "table": "\n".join(lines), "figures": figures,
             "paper": "f decreases along every demonstration (Fig. 13); most cosines near -1, worse after t > 30 "
-                     "(Fig. 14a); about 38 features selected, the top ones distances from the fingers to the "
-                     "target (Fig. 16); the mean gradients of the features change over time, the 8th one's sign "
-                     "among them (Fig. 17a)",
-            "discussion": _analysis_discussion(numbers)}
+                     "(Fig. 14a), where the collision costs rise (Fig. 14b); the goal states close together in "
+                     "the hidden layer z (Fig. 15); about 38 features selected, the top ones distances from the "
+                     "fingers to the target (Fig. 16); the mean gradients change over time, the 8th feature's "
+                     "sign among them (Fig. 17); box openings structured in the fingers' space in the box frame "
+                     "(Fig. 12)",
+            "discussion": _analysis_discussion(rows)}
 
 
 #: The paper's count of selected features (Sec. 5.5.1, Fig. 16).
 PAPER_SELECTED_FEATURES = 38
 
 
-def _analysis_discussion(numbers: dict) -> str:
-    moving, everything = numbers["decreasing_share_moving_steps"], numbers["decreasing_share_all_steps"]
-    text = (f"f falls on {moving:.0%} of the steps that move and on {everything:.0%} of all steps, and "
-            f"{numbers['demos_ending_lower']}/{numbers['demos']} demonstrations end lower than they start: "
-            + ("close to" if moving >= 0.95 else "short of") + " the paper's 'decreasing along every demonstration'. ")
-    misses_moving = (1.0 - moving) * numbers["moving_steps"]
-    misses_resting = (1.0 - everything) * numbers["steps"] - misses_moving
-    if misses_resting > misses_moving:
-        text += (f"{misses_resting:.0f} of the {misses_resting + misses_moving:.0f} steps where f does not fall are "
-                 "steps where the hand rests at the end of a demonstration, which have no direction for L_g. ")
-    cosine, early, late = (numbers[key] for key in ("mean_cosine_moving_steps", "mean_cosine_moving_early",
-                                                     "mean_cosine_moving_late"))
-    text += (f"The mean L_g cosine over the moving steps is {cosine:.2f} (the paper: most near -1): "
-             + ("as in the paper. " if cosine <= -0.8 else
-                "the gradient points against the demonstrated steps, but more loosely than in the paper. "))
+def _analysis_discussion(rows: dict) -> str:
+    parts = []
+    for task, seeds in rows.items():
+        cosines = [n["mean_cosine_moving_steps"] for n in seeds.values()]
+        falls = [n["decreasing_share_moving_steps"] for n in seeds.values()]
+        met = sum(c <= COSINE_TARGET and f >= FALLING_TARGET for c, f in zip(cosines, falls))
+        parts.append(f"{task}: mean cosine {_spread(cosines, '.3f')}, f falling on {_spread(falls, '.3f')} of the "
+                     f"moving steps; {met} of {len(cosines)} seeds meet the design's <= {COSINE_TARGET} and "
+                     f">= {FALLING_TARGET:.0%}.")
+    text = "Over the training seeds " + "/".join(map(str, SEEDS)) + ": " + " ".join(parts) + " "
+    sphere = rows["sphere"][SEEDS[0]]
+    early, late = sphere["mean_cosine_moving_early"], sphere["mean_cosine_moving_late"]
     if math.isfinite(late):
-        text += (f"From step {numbers['late_from_step']} on it is {late:.2f} against {early:.2f} before: "
-                 + ("worse late, as in the paper. " if late > early + 0.05 else
-                    "better late, unlike the paper. " if late < early - 0.05 else "about the same, unlike the paper. "))
-    selected = numbers["selected_features"]
-    text += (f"{selected} of {numbers['kept_features']} kept features score above {SELECTED_FRACTION:.0%} of the "
-             "largest: "
-             + ("close to" if PAPER_SELECTED_FEATURES / 2 <= selected <= 2 * PAPER_SELECTED_FEATURES
-                else "far more than" if selected > 2 * PAPER_SELECTED_FEATURES else "far fewer than")
-             + f" the paper's about {PAPER_SELECTED_FEATURES} (the paper does not say where it draws the line). ")
+        text += (f"On spheres (seed {SEEDS[0]}) the cosine is {late:.2f} from step {sphere['late_from_step']} on, "
+                 f"against {early:.2f} before: " + ("worse late, as in the paper. " if late > early + 0.05 else
+                                                   "better late, unlike the paper. " if late < early - 0.05 else
+                                                   "about the same, unlike the paper. "))
+    selected = [n["selected_features"] for seeds in rows.values() for n in seeds.values()]
+    text += (f"Selected features (score above {SELECTED_FRACTION:.0%} of the largest), all models: "
+             f"{min(selected)} to {max(selected)} (the paper: about {PAPER_SELECTED_FEATURES}, without saying "
+             "where it draws the line). ")
     pairs = [name[name.index("[") + 1:name.index("]")].replace("->", ",").split(",")
-             for name in (t["name"] for t in numbers["top_features"][:10])]
+             for name in (t["name"] for t in sphere["top_features"][:10])]
     to_object = sum("object" in pair for pair in pairs)
-    between_fingers = sum(all(landmark.startswith("finger") for landmark in pair) for pair in pairs)
-    text += (f"Of our top {len(pairs)}, {to_object} relate a hand landmark to the object (the paper's top ones are "
-             f"finger-to-target distances) and {between_fingers} relate two fingers, i.e. how far the hand has "
-             f"closed. {numbers['top_gradients_changing_sign']} of the top {TOP_FEATURES} features' mean gradients "
-             "change sign over time (the paper shows one that does, its 8th).")
+    text += (f"Of the sphere model's top {len(pairs)} features, {to_object} relate a hand landmark to the object "
+             f"(the paper's top ones are finger-to-target distances); {sphere['top_gradients_changing_sign']} of the "
+             f"top {TOP_FEATURES} change the sign of their mean gradient over time (the paper shows its 8th doing so).")
     return text
 
 
