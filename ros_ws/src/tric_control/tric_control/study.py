@@ -5,8 +5,10 @@
 A variant is a name and TrainingConfig fields to change from the defaults, e.g.
 `--variant balanced=per_step_weights=true,optimizer=lbfgsb,alpha_g=3` (no options: the defaults),
 and controller settings: hand_lead (rad: how far the command may lead the measured hand joints,
-motion_rate.MAX_HAND_LEAD by default), grasp_steps and box_steps (the episodes' step budgets).
-Variants that differ only in controller settings share their models.
+motion_rate.MAX_HAND_LEAD by default), grasp_steps and box_steps (the episodes' step budgets), and
+hard_negative_rounds (rounds of training again on the controller's own rollouts in the training
+situations: tric_control.hard_negatives). Variants that differ only in controller settings share
+their models.
 For each variant, seed and task, a model is trained on the reference bags of the task (the seed
 draws the noisy samples and the initial weights) and measured:
 
@@ -34,6 +36,7 @@ import time
 import numpy as np
 
 from tric_control.evaluation import GOOD_GRASP, OPEN_LID, write_json
+from tric_control.hard_negatives import train_with_hard_negatives
 from tric_control.motion_rate import MAX_LEAD
 from tric_control.offline import evaluate_offline
 from tric_learning import analysis, model_file
@@ -54,6 +57,8 @@ TASKS = {
 
 #: Controller settings a variant may change, with their types.
 CONTROLLER_OPTIONS = {"hand_lead": float, "grasp_steps": int, "box_steps": int}
+#: Training procedures beyond TrainingConfig: rounds of hard negatives (tric_control.hard_negatives).
+PROCEDURE_OPTIONS = {"hard_negative_rounds": int}
 
 
 def parse_variant(text: str):
@@ -66,10 +71,11 @@ def parse_variant(text: str):
     changes = {}
     for option in filter(None, options.split(",")):
         key, _, value = option.partition("=")
-        if (key not in fields and key not in CONTROLLER_OPTIONS) or key == "seed":
+        extras = {**CONTROLLER_OPTIONS, **PROCEDURE_OPTIONS}
+        if (key not in fields and key not in extras) or key == "seed":
             raise ValueError(f"variant '{name}': unknown option '{key}' (known: "
-                             f"{', '.join([k for k in fields if k != 'seed'] + list(CONTROLLER_OPTIONS))})")
-        kind = CONTROLLER_OPTIONS.get(key) or type(getattr(TrainingConfig(), key))
+                             f"{', '.join([k for k in fields if k != 'seed'] + list(extras))})")
+        kind = extras.get(key) or type(getattr(TrainingConfig(), key))
         if kind is bool:
             if value.lower() not in ("true", "false"):
                 raise ValueError(f"variant '{name}': {key} must be true or false")
@@ -82,12 +88,14 @@ def parse_variant(text: str):
     TrainingConfig(**training_part(changes)).validate()
     if changes.get("hand_lead", 0.0) < 0 or changes.get("grasp_steps", 1) < 1 or changes.get("box_steps", 1) < 1:
         raise ValueError(f"variant '{name}': hand_lead must be >= 0 rad and the step budgets >= 1 tick")
+    if changes.get("hard_negative_rounds", 0) < 0:
+        raise ValueError(f"variant '{name}': hard_negative_rounds must be >= 0")
     return name, changes
 
 
 def training_part(changes: dict) -> dict:
     """The TrainingConfig fields of a variant's changes."""
-    return {k: v for k, v in changes.items() if k not in CONTROLLER_OPTIONS}
+    return {k: v for k, v in changes.items() if k not in CONTROLLER_OPTIONS and k not in PROCEDURE_OPTIONS}
 
 
 def measure_set(records) -> dict:
@@ -122,10 +130,12 @@ class Study:
             self._datasets[bags] = load_dataset(bag_paths([BAGS / bags]), self.robot)
         return self._datasets[bags]
 
-    def model(self, variant: str, changes: dict, bags: str, seed: int) -> tuple:
+    def model(self, variant: str, changes: dict, bags: str, seed: int, max_steps: int) -> tuple:
         """(model path, its training record) of the variant's training options on the bags with the
-        seed, trained unless a model of the same options was (by any variant)."""
-        config = {**training_part(changes), "seed": seed}
+        seed, trained unless a model of the same options was (by any variant). Hard negatives roll
+        the controller out for max_steps ticks."""
+        rounds = changes.get("hard_negative_rounds", 0)
+        config = {**training_part(changes), "seed": seed, **({"hard_negative_rounds": rounds} if rounds else {})}
         for key, record in self.results.get("models", {}).items():
             path = self._model_path(key)
             if key.split("/")[1] == bags and record["config"] == config and path.is_file():
@@ -134,10 +144,15 @@ class Study:
         path = self._model_path(key)
         demos = self.demonstrations(bags)
         print(f"training {variant} on {BAGS / bags}, seed {seed}", flush=True)
-        result = train(demos, self.robot, TrainingConfig(**config))
+        started = time.perf_counter()
+        if rounds:
+            result = train_with_hard_negatives(demos, self.robot, TrainingConfig(**training_part(config)), rounds,
+                                               max_steps)
+        else:
+            result = train(demos, self.robot, TrainingConfig(**config))
         model_file.from_training(result, demos).save(path)
         numbers = analysis.key_numbers(result.model, demos, 20)
-        record = {"config": config, "train_s": result.train_time_s,
+        record = {"config": config, "train_s": time.perf_counter() - started,
                   "iterations": result.iterations, "losses": result.losses,
                   "falls_moving": numbers["decreasing_share_moving_steps"],
                   "cosine_moving": numbers["mean_cosine_moving_steps"],
@@ -158,7 +173,7 @@ class Study:
             lead = np.full(self.robot.n_joints, MAX_LEAD)
             lead[self.robot.hand_indices] = changes["hand_lead"]
             options["max_lead"] = lead
-        path, record = self.model(variant, changes, bags, seed)
+        path, record = self.model(variant, changes, bags, seed, max_steps)
         row = {"variant": variant, "task": task, "seed": seed, "changes": changes, "model": record, "sets": {}}
         for name in sets:
             records = evaluate_offline(dataset(name), str(path), max_steps, jobs=self.jobs,

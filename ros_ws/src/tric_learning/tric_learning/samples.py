@@ -43,6 +43,15 @@ class NoisySamples:
     kept_per_step: np.ndarray
 
 
+def joined(first: NoisySamples, second: NoisySamples) -> NoisySamples:
+    """The samples of both sets (of the same dataset), ordered by step."""
+    step = np.concatenate([first.step, second.step])
+    order = np.argsort(step, kind="stable")
+    return NoisySamples(step=step[order], y=np.concatenate([first.y, second.y])[order],
+                        weight=np.concatenate([first.weight, second.weight])[order],
+                        kept_per_step=first.kept_per_step + second.kept_per_step)
+
+
 def d_curve(points: np.ndarray, path: np.ndarray) -> np.ndarray:
     """Distance (B,) of points (B, n) to the polyline through path (P, n) (Eq. 14)."""
     if len(path) == 1:

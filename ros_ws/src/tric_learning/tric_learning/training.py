@@ -116,15 +116,19 @@ class TrainingResult:
 
 
 def train(dataset: Dataset, robot: RobotModel, config: TrainingConfig = TrainingConfig(),
-          progress=None) -> TrainingResult:
+          progress=None, extra_samples: samples.NoisySamples = None) -> TrainingResult:
     """Train f on dataset. progress(stage, fraction, losses) is called during sampling and after
-    each optimizer evaluation (losses: dict of the current terms, or None)."""
+    each optimizer evaluation (losses: dict of the current terms, or None). extra_samples: more
+    contrasts for L_n beside the noisy ones (e.g. states a learned controller visited: hard negatives),
+    each with the demonstration step it is contrasted with and its weight."""
     config.validate()
     dataset.check()
     report = progress or (lambda *_: None)
     start = time.perf_counter()
     noisy = samples.generate(dataset, robot, config.noisy_samples, config.sigma, config.seed,
                              lambda done, total: report("sampling", done / total, None))
+    if extra_samples is not None:
+        noisy = samples.joined(noisy, extra_samples)
     sampling_time = time.perf_counter() - start
     start = time.perf_counter()
     # the scaling spans everything the model is trained on: the demonstrations and the noisy samples
