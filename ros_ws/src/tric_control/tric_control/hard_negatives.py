@@ -5,8 +5,8 @@ The paper's noisy samples (Sec. 3.2.2) stand in for "all other possible motions"
 running the learned controller itself (offline, on the physics, no teacher and no hidden metric) in
 the training situations: every `every` ticks its state q becomes a contrast for L_n, paired with the
 demonstration step whose joint positions are nearest (the step the controller seems to be at) and
-weighted, like a noisy sample, by its distance d_curve to the demonstration's path ahead of that
-step (Eq. 14-15): a state on the demonstrated path costs nothing, one that strayed (the fingers
+weighted, like a noisy sample, by its distance d_curve to the demonstration's path from that step
+on (Eq. 14-15): a state on the demonstrated path costs nothing, one that strayed (the fingers
 closed before the palm arrived, say) is pushed up in f. Then f is trained again on the
 demonstrations, the noisy samples and every round's rollout states. Units: rad, ticks.
 """
@@ -47,7 +47,8 @@ def rollout_states(world: PhysicsWorld, robot: RobotModel, situation, objective,
 def contrasts(dataset: Dataset, robot: RobotModel, demo_states: list) -> NoisySamples:
     """The rollout states of each demonstration's situation (demo_states[i]: [(q, poses)]) as L_n
     contrasts: each paired with the demonstration step t >= 1 whose q_{t-1} is nearest (noisy samples
-    are drawn around q_{t-1}) and weighted by d_curve to the path q_t, ..., q_{T-1}."""
+    are drawn around q_{t-1}) and weighted by d_curve to the path q_{t-1}, ..., q_{T-1} (so that a
+    state on the demonstrated path costs nothing)."""
     features = FeatureMap(dataset.definition, robot)
     offsets = step_offsets(dataset)
     steps, ys, weights = [], [], []
@@ -60,7 +61,7 @@ def contrasts(dataset: Dataset, robot: RobotModel, demo_states: list) -> NoisySa
         for q, poses, t in zip(qs, (p for _, p in states), nearest):
             steps.append(offsets[i] + t)
             ys.append(features(q, poses))
-            weights.append(float(d_curve(q[None, :], demo.q[t:])[0]))
+            weights.append(float(d_curve(q[None, :], demo.q[t - 1:])[0]))
     kept = np.zeros(offsets[-1], dtype=int)
     np.add.at(kept, np.array(steps, dtype=int), 1)
     return NoisySamples(step=np.array(steps, dtype=int), y=np.array(ys).reshape(len(ys), -1),
