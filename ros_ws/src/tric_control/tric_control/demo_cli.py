@@ -5,7 +5,8 @@
 1. Record the paper's 27 sphere-grid demonstrations with the teacher through the real nodes
    (simulator in lockstep, teacher, recorder) into DIR/demo/bags, or, with --reuse, take the bags
    in BAGS (default: the reference set bags/sphere).
-2. Train TRIC on them with the paper's defaults (K = 30, M = 60, alpha = 1, 1, 0.001).
+2. Train TRIC on them with the defaults (K = 30, M = 60, alpha = 1, 30, 0.001: the paper's but for
+   alpha_g, see tric_learning.training).
 3. Evaluate the teacher and the learned controller on the 15 test situations (paper Table 1),
    through the simulator, teacher and controller nodes, judged by the hidden metrics; --jobs
    (default: the number of CPUs) graphs of them at once, each in a process of its own.

@@ -175,11 +175,15 @@ def test_training_config_refuses_bad_values(values, message):
     assert str(refused.value) == message
 
 
-def test_training_config_defaults_are_the_papers():
+def test_training_config_defaults_are_the_papers_but_the_balance():
+    """The paper's K, M, sigma, alpha_n and alpha_w; alpha_g and the iterations chosen on the training
+    and validation sets (docs/decisions/loss-balance.md)."""
     config = TrainingConfig()
     assert config.validate() is config
-    assert (config.hidden_units, config.noisy_samples, config.sigma, config.alpha_n, config.alpha_g,
-            config.alpha_w, config.max_iterations) == (30, 60, 0.05, 1.0, 1.0, 0.001, 100)
+    assert (config.hidden_units, config.noisy_samples, config.sigma, config.alpha_n, config.alpha_w) == \
+        (30, 60, 0.05, 1.0, 0.001)
+    assert (config.alpha_g, config.max_iterations) == (30.0, 300)
+    assert not config.per_step_weights and config.optimizer == "lbfgs"
 
 
 def test_training_is_determined_by_its_seed(robot, grid_dataset):
