@@ -185,7 +185,12 @@ class Study:
         return row
 
     def save(self):
-        write_json(self.path, self.results)
+        """Merge this study's models and rows into the file (another study may have written it since)."""
+        merged = json.loads(self.path.read_text()) if self.path.is_file() else {}
+        for part in ("models", "rows"):
+            merged.setdefault(part, {}).update(self.results.get(part, {}))
+        self.results = merged
+        write_json(self.path, merged)
 
 
 def format_row(row: dict) -> str:
