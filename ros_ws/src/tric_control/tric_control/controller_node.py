@@ -30,7 +30,8 @@ Parameters:
 - mode ("lockstep" | "realtime", default "lockstep"): see below.
 - control_rate_hz (default 100): control ticks per second; the step bound of a tick is the joints'
   velocity limits divided by this rate.
-- max_steps (default 800): an episode's step budget when the goal gives none.
+- max_steps (default: the task's, tric_control.episode.DEFAULT_MAX_STEPS: 800 for grasps, 2000 for
+  boxes): an episode's step budget when the goal gives none.
 - state_timeout_s (default 10): wall seconds without joint states before an episode aborts.
 - use_sim_time: as usual. Realtime mode's timer and staleness test run on the node clock, which must
   be the clock the joint states are stamped with (with the simulator: use_sim_time true).
@@ -149,7 +150,8 @@ class ControllerNode(Node):
         model_path = declare(self, "model_path", "", "a model file to load at start (empty: none)")
         self.mode = declare(self, "mode", "lockstep", "answer every joint state, or tick on a timer", MODES)
         rate = declare(self, "control_rate_hz", 100.0, "control ticks per second", Range(1.0, 1000.0))
-        self.max_steps = declare(self, "max_steps", DEFAULT_MAX_STEPS, "an episode's default step budget", AT_LEAST_ONE)
+        self.max_steps = declare(self, "max_steps", DEFAULT_MAX_STEPS[self.task], "an episode's default step budget",
+                                 AT_LEAST_ONE)
         self.state_timeout = declare(self, "state_timeout_s", 10.0,
                                      "wall seconds without joint states before an episode aborts", POSITIVE)
         self.period = 1.0 / rate

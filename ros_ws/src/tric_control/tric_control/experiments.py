@@ -55,8 +55,6 @@ from tric_sim.output_files import atomic_path, check_output_folder, write_text_a
 from tric_sim.robot_model import RobotModel  # noqa: E402
 
 BAGS = pathlib.Path("bags")
-#: Control ticks per box episode: the box demonstrations last 8 s (800 ticks at 100 Hz).
-BOX_STEPS = 1200
 #: Fig. 8: the noisy samples M swept at all the demonstrations, the demonstrations N swept at the
 #: largest M, the loss variants (alpha_n, alpha_g), and the seed of the demonstration subsets.
 FIG8_SAMPLES = (5, 20, 60)
@@ -500,10 +498,10 @@ def table4(runner: Runner, count: int) -> dict:
               "DPL finger space": dict(name="box_dpl_finger", bags="box", kind="dpl_finger")}
     rows = {}
     for name, model in agents.items():
-        by_seed = runner.over_seeds(tests, name, BOX_STEPS, **model)
+        by_seed = runner.over_seeds(tests, name, **model)
         seeds = {seed: _box_row(records) for seed, records in by_seed.items()}
         rows[name] = {"seeds": seeds, "opened": [r["opened"] for r in seeds.values()], "episodes": len(tests)}
-    teacher = _box_row(runner.evaluate(tests, None, "teacher", BOX_STEPS))
+    teacher = _box_row(runner.evaluate(tests, None, "teacher"))
     rows["teacher"] = {"seeds": {"-": teacher}, "opened": [teacher["opened"]], "episodes": len(tests)}
     lines = [f"{'agent':18s} {'seed':>4s} {'opened':>8s} {'lid mean (rad)':>15s} {'collisions':>10s}"]
     for name, row in rows.items():

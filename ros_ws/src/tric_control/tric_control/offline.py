@@ -36,7 +36,8 @@ class OfflineEvaluator:
     Args:
         task: "grasp" or "open_box".
         model: a model file path, or None for the teacher.
-        max_steps: control ticks per episode at most (0: DEFAULT_MAX_STEPS, the controller node's).
+        max_steps: control ticks per episode at most (0: the task's DEFAULT_MAX_STEPS, as the controller
+            node's).
         period: the control period, s.
         controller_options: keyword arguments of MotionRateController (e.g. max_lead), for studies.
     """
@@ -45,7 +46,7 @@ class OfflineEvaluator:
                  controller_options: dict = None):
         self.task, self.model, self.period = task, model, period
         self.controller_options = dict(controller_options or {})
-        self.max_steps = max_steps or DEFAULT_MAX_STEPS
+        self.max_steps = max_steps or DEFAULT_MAX_STEPS[task]
         self.robot = RobotModel()
         self.objective = self.kind = None
         self.objects = ()

@@ -35,6 +35,7 @@ import time
 
 import numpy as np
 
+from tric_control.episode import DEFAULT_MAX_STEPS
 from tric_control.evaluation import GOOD_GRASP, OPEN_LID, write_json
 from tric_control.hard_negatives import train_with_hard_negatives
 from tric_control.motion_rate import MAX_LEAD
@@ -46,12 +47,13 @@ from tric_sim.robot_model import RobotModel
 from tric_sim.situations import dataset
 
 BAGS = pathlib.Path("bags")
-#: Each task: the bags its model is trained on, the sets it is measured on, its episodes' step budget.
+#: Each task: the bags its model is trained on, the sets it is measured on, its episodes' step budget
+#: (the controller's default for the task, tric_control.episode.DEFAULT_MAX_STEPS).
 TASKS = {
-    "sphere": ("sphere", ("sphere_val",), 800),
-    "cylinder": ("cylinder", ("cylinder_train", "cylinder_val"), 800),
-    "box": ("box", ("box_train", "box_val"), 1200),
-    "obstacle": ("sphere", ("obstacle_val",), 800),
+    "sphere": ("sphere", ("sphere_val",), DEFAULT_MAX_STEPS["grasp"]),
+    "cylinder": ("cylinder", ("cylinder_train", "cylinder_val"), DEFAULT_MAX_STEPS["grasp"]),
+    "box": ("box", ("box_train", "box_val"), DEFAULT_MAX_STEPS["open_box"]),
+    "obstacle": ("sphere", ("obstacle_val",), DEFAULT_MAX_STEPS["grasp"]),
 }
 
 
