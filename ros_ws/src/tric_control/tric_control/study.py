@@ -26,6 +26,7 @@ per variant the mean, min and max over the seeds.
 
 import argparse
 import dataclasses
+import hashlib
 import json
 import math
 import os
@@ -96,8 +97,9 @@ def parse_variant(text: str):
 
 
 def training_part(changes: dict) -> dict:
-    """The TrainingConfig fields of a variant's changes."""
-    return {k: v for k, v in changes.items() if k not in CONTROLLER_OPTIONS and k not in PROCEDURE_OPTIONS}
+    """The TrainingConfig fields (but the seed) of a variant's changes or a model's record."""
+    fields = {f.name for f in dataclasses.fields(TrainingConfig)} - {"seed"}
+    return {k: v for k, v in changes.items() if k in fields}
 
 
 def measure_set(records) -> dict:
@@ -137,7 +139,8 @@ class Study:
         seed, trained unless a model of the same options was (by any variant). Hard negatives roll
         the controller out for max_steps ticks."""
         rounds = changes.get("hard_negative_rounds", 0)
-        config = {**training_part(changes), "seed": seed, **({"hard_negative_rounds": rounds} if rounds else {})}
+        config = {**training_part(changes), "seed": seed, **({"hard_negative_rounds": rounds} if rounds else {}),
+                  "bags_digest": self.bags_digest(bags)}
         for key, record in self.results.get("models", {}).items():
             path = self._model_path(key)
             if key.split("/")[1] == bags and record["config"] == config and path.is_file():
@@ -148,10 +151,10 @@ class Study:
         print(f"training {variant} on {BAGS / bags}, seed {seed}", flush=True)
         started = time.perf_counter()
         if rounds:
-            result = train_with_hard_negatives(demos, self.robot, TrainingConfig(**training_part(config)), rounds,
-                                               max_steps)
+            result = train_with_hard_negatives(demos, self.robot, TrainingConfig(**training_part(config), seed=seed),
+                                               rounds, max_steps)
         else:
-            result = train(demos, self.robot, TrainingConfig(**config))
+            result = train(demos, self.robot, TrainingConfig(**training_part(config), seed=seed))
         model_file.from_training(result, demos).save(path)
         numbers = analysis.key_numbers(result.model, demos, 20)
         record = {"config": config, "train_s": time.perf_counter() - started,
@@ -162,6 +165,15 @@ class Study:
         self.results.setdefault("models", {})[key] = record
         self.save()
         return path, record
+
+    @staticmethod
+    def bags_digest(bags: str) -> str:
+        """A digest of the bags' contents: a model trained on other bags of the same name is not re-used."""
+        digest = hashlib.sha1()
+        for path in bag_paths([BAGS / bags]):
+            digest.update(path.name.encode())
+            digest.update(path.read_bytes())
+        return digest.hexdigest()[:12]
 
     def _model_path(self, key: str) -> pathlib.Path:
         variant, bags, seed = key.split("/")

@@ -90,6 +90,12 @@ def approach_direction(centre: np.ndarray) -> np.ndarray:
     return min(candidates, key=lambda n: _wrist_discomfort(centre, n))
 
 
+#: A cylinder's approach from the robot's left (+y) costs this much more per unit of y, m: an upright
+#: cylinder in front of the robot has two mirror approaches of equal comfort, and the demonstrations
+#: should not flip between them (docs/decisions/cylinder-teacher.md).
+SIDE_PREFERENCE = 0.02
+
+
 def cylinder_grasp_point(centre: np.ndarray, axis: np.ndarray, height: float):
     """(point on the axis, approach direction across the axis) for a cylinder: the direction points
     away from the robot and not upwards, the point lies within the middle of the cylinder, and the
@@ -110,7 +116,8 @@ def cylinder_grasp_point(centre: np.ndarray, axis: np.ndarray, height: float):
                 n = math.cos(angle) * e1 + math.sin(angle) * e2
                 if n @ outward < least_outward or n[2] > 0.1:
                     continue
-                cost = _wrist_discomfort(point, n) + 0.05 * abs(offset) / height
+                cost = (_wrist_discomfort(point, n) + 0.05 * abs(offset) / height
+                        + SIDE_PREFERENCE * max(float(n[1]), 0.0))
                 if cost < best_cost:
                     best, best_cost = (point, n), cost
         if best is not None:
