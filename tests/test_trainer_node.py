@@ -87,7 +87,9 @@ def test_train_round_trip_with_progress_and_a_busy_answer(ros_context, spin, bag
     assert loaded.info["hyperparameters"] == TrainingConfig(**TINY).to_dict()
     assert loaded.info["losses"] == {"n": response.loss_n, "g": response.loss_g, "w": response.loss_w,
                                      "total": response.loss_total}
-    assert response.loss_total == pytest.approx(response.loss_n + response.loss_g + 0.001 * response.loss_w)
+    config = TrainingConfig(**TINY)
+    assert response.loss_total == pytest.approx(config.alpha_n * response.loss_n + config.alpha_g * response.loss_g
+                                                + config.alpha_w * response.loss_w)
     assert -1.0 <= response.loss_g < 0 < response.loss_n and response.loss_w > 0
     assert 0 < response.sampling_time_s and 0 < response.optimization_time_s
     assert response.train_time_s == pytest.approx(response.sampling_time_s + response.optimization_time_s)
