@@ -10,8 +10,8 @@ import pytest
 
 from tric_control.limits import Limit, damper_bounds
 from tric_control.motion_rate import (COLLISION_ROWS, CONVERGED_MOTION, CONVERGED_WINDOW, DOMAIN_MARGIN, DOMAIN_ROWS,
-                                      JOINT_MARGIN, SAFETY, MotionRateController, Objective, StepQP, ValueObjective,
-                                      default_limits)
+                                      JOINT_MARGIN, SAFETY, STEP_QUANTUM, MotionRateController, Objective, StepQP,
+                                      ValueObjective, default_limits)
 from tric_control.objectives import make_objective
 from tric_learning.features import FeatureDefinition, FeatureMap
 from tric_learning.model_file import ModelFile, value_function_arrays
@@ -44,10 +44,10 @@ def test_step_qp_unconstrained_quadratic():
     assert np.allclose(step, [8 / 3, -4 / 3], atol=1e-6)
 
 
-def test_step_qp_active_box_bound_after_a_warm_start():
+def test_step_qp_active_box_bound_after_an_update():
     """The same problem with x0 <= 1: x0 = 1 and x1 minimizes what is left, 1/2 (2 x1^2 + 2 x1) so
     x1 = -1/2 (KKT: the multiplier of x0 <= 1 is 4 - 2 x0 - x1 = 3/2 > 0). The QP object solves the
-    unconstrained problem first, so the second solve goes through update() and the warm start."""
+    unconstrained problem first, so the second solve goes through update()."""
     qp = StepQP(2, 1)
     hessian, linear = np.array([[2.0, 1.0], [1.0, 2.0]]), np.array([-4.0, 0.0])
     qp.solve(hessian, linear, *unused_rows(1, 2), np.full(2, -10.0), np.full(2, 10.0))
@@ -63,6 +63,30 @@ def test_step_qp_active_inequality_row():
     step = StepQP(3, 2).solve(np.eye(3), -a, rows, np.array([bound, -UNBOUNDED]), np.full(3, -10.0), np.full(3, 10.0))
     assert np.allclose(step, a + (bound - row @ a) * row / (row @ row), atol=1e-6)
     assert np.allclose(step, [1.75, -1.25, 0.5], atol=1e-6)
+
+
+def test_step_qp_gives_the_same_step_bit_for_bit_in_every_instance():
+    """A random problem of the controller's size (14 variables, 26 rows, some active) solved by 40
+    solver instances made at different places in memory, each after another problem (which a warm
+    start would carry over): every step is the same to the last bit, on the STEP_QUANTUM grid."""
+    rng = np.random.default_rng(3)
+    n, rows = 14, 26
+    factor = rng.normal(size=(n, n))
+    hessian, linear = factor @ factor.T + np.eye(n), 20.0 * rng.normal(size=n)
+    constraint = rng.normal(size=(rows, n))
+    lower = constraint @ rng.uniform(-0.1, 0.1, n) - np.abs(rng.normal(size=rows)) * 0.05   # feasible
+    low, high = np.full(n, -0.2), np.full(n, 0.2)
+    kept, steps = [], []
+    for k in range(40):
+        kept.append(np.empty(int(rng.integers(1, 9))))    # move the next allocations around
+        qp = StepQP(n, rows)
+        other = rng.normal(size=n)
+        qp.solve(hessian, other, constraint, lower - 1.0, low, high)
+        steps.append(qp.solve(hessian.copy(), linear.copy(), constraint.copy(), lower.copy(), low, high))
+        kept.append(qp)
+    assert all(np.array_equal(step, steps[0]) for step in steps)
+    assert np.array_equal(np.round(steps[0] / STEP_QUANTUM) * STEP_QUANTUM, steps[0])
+    assert np.sum(constraint @ steps[0] <= lower + 1e-6) >= 2        # a problem with active rows
 
 
 # --- limits under an adversarial objective -------------------------------------------------------

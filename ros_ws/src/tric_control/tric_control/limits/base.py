@@ -8,7 +8,7 @@ The step dq (n,) solves
 and each limit adds to it in one or more ways: a cost (add_cost: terms added to H and c in place), a
 box (bound: low and high tightened in place), inequality rows (constrain: a fixed number of rows of C
 and of lower, written in place; rows it has no use for this tick are padded with 0 >= UNBOUNDED_BELOW,
-so that the QP keeps its size and proxsuite its warm start), and names for what binds the step
+so that the QP keeps its size and proxsuite its workspace), and names for what binds the step
 (active). Units: rad, m, s.
 """
 
