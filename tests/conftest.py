@@ -8,6 +8,12 @@ import rclpy
 from rclpy.context import Context
 from rclpy.executors import SingleThreadedExecutor
 
+#: Wall seconds after which a wait counts as a hang. Far more than any of these waits takes on a
+#: loaded machine: it only keeps a broken test from waiting for ever, and times nothing.
+HANG_S = 120.0
+#: Control periods (10 ms each, at least) that an absence check lets the graph run before it looks.
+ABSENCE_PERIODS = 50
+
 
 @pytest.fixture
 def ros_context():
@@ -47,7 +53,7 @@ def spin(executor):
     return start
 
 
-def wait_for(predicate, timeout=20.0, what="condition"):
+def wait_for(predicate, timeout=HANG_S, what="condition"):
     """Poll predicate() until it is truthy; its value, or an AssertionError after timeout s."""
     deadline = time.monotonic() + timeout
     while time.monotonic() < deadline:
@@ -58,7 +64,7 @@ def wait_for(predicate, timeout=20.0, what="condition"):
     raise AssertionError(f"timed out after {timeout} s waiting for {what}")
 
 
-def call(node, srv_type, name, request, timeout=30.0):
+def call(node, srv_type, name, request, timeout=HANG_S):
     """Call a service from node (spun elsewhere) and return the response."""
     client = node.create_client(srv_type, name)
     assert client.wait_for_service(timeout_sec=timeout), f"service {name} not available"
@@ -68,15 +74,15 @@ def call(node, srv_type, name, request, timeout=30.0):
     return response
 
 
-def run_action(node, action_type, name, goal, timeout=120.0):
+def run_action(node, action_type, name, goal, timeout=HANG_S):
     """Send a goal from node (spun elsewhere); returns (status, result, feedback messages)."""
     from rclpy.action import ActionClient
 
     client = ActionClient(node, action_type, name)
-    assert client.wait_for_server(timeout_sec=30.0), f"action server {name} not available"
+    assert client.wait_for_server(timeout_sec=HANG_S), f"action server {name} not available"
     feedback = []
     goal_future = client.send_goal_async(goal, feedback_callback=lambda msg: feedback.append(msg.feedback))
-    handle = wait_for(lambda: goal_future.result() if goal_future.done() else None, 30.0, "goal response")
+    handle = wait_for(lambda: goal_future.result() if goal_future.done() else None, HANG_S, "goal response")
     if not handle.accepted:
         client.destroy()
         return None, None, feedback
@@ -85,3 +91,15 @@ def run_action(node, action_type, name, goal, timeout=120.0):
                        f"the result of {name}")
     client.destroy()
     return wrapped.status, wrapped.result, feedback
+
+
+def run_periods(node, periods=ABSENCE_PERIODS, period_s=0.01):
+    """Let the graph run: return once a timer of node (spun elsewhere) has fired periods times, one
+    every period_s s at most. An absence check calls this first, so that whatever the graph would
+    publish has had those periods to arrive."""
+    fired = []
+    timer = node.create_timer(period_s, lambda: fired.append(None))
+    try:
+        wait_for(lambda: len(fired) >= periods, what=f"{periods} timer periods")
+    finally:
+        node.destroy_timer(timer)
