@@ -13,6 +13,7 @@ import tempfile
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, event, given, settings, strategies as st
+from safetensors import safe_open
 from safetensors.numpy import save_file
 from tric_msgs.msg import EpisodeEvent, TaskMetrics
 
@@ -160,6 +161,46 @@ def test_tric_train_names_what_it_includes_with_include_failed_and_tolerant(robo
 def test_a_folder_is_not_called_a_missing_model_file(tmp_path):
     with pytest.raises(ValueError, match=f"model file {tmp_path} is a folder, not a model file"):
         ModelFile.load(tmp_path)
+
+
+def _rewrite_metadata(path: pathlib.Path, change) -> None:
+    """Write path again with its arrays and its "tric" metadata as change(metadata dict) leaves it."""
+    with safe_open(str(path), framework="numpy") as handle:
+        meta = json.loads(handle.metadata()["tric"])
+        arrays = {name: handle.get_tensor(name) for name in handle.keys()}
+    change(meta)
+    save_file(arrays, str(path), metadata={"tric": json.dumps(meta)})
+
+
+def test_model_files_of_another_version_or_a_changed_definition_are_refused(robot, tmp_path):
+    path = _tiny_model_file(robot).save(tmp_path / "model.safetensors")
+    assert ModelFile.load(path, FeatureDefinition.for_task("grasp", robot)).kind == "tric"
+    _rewrite_metadata(path, lambda meta: meta.update(version=2))
+    with pytest.raises(ValueError) as refused:
+        ModelFile.load(path)
+    assert str(refused.value) == f"{path} has model format version 2; this reads 1"
+
+    path = _tiny_model_file(robot).save(tmp_path / "edited.safetensors")
+    _rewrite_metadata(path, lambda meta: meta["definition"]["pairs"].reverse())  # the same pairs, reordered
+    with pytest.raises(ValueError) as refused:
+        ModelFile.load(path)
+    assert str(refused.value) == f"{path}: its feature definition does not match its recorded fingerprint"
+
+    path = _tiny_model_file(robot).save(tmp_path / "box.safetensors")
+    with pytest.raises(ValueError, match=f"model {path}.*another feature definition"):
+        ModelFile.load(path, FeatureDefinition.for_task("open_box", robot))
+
+
+@pytest.mark.parametrize("name, bad", [("w1", math.nan), ("w2", math.inf), ("w3", -math.inf),
+                                       ("low", -math.inf), ("high", math.inf)])
+def test_model_files_with_non_finite_arrays_are_refused(robot, tmp_path, name, bad):
+    model = _tiny_model_file(robot)
+    model.arrays[name] = model.arrays[name].astype(float)
+    model.arrays[name].flat[-1] = bad
+    loaded = ModelFile.load(model.save(tmp_path / "model.safetensors"))   # the file itself is readable
+    with pytest.raises(ValueError) as refused:
+        value_function(loaded)
+    assert str(refused.value) == f"the model file's {name} has non-finite values"
 
 
 # --- fuzzed inputs ------------------------------------------------------------------------------
