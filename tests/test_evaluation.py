@@ -54,10 +54,12 @@ def test_bad_arguments_are_refused(tmp_path, capsys):
     situations.save_situations(mixed, situations.sphere_grid()[:1] + situations.dataset("box_test")[:1])
     assert evaluate_cli.main(["--teacher", "--situations-file", str(mixed)]) == 2
     assert "mix tasks" in capsys.readouterr().err
-    with pytest.raises(SystemExit):
+    with pytest.raises(SystemExit) as refused:
         evaluate_cli.main(["--teacher"])  # neither a data set nor a file
-    with pytest.raises(SystemExit):
+    assert refused.value.code == 2 and "give either DATASET or --situations-file" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as refused:
         evaluate_cli.main(["--teacher", "sphere_test", "--jobs", "0"])
+    assert refused.value.code == 2 and "--jobs must be in [1, 64]" in capsys.readouterr().err
     with pytest.raises(ValueError, match="jobs must be at least 1"):
         evaluate_cli.evaluate(situations.sphere_grid()[:1], None, jobs=0, progress=False)
 
@@ -132,9 +134,9 @@ def test_experiment_report_from_hand_made_results(tmp_path, capsys):
     assert "![analysis](analysis/a.png)\n![analysis](analysis/b.png)" in text
     assert text.index("## table3") < text.index("## analysis")  # the order of EXPERIMENTS
     assert "## fig9" not in text  # not run: not reported
-    with pytest.raises(SystemExit):
+    with pytest.raises(SystemExit) as refused:
         experiments.main(["table9", "--out", str(tmp_path)])
-    assert "unknown experiment(s) table9" in capsys.readouterr().err
+    assert refused.value.code == 2 and "unknown experiment(s) table9" in capsys.readouterr().err
 
 
 def grasp_row(mean, good=15, lift=15, collisions=0, std=0.01, episodes=15):
