@@ -1,5 +1,7 @@
 """Fixtures for in-process ROS 2 tests: a fresh rclpy context and a spinning executor per test."""
 
+import dataclasses
+import math
 import threading
 import time
 
@@ -103,3 +105,11 @@ def run_periods(node, periods=ABSENCE_PERIODS, period_s=0.01):
         wait_for(lambda: len(fired) >= periods, what=f"{periods} timer periods")
     finally:
         node.destroy_timer(timer)
+
+
+def record_fields(record) -> dict:
+    """An EpisodeRecord's fields but its wall time, NaN written as the string "nan" (NaN != NaN): two
+    runs of a deterministic episode give equal ones."""
+    fields = dataclasses.asdict(record)
+    del fields["wall_time_s"]
+    return {k: "nan" if isinstance(v, float) and math.isnan(v) else v for k, v in fields.items()}

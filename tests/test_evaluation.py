@@ -7,6 +7,7 @@ import pathlib
 
 import pytest
 
+from conftest import record_fields
 from tric_control import evaluate_cli
 from tric_control.evaluation import EpisodeRecord, report, summarize, table, write_json
 from tric_learning.training import TrainingConfig, train_from_bags
@@ -104,17 +105,16 @@ def test_teacher_and_tric_grasp_an_unseen_sphere_through_the_nodes(tmp_path):
 @pytest.mark.slow
 def test_parallel_evaluation_gives_the_serial_records(tmp_path):
     """jobs = 2: two spawned workers, each with its graph on a domain of its own; the records come back
-    in the situations' order, as the serial run gives them (up to the lockstep's timing)."""
+    in the situations' order, and equal to the serial run's in every field but the wall time (the
+    lockstep episodes and the controller are deterministic bit for bit)."""
     chosen = situations.dataset("sphere_test")[5:8]
     quick = TrainingConfig(noisy_samples=5, max_iterations=20)  # any model will do: both runs must agree
     model = train_from_bags(sorted(BAGS.glob("*.mcap"))[::9], tmp_path / "quick.safetensors", quick, RobotModel()).path
     serial = evaluate_cli.evaluate(chosen, model, max_steps=150, progress=False)
     parallel = evaluate_cli.evaluate(chosen, model, max_steps=150, progress=False, jobs=2)
     assert [r.situation for r in parallel] == [s.name for s in chosen]
-    for one, other in zip(serial, parallel):
-        assert other.agent == one.agent == "tric" and other.outcome == one.outcome != "failed"
-        assert other.steps == one.steps and other.success == one.success and other.lift_passed == one.lift_passed
-        assert other.grasp_cost == pytest.approx(one.grasp_cost, abs=0.02)
+    assert all(r.agent == "tric" and r.outcome != "failed" for r in serial)
+    assert [record_fields(r) for r in parallel] == [record_fields(r) for r in serial]
     with pytest.raises(ValueError, match="missing.safetensors does not exist"):  # raised in a worker
         evaluate_cli.evaluate(chosen, tmp_path / "missing.safetensors", max_steps=150, progress=False, jobs=2)
 
