@@ -1,7 +1,9 @@
-"""Fixtures for in-process ROS 2 tests: a fresh rclpy context and a spinning executor per test."""
+"""Fixtures for in-process ROS 2 tests: a fresh rclpy context and a spinning executor per test, and
+TRIC trained on the reference sphere bags once per session; helpers to wait, call and compare."""
 
 import dataclasses
 import math
+import pathlib
 import threading
 import time
 
@@ -10,11 +12,25 @@ import rclpy
 from rclpy.context import Context
 from rclpy.executors import SingleThreadedExecutor
 
+from tric_learning.training import TrainingConfig, train_from_bags
+from tric_sim.robot_model import RobotModel
+
 #: Wall seconds after which a wait counts as a hang. Far more than any of these waits takes on a
 #: loaded machine: it only keeps a broken test from waiting for ever, and times nothing.
 HANG_S = 120.0
 #: Control periods (10 ms each, at least) that an absence check lets the graph run before it looks.
 ABSENCE_PERIODS = 50
+#: The reference demonstrations shipped with the repository (bags/README.md).
+REFERENCE_BAGS = pathlib.Path(__file__).resolve().parent.parent / "bags"
+
+
+@pytest.fixture(scope="session")
+def reference_sphere_training(tmp_path_factory):
+    """TRIC trained with TrainingConfig()'s defaults on the 27 reference sphere demonstrations
+    (bags/sphere), as tric-demo --reuse trains it: a training.BagTraining, made once per session for
+    the tests that need a model that grasps."""
+    return train_from_bags([REFERENCE_BAGS / "sphere"], tmp_path_factory.mktemp("reference") / "tric_sphere.safetensors",
+                           TrainingConfig(), RobotModel())
 
 
 @pytest.fixture

@@ -3,25 +3,23 @@ give, the same records bit for bit but the wall time (the README's tables come f
 sweeps run offline)."""
 
 import json
-import pathlib
 
 import pytest
 
-from conftest import record_fields
+from conftest import REFERENCE_BAGS as BAGS, record_fields
 from tric_control import evaluate_cli
 from tric_control.offline import evaluate_offline
 from tric_learning.training import TrainingConfig, train_from_bags
 from tric_sim import situations
 from tric_sim.robot_model import RobotModel
 
-BAGS = pathlib.Path(__file__).resolve().parents[1] / "bags"
 
 
 @pytest.fixture(scope="module")
-def models(tmp_path_factory):
-    folder = tmp_path_factory.mktemp("models")
-    return {task: train_from_bags([BAGS / bags], folder / f"{bags}.safetensors", TrainingConfig(), RobotModel()).path
-            for task, bags in (("grasp", "sphere"), ("open_box", "box"))}
+def models(tmp_path_factory, reference_sphere_training):
+    box = train_from_bags([BAGS / "box"], tmp_path_factory.mktemp("models") / "box.safetensors", TrainingConfig(),
+                          RobotModel())
+    return {"grasp": reference_sphere_training.path, "open_box": box.path}
 
 
 @pytest.mark.slow
