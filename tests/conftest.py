@@ -56,7 +56,8 @@ def executor(ros_context):
 
 @pytest.fixture
 def spin(executor):
-    """spin(*nodes): add nodes to the test's executor and spin it in a background thread."""
+    """spin(*nodes): add nodes to the test's executor and spin it in a background thread, which is
+    stopped and joined after the test (before its nodes and context go)."""
     started = []
 
     def start(*nodes):
@@ -68,7 +69,13 @@ def spin(executor):
             started.append(thread)
         return nodes[0] if len(nodes) == 1 else nodes
 
-    return start
+    yield start
+    if started:  # stop spinning first: no callback may run on a node being destroyed
+        nodes = list(executor.get_nodes())
+        executor.shutdown()  # (forgets the nodes)
+        started[0].join(HANG_S)
+        for node in nodes:
+            node.destroy_node()
 
 
 def wait_for(predicate, timeout=HANG_S, what="condition"):
