@@ -284,6 +284,7 @@ def test_the_simulator_stopping_mid_episode_leaves_the_robot_held_and_aborts(ros
     assert wrapped.result.message.startswith("no joint states for 0.5 s: is the")
     # the robot holds: no command moves it on after the last state (lockstep answers states only;
     # realtime holds the last measured positions once the state is STALE_PERIODS periods old)
+    run_periods(observer)
     last_state = messages.time_ns(states[-1].header.stamp)
     after = [c for c in observer.commands if messages.time_ns(c.header.stamp) > last_state]
     assert len(after) <= 3 and (mode == "realtime" or not after)
