@@ -179,7 +179,7 @@ def test_realtime_holds_on_stale_states_and_missing_poses_and_resumes(ros_contex
 
     def holding():
         return (observer.statuses and observer.statuses[-1].state == ControllerStatus.HOLDING
-                and observer.commands and np.array_equal(observer.commands[-1].position, HOME))
+                and observer.commands and np.allclose(observer.commands[-1].position, HOME, rtol=0, atol=1e-12))
 
     wait_for(holding, what="a hold command at the last positions and status HOLDING")
     held_at, mark = observer.statuses[-1].step, messages.time_ns(observer.statuses[-1].header.stamp)
