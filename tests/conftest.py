@@ -57,25 +57,27 @@ def executor(ros_context):
 @pytest.fixture
 def spin(executor):
     """spin(*nodes): add nodes to the test's executor and spin it in a background thread, which is
-    stopped and joined after the test (before its nodes and context go)."""
-    started = []
+    stopped and joined after the test, before the executor fixture destroys the nodes and the
+    executor (Executor.shutdown() while another thread spins can destroy what that thread uses)."""
+    stop, started = threading.Event(), []
+
+    def spin_until_stopped():
+        while not stop.is_set():
+            executor.spin_once(timeout_sec=0.05)
 
     def start(*nodes):
         for node in nodes:
             executor.add_node(node)
         if not started:
-            thread = threading.Thread(target=executor.spin, daemon=True)
+            thread = threading.Thread(target=spin_until_stopped, daemon=True)
             thread.start()
             started.append(thread)
         return nodes[0] if len(nodes) == 1 else nodes
 
     yield start
-    if started:  # stop spinning first: no callback may run on a node being destroyed
-        nodes = list(executor.get_nodes())
-        executor.shutdown()  # (forgets the nodes)
-        started[0].join(HANG_S)
-        for node in nodes:
-            node.destroy_node()
+    stop.set()
+    for thread in started:
+        thread.join(HANG_S)
 
 
 def wait_for(predicate, timeout=HANG_S, what="condition"):

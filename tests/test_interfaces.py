@@ -54,12 +54,6 @@ def _value(type_name, seed):
     raise AssertionError(f"unhandled field type {type_name}")
 
 
-def spin_until(executor, event, timeout=HANG_S):
-    thread = threading.Thread(target=executor.spin, daemon=True)
-    thread.start()
-    assert event.wait(timeout), "timed out waiting for the round trip"
-
-
 def as_dict(value):
     """A message as nested plain Python values, for equality checks."""
     if hasattr(value, "get_fields_and_field_types"):
@@ -76,7 +70,7 @@ def test_filled_messages_are_not_defaults():
 
 
 @pytest.mark.parametrize("name", MESSAGES)
-def test_message_round_trip(executor, ros_context, name):
+def test_message_round_trip(spin, ros_context, name):
     cls = getattr(tric_msgs.msg, name)
     sent = filled(cls)
     talker = Node("talker", context=ros_context)
@@ -85,14 +79,13 @@ def test_message_round_trip(executor, ros_context, name):
     listener.create_subscription(cls, "/roundtrip", lambda m: (received.append(m), got.set()), 10)
     publisher = talker.create_publisher(cls, "/roundtrip", 10)
     talker.create_timer(0.05, lambda: publisher.publish(sent))
-    executor.add_node(talker)
-    executor.add_node(listener)
-    spin_until(executor, got)
+    spin(talker, listener)
+    assert got.wait(HANG_S), "timed out waiting for the round trip"
     assert as_dict(received[0]) == as_dict(sent)
 
 
 @pytest.mark.parametrize("name", SERVICES)
-def test_service_round_trip(executor, ros_context, name):
+def test_service_round_trip(spin, ros_context, name):
     srv = getattr(tric_msgs.srv, name)
     request, response = filled(srv.Request, 3), filled(srv.Response, 7)
     server = Node("server", context=ros_context)
@@ -105,10 +98,7 @@ def test_service_round_trip(executor, ros_context, name):
 
     server.create_service(srv, "/echo", handle)
     client = client_node.create_client(srv, "/echo")
-    executor.add_node(server)
-    executor.add_node(client_node)
-    thread = threading.Thread(target=executor.spin, daemon=True)
-    thread.start()
+    spin(server, client_node)
     assert client.wait_for_service(timeout_sec=HANG_S)
     result = client.call(request, timeout_sec=HANG_S)
     assert as_dict(seen[0]) == as_dict(request)
@@ -116,7 +106,7 @@ def test_service_round_trip(executor, ros_context, name):
 
 
 @pytest.mark.parametrize("name", ACTIONS)
-def test_action_round_trip(executor, ros_context, name):
+def test_action_round_trip(spin, ros_context, name):
     """Goal, feedback and result cross intact; the server succeeds only once the client has its
     feedback, so exactly one feedback message must arrive."""
     action = getattr(tric_msgs.action, name)
@@ -139,9 +129,7 @@ def test_action_round_trip(executor, ros_context, name):
 
     ActionServer(server, action, "/echo_action", execute)
     client = ActionClient(client_node, action, "/echo_action")
-    executor.add_node(server)
-    executor.add_node(client_node)
-    threading.Thread(target=executor.spin, daemon=True).start()
+    spin(server, client_node)
     assert client.wait_for_server(timeout_sec=HANG_S)
     done = threading.Event()
     outcome = {}
@@ -162,7 +150,7 @@ def test_action_round_trip(executor, ros_context, name):
     assert len(feedbacks) == 1 and as_dict(feedbacks[0]) == as_dict(feedback)
 
 
-def test_nan_inf_and_negative_zero_survive_the_wire(executor, ros_context):
+def test_nan_inf_and_negative_zero_survive_the_wire(spin, ros_context):
     """TaskMetrics uses NaN for "not applicable": it crosses DDS as NaN, as do inf and -0.0."""
     sent = tric_msgs.msg.TaskMetrics(task="grasp", grasp_cost=math.nan, lid_angle=math.inf, min_distance=-0.0,
                                      cost_term_names=["a", "b"], cost_term_values=[math.nan, -math.inf])
@@ -173,9 +161,8 @@ def test_nan_inf_and_negative_zero_survive_the_wire(executor, ros_context):
                                  lambda m: (received.append(m), got.set()), 10)
     publisher = talker.create_publisher(tric_msgs.msg.TaskMetrics, "/metrics_roundtrip", 10)
     talker.create_timer(0.05, lambda: publisher.publish(sent))
-    executor.add_node(talker)
-    executor.add_node(listener)
-    spin_until(executor, got)
+    spin(talker, listener)
+    assert got.wait(HANG_S), "timed out waiting for the round trip"
     metrics = received[0]
     assert metrics.task == "grasp"
     assert math.isnan(metrics.grasp_cost) and metrics.lid_angle == math.inf
