@@ -1,7 +1,8 @@
 """Nothing used or dropped in silence: failed demonstrations, unfinished recordings, a demonstration
 recorded twice and a demonstration without collision-free noisy samples are named; tric-train fails
-before training on a bad output path; damaged bags and random model files (fuzzed with hypothesis)
-give a clear error or a correct result, never a traceback."""
+before training on a bad output path; model files of another format version, with a definition off
+its fingerprint or with non-finite arrays are refused; damaged bags and random model files (fuzzed
+with hypothesis) give a clear error or a correct result, never a traceback."""
 
 import json
 import math
