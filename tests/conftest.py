@@ -1,5 +1,9 @@
-"""Fixtures for in-process ROS 2 tests: a fresh rclpy context and a spinning executor per test."""
+"""Fixtures for in-process ROS 2 tests: a fresh rclpy context and a spinning executor per test, and
+TRIC trained on the reference sphere bags once per session; helpers to wait, call and compare."""
 
+import dataclasses
+import math
+import pathlib
 import threading
 import time
 
@@ -7,6 +11,26 @@ import pytest
 import rclpy
 from rclpy.context import Context
 from rclpy.executors import SingleThreadedExecutor
+
+from tric_learning.training import TrainingConfig, train_from_bags
+from tric_sim.robot_model import RobotModel
+
+#: Wall seconds after which a wait counts as a hang. Far more than any of these waits takes on a
+#: loaded machine: it only keeps a broken test from waiting for ever, and times nothing.
+HANG_S = 120.0
+#: Control periods (10 ms each, at least) that an absence check lets the graph run before it looks.
+ABSENCE_PERIODS = 50
+#: The reference demonstrations shipped with the repository (bags/README.md).
+REFERENCE_BAGS = pathlib.Path(__file__).resolve().parent.parent / "bags"
+
+
+@pytest.fixture(scope="session")
+def reference_sphere_training(tmp_path_factory):
+    """TRIC trained with TrainingConfig()'s defaults on the 27 reference sphere demonstrations
+    (bags/sphere), as tric-demo --reuse trains it: a training.BagTraining, made once per session for
+    the tests that need a model that grasps."""
+    return train_from_bags([REFERENCE_BAGS / "sphere"], tmp_path_factory.mktemp("reference") / "tric_sphere.safetensors",
+                           TrainingConfig(), RobotModel())
 
 
 @pytest.fixture
@@ -32,22 +56,31 @@ def executor(ros_context):
 
 @pytest.fixture
 def spin(executor):
-    """spin(*nodes): add nodes to the test's executor and spin it in a background thread."""
-    started = []
+    """spin(*nodes): add nodes to the test's executor and spin it in a background thread, which is
+    stopped and joined after the test, before the executor fixture destroys the nodes and the
+    executor (Executor.shutdown() while another thread spins can destroy what that thread uses)."""
+    stop, started = threading.Event(), []
+
+    def spin_until_stopped():
+        while not stop.is_set():
+            executor.spin_once(timeout_sec=0.05)
 
     def start(*nodes):
         for node in nodes:
             executor.add_node(node)
         if not started:
-            thread = threading.Thread(target=executor.spin, daemon=True)
+            thread = threading.Thread(target=spin_until_stopped, daemon=True)
             thread.start()
             started.append(thread)
         return nodes[0] if len(nodes) == 1 else nodes
 
-    return start
+    yield start
+    stop.set()
+    for thread in started:
+        thread.join(HANG_S)
 
 
-def wait_for(predicate, timeout=20.0, what="condition"):
+def wait_for(predicate, timeout=HANG_S, what="condition"):
     """Poll predicate() until it is truthy; its value, or an AssertionError after timeout s."""
     deadline = time.monotonic() + timeout
     while time.monotonic() < deadline:
@@ -58,7 +91,7 @@ def wait_for(predicate, timeout=20.0, what="condition"):
     raise AssertionError(f"timed out after {timeout} s waiting for {what}")
 
 
-def call(node, srv_type, name, request, timeout=30.0):
+def call(node, srv_type, name, request, timeout=HANG_S):
     """Call a service from node (spun elsewhere) and return the response."""
     client = node.create_client(srv_type, name)
     assert client.wait_for_service(timeout_sec=timeout), f"service {name} not available"
@@ -68,15 +101,15 @@ def call(node, srv_type, name, request, timeout=30.0):
     return response
 
 
-def run_action(node, action_type, name, goal, timeout=120.0):
+def run_action(node, action_type, name, goal, timeout=HANG_S):
     """Send a goal from node (spun elsewhere); returns (status, result, feedback messages)."""
     from rclpy.action import ActionClient
 
     client = ActionClient(node, action_type, name)
-    assert client.wait_for_server(timeout_sec=30.0), f"action server {name} not available"
+    assert client.wait_for_server(timeout_sec=HANG_S), f"action server {name} not available"
     feedback = []
     goal_future = client.send_goal_async(goal, feedback_callback=lambda msg: feedback.append(msg.feedback))
-    handle = wait_for(lambda: goal_future.result() if goal_future.done() else None, 30.0, "goal response")
+    handle = wait_for(lambda: goal_future.result() if goal_future.done() else None, HANG_S, "goal response")
     if not handle.accepted:
         client.destroy()
         return None, None, feedback
@@ -85,3 +118,23 @@ def run_action(node, action_type, name, goal, timeout=120.0):
                        f"the result of {name}")
     client.destroy()
     return wrapped.status, wrapped.result, feedback
+
+
+def run_periods(node, periods=ABSENCE_PERIODS, period_s=0.01):
+    """Let the graph run: return once a timer of node (spun elsewhere) has fired periods times, one
+    every period_s s at most. An absence check calls this first, so that whatever the graph would
+    publish has had those periods to arrive."""
+    fired = []
+    timer = node.create_timer(period_s, lambda: fired.append(None))
+    try:
+        wait_for(lambda: len(fired) >= periods, what=f"{periods} timer periods")
+    finally:
+        node.destroy_timer(timer)
+
+
+def record_fields(record) -> dict:
+    """An EpisodeRecord's fields but its wall time, NaN written as the string "nan" (NaN != NaN): two
+    runs of a deterministic episode give equal ones."""
+    fields = dataclasses.asdict(record)
+    del fields["wall_time_s"]
+    return {k: "nan" if isinstance(v, float) and math.isnan(v) else v for k, v in fields.items()}

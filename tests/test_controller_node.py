@@ -1,7 +1,6 @@
 """The controller node in-process: model loading and refusals, a lockstep episode on the simulator
-node, the realtime hold on stale joint states, and refused episodes."""
-
-import time
+node, realtime holds (stale joint states, object poses without the object) and the resume on fresh
+states, refused episodes, and the simulator stopping mid-episode."""
 
 import numpy as np
 import pytest
@@ -15,7 +14,7 @@ from tric_msgs.action import Execute
 from tric_msgs.msg import ControllerStatus, EpisodeEvent, ObjectPoses, Situation as SituationMsg
 from tric_msgs.srv import LoadModel, ResetScene
 
-from conftest import call, run_action, wait_for
+from conftest import HANG_S, call, run_action, run_periods, wait_for
 from tric_control.controller_node import ControllerNode
 from tric_learning import model_file
 from tric_learning.features import FeatureDefinition
@@ -97,7 +96,7 @@ def test_lockstep_episode_on_the_simulator(ros_context, spin, robot, model_path)
     assert load(observer, model_path).success
     wait_for(lambda: controller.scene is not None and controller.scene.situation == situation, what="the situation")
     status, result, feedback = run_action(observer, Execute, "/controller/execute",
-                                          Execute.Goal(max_steps=150, episode_id="ctl_test"), timeout=60.0)
+                                          Execute.Goal(max_steps=150, episode_id="ctl_test"))
     assert status == GoalStatus.STATUS_SUCCEEDED, result.message
     assert result.success and result.outcome in ("step_budget", "converged")
     assert 0 < result.steps <= 150
@@ -127,48 +126,91 @@ def test_lockstep_episode_on_the_simulator(ros_context, spin, robot, model_path)
     assert messages.time_ns(end_event.header.stamp) == stamps[-1]
 
 
-def test_realtime_holds_on_stale_joint_states(ros_context, spin, model_path):
+class Feeder(Node):
+    """Plays the robot for a realtime controller: every 10 ms (wall clock) it publishes the joint
+    state `q` stamped now if `states`, and the object poses if `poses` (`object_pose` False: poses
+    without the object)."""
+
+    def __init__(self, context, names, situation):
+        super().__init__("test_feeder", context=context)
+        self.names, self.q = names, HOME.copy()
+        self.states, self.poses, self.object_pose = True, True, True
+        self.object = (situation.object_position, situation.object_orientation)
+        self.state_pub = self.create_publisher(JointState, "/joint_states", 10)
+        self.poses_pub = self.create_publisher(ObjectPoses, "/object_poses", 10)
+        self.create_timer(0.01, self.publish)
+
+    def publish(self):
+        now = self.get_clock().now().nanoseconds
+        if self.poses:
+            self.poses_pub.publish(messages.object_poses_msg({"object": self.object} if self.object_pose else {}, now))
+        if self.states:
+            self.state_pub.publish(messages.joint_state_msg(self.names, self.q, np.zeros(len(self.q)), now))
+
+
+def test_realtime_holds_on_stale_states_and_missing_poses_and_resumes(ros_context, spin, model_path):
+    """Realtime: fresh states and poses step the controller; states that stop coming make it hold the
+    last measured positions (HOLDING); fresh states again resume the stepping; poses without the
+    object hold it although the states are fresh; a cancel ends the episode."""
     controller = make_controller(ros_context, mode="realtime", model_path=model_path)
     observer = Observer(ros_context)
-    state_pub = observer.create_publisher(JointState, "/joint_states", 10)
-    poses_pub = observer.create_publisher(ObjectPoses, "/object_poses", 10)
     situation_pub = observer.create_publisher(SituationMsg, "/situation", LATCHED)
-    spin(controller, observer)
     situation = situations.dataset("sphere_test")[0]
+    feeder = Feeder(ros_context, controller.robot.joint_names, situation)
+    feeder.states = feeder.poses = False
+    spin(controller, observer, feeder)
     situation_pub.publish(messages.situation_to_msg(situation))
     wait_for(lambda: controller.scene is not None, what="the situation")
     wait_for(lambda: any(s.state == ControllerStatus.IDLE for s in observer.statuses), what="idle status")
 
     client = ActionClient(observer, Execute, "/controller/execute")
-    assert client.wait_for_server(timeout_sec=10.0)
-    goal_future = client.send_goal_async(Execute.Goal(max_steps=10000))
+    assert client.wait_for_server(timeout_sec=HANG_S)
+    goal_future = client.send_goal_async(Execute.Goal(max_steps=100000))
     handle = wait_for(lambda: goal_future.result() if goal_future.done() else None, what="goal response")
     assert handle.accepted
-    poses = {"object": (situation.object_position, situation.object_orientation)}
-    for _ in range(20):
-        now = observer.get_clock().now().nanoseconds
-        poses_pub.publish(messages.object_poses_msg(poses, now))
-        state_pub.publish(messages.joint_state_msg(controller.robot.joint_names, HOME, np.zeros(14), now))
-        time.sleep(0.01)
-    stopped = time.monotonic()
-    wait_for(lambda: any(s.state == ControllerStatus.RUNNING for s in observer.statuses), 1.0, "running ticks")
+
+    def statuses_since(stamp_ns):
+        """The statuses of the ticks after stamp_ns (the node's clock)."""
+        return [s for s in list(observer.statuses) if messages.time_ns(s.header.stamp) > stamp_ns]
+
+    feeder.states = feeder.poses = True
+    wait_for(lambda: any(s.state == ControllerStatus.RUNNING for s in observer.statuses), what="running ticks")
+    feeder.states = False                                  # the robot stops answering
 
     def holding():
         return (observer.statuses and observer.statuses[-1].state == ControllerStatus.HOLDING
-                and observer.commands and np.array_equal(observer.commands[-1].position, HOME))
+                and observer.commands and np.allclose(observer.commands[-1].position, HOME, rtol=0, atol=1e-12))
 
-    wait_for(holding, 1.0, "a hold command at the last positions and status HOLDING")
-    assert time.monotonic() - stopped < 1.0
+    wait_for(holding, what="a hold command at the last positions and status HOLDING")
+    held_at, mark = observer.statuses[-1].step, messages.time_ns(observer.statuses[-1].header.stamp)
+    run_periods(observer)
+    assert len(statuses_since(mark)) >= 10 and {s.step for s in statuses_since(mark)} == {held_at}
+
     refused = load(observer, model_path)
     assert not refused.success and "episode is running" in refused.message
     second = client.send_goal_async(Execute.Goal(max_steps=10))
     assert not wait_for(lambda: second.result() if second.done() else None, what="goal response").accepted
 
+    feeder.states = True                                   # fresh states again: the controller resumes
+    wait_for(lambda: any(s.state == ControllerStatus.RUNNING and s.step > held_at for s in observer.statuses),
+             what="running ticks after the hold")
+
+    feeder.object_pose = False                             # fresh states, poses without the object
+    wait_for(lambda: controller._poses == {}, what="poses without the object")
+    mark = controller.get_clock().now().nanoseconds
+    run_periods(observer)
+    without_object = statuses_since(mark)
+    assert len(without_object) >= 10
+    assert {s.state for s in without_object} == {ControllerStatus.HOLDING}
+    assert len({s.step for s in without_object}) == 1     # the controller is not stepped
+    wait_for(lambda: np.allclose(observer.commands[-1].position, HOME, rtol=0, atol=1e-12),
+             what="the hold command reaching the measured positions")
+
     result_future = handle.get_result_async()
     handle.cancel_goal_async()
-    wrapped = wait_for(lambda: result_future.result() if result_future.done() else None, 10.0, "the result")
+    wrapped = wait_for(lambda: result_future.result() if result_future.done() else None, what="the result")
     assert wrapped.status == GoalStatus.STATUS_CANCELED and wrapped.result.outcome == "canceled"
-    assert wrapped.result.steps > 0
+    assert wrapped.result.steps > held_at
     wait_for(lambda: [e.event for e in observer.events] == [EpisodeEvent.START, EpisodeEvent.ABORT],
              what="START and ABORT")
     client.destroy()
@@ -180,6 +222,7 @@ def test_execute_is_refused_without_model(ros_context, spin):
     status, result, _ = run_action(observer, Execute, "/controller/execute", Execute.Goal(max_steps=10))
     assert status == GoalStatus.STATUS_ABORTED and not result.success
     assert result.outcome == "failed" and "no model loaded" in result.message
+    run_periods(observer)
     assert not observer.events
 
 
@@ -188,6 +231,7 @@ def test_execute_is_refused_without_situation(ros_context, spin, model_path):
     observer = spin(controller, Observer(ros_context))[1]
     status, result, _ = run_action(observer, Execute, "/controller/execute", Execute.Goal(max_steps=10))
     assert status == GoalStatus.STATUS_ABORTED and "no situation known" in result.message
+    run_periods(observer)
     assert not observer.events
 
 
@@ -200,6 +244,7 @@ def test_lockstep_episode_aborts_without_joint_states(ros_context, spin, model_p
     wait_for(lambda: controller.scene is not None, what="the situation")
     status, result, _ = run_action(observer, Execute, "/controller/execute", Execute.Goal(max_steps=10))
     assert status == GoalStatus.STATUS_ABORTED and "no joint states for 0.3 s" in result.message
+    run_periods(observer)
     assert result.steps == 0 and not observer.commands and not observer.events
 
 
@@ -227,18 +272,19 @@ def test_the_simulator_stopping_mid_episode_leaves_the_robot_held_and_aborts(ros
     assert load(observer, model_path).success
     wait_for(lambda: controller.scene is not None and controller.scene.situation == situation, what="the situation")
     client = ActionClient(observer, Execute, "/controller/execute")
-    assert client.wait_for_server(timeout_sec=10.0)
+    assert client.wait_for_server(timeout_sec=HANG_S)
     goal_future = client.send_goal_async(Execute.Goal(max_steps=100000))
     handle = wait_for(lambda: goal_future.result() if goal_future.done() else None, what="goal response")
     result_future = handle.get_result_async()
     wait_for(lambda: len(observer.commands) >= 30, what="30 commands")
     executor.remove_node(simulator)  # the simulator stops in the middle of the episode
     simulator.destroy_node()
-    wrapped = wait_for(lambda: result_future.result() if result_future.done() else None, 10.0, "the abort")
+    wrapped = wait_for(lambda: result_future.result() if result_future.done() else None, what="the abort")
     assert wrapped.status == GoalStatus.STATUS_ABORTED and wrapped.result.outcome == "failed"
     assert wrapped.result.message.startswith("no joint states for 0.5 s: is the")
     # the robot holds: no command moves it on after the last state (lockstep answers states only;
     # realtime holds the last measured positions once the state is STALE_PERIODS periods old)
+    run_periods(observer)
     last_state = messages.time_ns(states[-1].header.stamp)
     after = [c for c in observer.commands if messages.time_ns(c.header.stamp) > last_state]
     assert len(after) <= 3 and (mode == "realtime" or not after)

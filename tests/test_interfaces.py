@@ -9,16 +9,18 @@ import numpy as np
 import pytest
 from rclpy.action import ActionClient, ActionServer
 from rclpy.node import Node
+from rclpy.task import Future
 
 import tric_msgs.action
 import tric_msgs.msg
 import tric_msgs.srv
 
+from conftest import HANG_S
+
 MESSAGES = ["ObjectPoses", "Situation", "FeatureDefinition", "FeatureSample", "TaskMetrics",
             "EpisodeEvent", "ControllerStatus", "TrainingProgress"]
 SERVICES = ["ResetScene", "EvaluateTask", "RenderScene", "Train", "LoadModel"]
 ACTIONS = ["Demonstrate", "Execute"]
-TIMEOUT_S = 10.0
 
 
 def filled(msg_class, seed=1):
@@ -52,12 +54,6 @@ def _value(type_name, seed):
     raise AssertionError(f"unhandled field type {type_name}")
 
 
-def spin_until(executor, event, timeout=TIMEOUT_S):
-    thread = threading.Thread(target=executor.spin, daemon=True)
-    thread.start()
-    assert event.wait(timeout), "timed out waiting for the round trip"
-
-
 def as_dict(value):
     """A message as nested plain Python values, for equality checks."""
     if hasattr(value, "get_fields_and_field_types"):
@@ -74,7 +70,7 @@ def test_filled_messages_are_not_defaults():
 
 
 @pytest.mark.parametrize("name", MESSAGES)
-def test_message_round_trip(executor, ros_context, name):
+def test_message_round_trip(spin, ros_context, name):
     cls = getattr(tric_msgs.msg, name)
     sent = filled(cls)
     talker = Node("talker", context=ros_context)
@@ -83,14 +79,13 @@ def test_message_round_trip(executor, ros_context, name):
     listener.create_subscription(cls, "/roundtrip", lambda m: (received.append(m), got.set()), 10)
     publisher = talker.create_publisher(cls, "/roundtrip", 10)
     talker.create_timer(0.05, lambda: publisher.publish(sent))
-    executor.add_node(talker)
-    executor.add_node(listener)
-    spin_until(executor, got)
+    spin(talker, listener)
+    assert got.wait(HANG_S), "timed out waiting for the round trip"
     assert as_dict(received[0]) == as_dict(sent)
 
 
 @pytest.mark.parametrize("name", SERVICES)
-def test_service_round_trip(executor, ros_context, name):
+def test_service_round_trip(spin, ros_context, name):
     srv = getattr(tric_msgs.srv, name)
     request, response = filled(srv.Request, 3), filled(srv.Response, 7)
     server = Node("server", context=ros_context)
@@ -103,37 +98,40 @@ def test_service_round_trip(executor, ros_context, name):
 
     server.create_service(srv, "/echo", handle)
     client = client_node.create_client(srv, "/echo")
-    executor.add_node(server)
-    executor.add_node(client_node)
-    thread = threading.Thread(target=executor.spin, daemon=True)
-    thread.start()
-    assert client.wait_for_service(timeout_sec=TIMEOUT_S)
-    result = client.call(request, timeout_sec=TIMEOUT_S)
+    spin(server, client_node)
+    assert client.wait_for_service(timeout_sec=HANG_S)
+    result = client.call(request, timeout_sec=HANG_S)
     assert as_dict(seen[0]) == as_dict(request)
     assert as_dict(result) == as_dict(response)
 
 
 @pytest.mark.parametrize("name", ACTIONS)
-def test_action_round_trip(executor, ros_context, name):
+def test_action_round_trip(spin, ros_context, name):
+    """Goal, feedback and result cross intact; the server succeeds only once the client has its
+    feedback, so exactly one feedback message must arrive."""
     action = getattr(tric_msgs.action, name)
     goal, feedback, result = filled(action.Goal, 2), filled(action.Feedback, 4), filled(action.Result, 6)
     server = Node("action_server", context=ros_context)
     client_node = Node("action_client", context=ros_context)
-    seen_goals = []
+    seen_goals, feedbacks, feedback_seen = [], [], Future()
 
-    def execute(goal_handle):
+    async def execute(goal_handle):
         seen_goals.append(goal_handle.request)
         goal_handle.publish_feedback(feedback)
+        await feedback_seen        # the executor spins on (the client's feedback callback) meanwhile
         goal_handle.succeed()
         return result
 
+    def on_feedback(message):
+        feedbacks.append(message.feedback)
+        if not feedback_seen.done():
+            feedback_seen.set_result(True)
+
     ActionServer(server, action, "/echo_action", execute)
     client = ActionClient(client_node, action, "/echo_action")
-    executor.add_node(server)
-    executor.add_node(client_node)
-    threading.Thread(target=executor.spin, daemon=True).start()
-    assert client.wait_for_server(timeout_sec=TIMEOUT_S)
-    feedbacks, done = [], threading.Event()
+    spin(server, client_node)
+    assert client.wait_for_server(timeout_sec=HANG_S)
+    done = threading.Event()
     outcome = {}
 
     def on_result(future):
@@ -145,17 +143,28 @@ def test_action_round_trip(executor, ros_context, name):
         assert handle.accepted
         handle.get_result_async().add_done_callback(on_result)
 
-    client.send_goal_async(goal, feedback_callback=lambda fb: feedbacks.append(fb.feedback)) \
-        .add_done_callback(on_goal)
-    assert done.wait(TIMEOUT_S)
+    client.send_goal_async(goal, feedback_callback=on_feedback).add_done_callback(on_goal)
+    assert done.wait(HANG_S)
     assert as_dict(seen_goals[0]) == as_dict(goal)
     assert as_dict(outcome["result"]) == as_dict(result)
-    # Feedback is best effort and may trail the result; when it arrived it is intact.
-    for fb in feedbacks:
-        assert as_dict(fb) == as_dict(feedback)
+    assert len(feedbacks) == 1 and as_dict(feedbacks[0]) == as_dict(feedback)
 
 
-def test_nan_survives_the_wire_as_nan():
-    """TaskMetrics uses NaN for "not applicable"; the Python type keeps it (checked without DDS)."""
-    metrics = tric_msgs.msg.TaskMetrics(grasp_cost=math.nan)
-    assert math.isnan(metrics.grasp_cost)
+def test_nan_inf_and_negative_zero_survive_the_wire(spin, ros_context):
+    """TaskMetrics uses NaN for "not applicable": it crosses DDS as NaN, as do inf and -0.0."""
+    sent = tric_msgs.msg.TaskMetrics(task="grasp", grasp_cost=math.nan, lid_angle=math.inf, min_distance=-0.0,
+                                     cost_term_names=["a", "b"], cost_term_values=[math.nan, -math.inf])
+    talker = Node("talker", context=ros_context)
+    listener = Node("listener", context=ros_context)
+    received, got = [], threading.Event()
+    listener.create_subscription(tric_msgs.msg.TaskMetrics, "/metrics_roundtrip",
+                                 lambda m: (received.append(m), got.set()), 10)
+    publisher = talker.create_publisher(tric_msgs.msg.TaskMetrics, "/metrics_roundtrip", 10)
+    talker.create_timer(0.05, lambda: publisher.publish(sent))
+    spin(talker, listener)
+    assert got.wait(HANG_S), "timed out waiting for the round trip"
+    metrics = received[0]
+    assert metrics.task == "grasp"
+    assert math.isnan(metrics.grasp_cost) and metrics.lid_angle == math.inf
+    assert metrics.min_distance == 0.0 and math.copysign(1.0, metrics.min_distance) == -1.0
+    assert math.isnan(metrics.cost_term_values[0]) and metrics.cost_term_values[1] == -math.inf

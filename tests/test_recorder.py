@@ -1,6 +1,10 @@
 """The recorder through the real nodes: bags readable by this project and by rosbags, with the same
-numbers; bad bags refused; a killed recorder leaves its finished bags intact."""
+numbers; bad bags refused; a killed recorder leaves its finished bags intact; an aborted episode
+leaves no bag; tric-record refuses bad arguments, situations files and output folders before
+recording."""
 
+import json
+import math
 import os
 import pathlib
 import shutil
@@ -13,12 +17,18 @@ import numpy as np
 import pytest
 import yaml
 from mcap.reader import make_reader
+from rclpy.node import Node
+from rclpy.parameter import Parameter
 from rosbags.highlevel import AnyReader
+from sensor_msgs.msg import JointState
+from tric_msgs.msg import EpisodeEvent, ObjectPoses, TaskMetrics
 
+from conftest import run_periods, wait_for
 from tric_learning import bags, record_cli
 from tric_learning.record_cli import demonstrate_all
+from tric_learning.recorder_node import RecorderNode
 from tric_learning.recording import SAMPLES_TOPIC, load_dataset
-from tric_sim import scene, scene_view, situations
+from tric_sim import messages, scene, scene_view, situations
 from tric_sim.robot_model import RobotModel
 
 
@@ -149,6 +159,68 @@ def test_bad_bags_are_refused_naming_the_file(recorded, tmp_path):
         load_dataset([empty])
 
 
+class EpisodePlayer(Node):
+    """Plays a teacher's episode to the recorder: /episode events, /joint_states and /object_poses,
+    stamped in simulated ns."""
+
+    def __init__(self, context, situation):
+        super().__init__("test_episode_player", context=context)
+        self.situation, self.robot = situation, RobotModel()
+        self.event_pub = self.create_publisher(EpisodeEvent, "/episode", 20)
+        self.state_pub = self.create_publisher(JointState, "/joint_states", 1000)
+        self.poses_pub = self.create_publisher(ObjectPoses, "/object_poses", 1000)
+
+    def event(self, kind, episode_id, stamp_ns, metrics=None):
+        msg = EpisodeEvent(event=kind, episode_id=episode_id, source="teacher")
+        msg.header.stamp = messages.time_msg(stamp_ns)
+        if kind == EpisodeEvent.START:
+            msg.situation = messages.situation_to_msg(self.situation)
+        if metrics is not None:
+            msg.metrics = metrics
+        self.event_pub.publish(msg)
+
+    def states(self, first_ns, count):
+        """count states of the arm moving a little, one every 10 ms from first_ns; the last stamp."""
+        q = self.robot.home.copy()
+        poses = {"object": (self.situation.object_position, self.situation.object_orientation)}
+        for k in range(count):
+            stamp = first_ns + k * 10_000_000
+            q[:3] += 0.002
+            self.poses_pub.publish(messages.object_poses_msg(poses, stamp))
+            self.state_pub.publish(messages.joint_state_msg(self.robot.joint_names, q, np.zeros(len(q)), stamp))
+        return stamp
+
+
+def test_an_aborted_episode_leaves_no_bag_and_the_next_one_is_recorded(ros_context, spin, tmp_path):
+    """START, 30 states, ABORT: the recorder discards the bag (no .mcap, no .part left) and names no
+    failure; the next episode (START, states, END, OUTCOME) is recorded as usual."""
+    recorder = RecorderNode(context=ros_context, parameter_overrides=[Parameter("output_dir", value=str(tmp_path))])
+    situation = situations.sphere_grid()[4]
+    player = spin(recorder, EpisodePlayer(ros_context, situation))[1]
+    wait_for(lambda: all(player.count_subscribers(topic) for topic in ("/episode", "/joint_states", "/object_poses")),
+             what="the recorder's subscriptions")
+    player.event(EpisodeEvent.START, "aborted", 1_000_000_000)
+    wait_for(lambda: recorder.busy, what="the aborted episode's bag to open")
+    assert [p.name for p in tmp_path.iterdir()] == ["aborted.mcap.part"]
+    last = player.states(1_000_000_000, 30)
+    player.event(EpisodeEvent.ABORT, "aborted", last)
+    wait_for(lambda: not recorder.busy, what="the abort")
+    run_periods(player)
+    assert list(tmp_path.iterdir()) == [] and recorder.finished == [] and recorder.failed == []
+
+    player.event(EpisodeEvent.START, "recorded", 2_000_000_000)
+    wait_for(lambda: recorder.busy, what="the next episode's bag to open")
+    last = player.states(2_000_000_000, 30)
+    player.event(EpisodeEvent.END, "recorded", last)
+    player.event(EpisodeEvent.OUTCOME, "recorded", last, TaskMetrics(task="grasp", grasp_cost=0.1, success=True,
+                                                                     lid_angle=math.nan))
+    wait_for(lambda: recorder.finished, what="the recorded bag")
+    assert recorder.finished == [tmp_path / "recorded.mcap"] and recorder.failed == []
+    info = bags.bag_info(tmp_path / "recorded.mcap")
+    assert info.complete and info.topics["/joint_states"].message_count == 30
+    assert json.loads(info.custom_data["tric.outcome"])["success"] is True
+
+
 def test_recorder_killed_mid_demonstration_keeps_finished_bags(tmp_path):
     env = dict(os.environ)
     process = subprocess.Popen([sys.executable, "-m", "tric_learning.record_cli", "sphere_train",
@@ -192,6 +264,47 @@ def test_tric_record_checks_its_folder_before_recording(tmp_path, capsys):
     assert capsys.readouterr().err == (f"tric-record: --out {tmp_path} is not empty (plain); give --overwrite to "
                                        "record into it anyway\n")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["plain"]
+
+
+@pytest.mark.parametrize("arguments, message", [
+    ([], "give either DATASET or --situations-file"),
+    (["sphere_train", "--situations-file", "{tmp}/one.yaml"], "give either DATASET or --situations-file"),
+    (["sphere_everywhere"], "argument dataset: invalid choice: 'sphere_everywhere'"),
+    (["sphere_train", "--period", "0"], "--period must be positive and --duration not negative"),
+    (["sphere_train", "--duration", "-1"], "--period must be positive and --duration not negative"),
+    (["sphere_train", "--domain-id", "233"], "--domain-id must be in [0, 232]"),
+    (["sphere_train", "--period", "fast"], "argument --period: invalid float value: 'fast'"),
+])
+def test_tric_record_refuses_bad_arguments_with_status_2(tmp_path, capsys, arguments, message):
+    out = tmp_path / "bags"
+    with pytest.raises(SystemExit) as refused:
+        record_cli.main([a.format(tmp=tmp_path) for a in arguments] + ["--out", str(out)])
+    assert refused.value.code == 2
+    error = capsys.readouterr().err
+    assert error.startswith("usage: tric-record") and f"tric-record: error: {message}" in error, error
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("make, message", [
+    (lambda folder: None, "cannot read situations file {folder}/none.yaml: No such file or directory"),
+    (lambda folder: (folder / "none.yaml").write_text("- name: [unclosed\n"),
+     "{folder}/none.yaml is not valid YAML: expected ',' or ']', but got '<stream end>' at line 2, column 1"),
+    (lambda folder: (folder / "none.yaml").write_text("[]\n"), "{folder}/none.yaml holds no situations"),
+])
+def test_tric_record_refuses_a_bad_situations_file_in_one_line(tmp_path, capsys, make, message):
+    make(tmp_path)
+    out = tmp_path / "bags"
+    assert record_cli.main(["--situations-file", str(tmp_path / "none.yaml"), "--out", str(out)]) == 2
+    error = capsys.readouterr().err
+    assert error.startswith("tric-record: ") and message.format(folder=tmp_path) in error
+    assert error.count("\n") == 1 and not out.exists()
+
+
+def test_tric_record_refuses_a_bad_viz_port_before_recording(tmp_path, capsys):
+    out = tmp_path / "bags"
+    assert record_cli.main(["sphere_train", "--out", str(out), "--viz", "--viz-port", "70000"]) == 2
+    assert capsys.readouterr().err.endswith("tric-record: --viz-port must be in [1, 65535], got 70000\n")
+    assert not out.exists()
 
 
 def test_overwrite_replaces_a_bag_of_the_same_name(tmp_path):

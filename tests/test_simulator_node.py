@@ -51,7 +51,7 @@ def test_lockstep_commander_drives_the_arm_to_a_target(ros_context, spin):
     stamps = [messages.time_ns(s.header.stamp) for s in commander.states]
     assert np.all(np.diff(stamps) == 10_000_000)  # one state per 10 ms of simulated time, none skipped
     final = np.array(commander.states[-1].position)
-    assert np.abs(final - target).max() < 0.01
+    assert np.abs(final - target).max() < 0.01  # design.md 6's joint tolerance, 0.01 rad
     assert commander.poses and commander.poses[-1].names[0] == "object"
 
 
@@ -71,7 +71,7 @@ def test_bad_commands_are_refused_and_the_joints_hold(ros_context, spin):
         commander.publisher.publish(command)  # zero stamp: applies to whatever period is current
     wait_for(lambda: len(commander.states) > 40, what="more periods")
     assert np.allclose(simulator.world.targets, HOME)
-    assert np.abs(np.array(commander.states[-1].position) - HOME).max() < 0.01
+    assert np.abs(np.array(commander.states[-1].position) - HOME).max() < 0.01  # design.md 6's 0.01 rad
     # a partial command moves only the joints it names
     commander.publisher.publish(JointState(name=["arm_1_joint"], position=[0.3]))
     wait_for(lambda: abs(simulator.world.targets[0] - 0.3) < 1e-12, what="partial command")

@@ -6,7 +6,7 @@ from rclpy.parameter import Parameter
 from tric_msgs.action import Demonstrate
 from tric_msgs.msg import EpisodeEvent
 
-from conftest import run_action, wait_for
+from conftest import run_action, run_periods, wait_for
 from tric_sim import messages, situations
 from tric_sim.simulator_node import SimulatorNode
 from tric_sim.teacher_node import TeacherNode
@@ -24,7 +24,7 @@ def start(ros_context, spin):
 
 def demonstrate(client, situation):
     goal = Demonstrate.Goal(situation=messages.situation_to_msg(situation))
-    return run_action(client, Demonstrate, "/teacher/demonstrate", goal, timeout=180.0)
+    return run_action(client, Demonstrate, "/teacher/demonstrate", goal)
 
 
 def test_grasps_a_grid_sphere_and_a_random_test_sphere(ros_context, spin):
@@ -56,4 +56,5 @@ def test_bad_situation_is_refused(ros_context, spin):
     bad.object_kind = "teapot"
     status, result, _ = run_action(client, Demonstrate, "/teacher/demonstrate", Demonstrate.Goal(situation=bad))
     assert status == GoalStatus.STATUS_ABORTED and "teapot" in result.message
+    run_periods(client)
     assert not events

@@ -5,6 +5,7 @@ import contextlib
 import io
 import math
 import shutil
+import threading
 
 import numpy as np
 import pytest
@@ -13,8 +14,8 @@ from rclpy.qos import QoSProfile, ReliabilityPolicy
 from tric_msgs.msg import TrainingProgress
 from tric_msgs.srv import Train
 
-from conftest import call, wait_for
-from tric_learning import analysis, train_cli
+from conftest import HANG_S, call, wait_for
+from tric_learning import analysis, train_cli, trainer_node
 from tric_learning.features import FeatureDefinition
 from tric_learning.model_file import ModelFile, value_function
 from tric_learning.record_cli import demonstrate_all
@@ -66,16 +67,33 @@ def test_request_defaults_are_the_training_defaults():
     assert training_config(Train.Request(hidden_units=0)).hidden_units == 0
 
 
-def test_train_round_trip_with_progress_and_a_busy_answer(ros_context, spin, bag_dir, tmp_path):
+class HeldJob:
+    """Stands in for trainer_node.train_from_bags: a training that starts only when the test releases
+    it (`release`), after saying it has begun (`entered`); then the real job runs. It holds the node's
+    training slot for as long as the test needs, so a second request meets a running training."""
+
+    def __init__(self, job):
+        self.job, self.entered, self.release = job, threading.Event(), threading.Event()
+
+    def __call__(self, *args, **kwargs):
+        self.entered.set()
+        assert self.release.wait(HANG_S), "the test never released the training"
+        return self.job(*args, **kwargs)
+
+
+def test_train_round_trip_with_progress_and_a_busy_answer(ros_context, spin, bag_dir, tmp_path, monkeypatch):
+    held = HeldJob(trainer_node.train_from_bags)
+    monkeypatch.setattr(trainer_node, "train_from_bags", held)
     listener = spin(TrainerNode(context=ros_context), ProgressListener(ros_context))[1]
     client = listener.create_client(Train, "/trainer/train")
-    assert client.wait_for_service(timeout_sec=10.0)
+    assert client.wait_for_service(timeout_sec=HANG_S)
     out = tmp_path / "models" / "tiny.safetensors"
     first = client.call_async(train_request([bag_dir], out))
-    wait_for(lambda: listener.messages, 60.0, "the first progress message")
-    busy = call(listener, Train, "/trainer/train", train_request([bag_dir], tmp_path / "second.safetensors"), 10.0)
+    assert held.entered.wait(HANG_S), "the first training never started"
+    busy = call(listener, Train, "/trainer/train", train_request([bag_dir], tmp_path / "second.safetensors"))
     assert not busy.success and busy.message.startswith("busy"), busy.message
-    response = wait_for(lambda: first.result() if first.done() else None, 120.0, "the training's answer")
+    held.release.set()
+    response = wait_for(lambda: first.result() if first.done() else None, what="the training's answer")
     assert response.success, response.message
     assert not (tmp_path / "second.safetensors").exists()
 
@@ -94,7 +112,7 @@ def test_train_round_trip_with_progress_and_a_busy_answer(ros_context, spin, bag
     assert 0 < response.sampling_time_s and 0 < response.optimization_time_s
     assert response.train_time_s == pytest.approx(response.sampling_time_s + response.optimization_time_s)
 
-    wait_for(lambda: listener.messages[-1].stage == "done", 10.0, "the 'done' progress message")
+    wait_for(lambda: listener.messages[-1].stage == "done", what="the 'done' progress message")
     stages = [m.stage for m in listener.messages]
     assert [s for k, s in enumerate(stages) if k == 0 or s != stages[k - 1]] == [
         "loading", "sampling", "optimizing", "saving", "done"]
@@ -139,12 +157,12 @@ def test_bad_requests_are_refused_and_write_nothing(ros_context, spin, bag_dir, 
         (train_request([bag_dir], inputs / "empty.safetensors"), "is a folder"),
     ]
     for request, reason in refusals:
-        response = call(listener, Train, "/trainer/train", request, 30.0)
+        response = call(listener, Train, "/trainer/train", request)
         assert not response.success and reason in response.message, (reason, response.message)
         assert response.model_path == ""
     assert sorted(p.name for p in tmp_path.rglob("*") if p.is_file()) == ["notes.mcap", "truncated.mcap"]
     failed = lambda: [m for m in listener.messages if m.stage == "failed"]  # noqa: E731
-    wait_for(lambda: len(failed()) == len(refusals), 10.0, "a 'failed' message per refusal")
+    wait_for(lambda: len(failed()) == len(refusals), what="a 'failed' message per refusal")
     assert [m.message for m in failed()][-1].endswith("is a folder; give a file path")
     assert {m.stage for m in listener.messages} == {"loading", "failed"}  # bad bags are found while loading
 
@@ -153,19 +171,19 @@ def test_a_client_that_goes_away_leaves_the_service_usable(ros_context, spin, ba
     listener = spin(TrainerNode(context=ros_context), ProgressListener(ros_context))[1]
     leaving = Node("test_leaving_client", context=ros_context)
     client = leaving.create_client(Train, "/trainer/train")
-    assert client.wait_for_service(timeout_sec=10.0)
+    assert client.wait_for_service(timeout_sec=HANG_S)
     pending = client.call_async(train_request([bag_dir], tmp_path / "abandoned.safetensors"))
-    wait_for(lambda: listener.messages, 60.0, "the first progress message")
+    wait_for(lambda: listener.messages, what="the first progress message")
     client.remove_pending_request(pending)  # the caller gives up on its answer ...
     leaving.destroy_node()                  # ... and goes away while the training runs
-    wait_for(lambda: listener.messages[-1].stage in ("done", "failed"), 120.0, "the abandoned training's end")
+    wait_for(lambda: listener.messages[-1].stage in ("done", "failed"), what="the abandoned training's end")
 
     folder = tmp_path / "bags"
     shutil.copytree(bag_dir, folder)
     first = sorted(folder.glob("*.mcap"))[0]
     part = folder / "killed.mcap.part"
     part.write_bytes(first.read_bytes()[: first.stat().st_size // 2])
-    response = call(listener, Train, "/trainer/train", train_request([folder], tmp_path / "next.safetensors"), 120.0)
+    response = call(listener, Train, "/trainer/train", train_request([folder], tmp_path / "next.safetensors"))
     assert response.success, response.message
     assert f"skipped {part}: an unfinished recording" in response.message
     assert (tmp_path / "abandoned.safetensors").is_file()  # the abandoned training finished its work
@@ -175,14 +193,14 @@ def test_dpl_kinds_are_routed_to_dpl_training(ros_context, spin, bag_dir, tmp_pa
     listener = spin(TrainerNode(context=ros_context), ProgressListener(ros_context))[1]
     out = tmp_path / "dpl.safetensors"
     request = Train.Request(bag_paths=[str(bag_dir)], output_path=str(out), model_kind="dpl_joint", max_iterations=20)
-    response = call(listener, Train, "/trainer/train", request, 60.0)
+    response = call(listener, Train, "/trainer/train", request)
     assert response.success, response.message
     assert response.message.startswith("dpl_joint trained on 3 demonstrations") and "training MSE" in response.message
     loaded = ModelFile.load(out)
     assert loaded.kind == "dpl_joint" and loaded.info["hyperparameters"]["hidden_units"] == 60
     assert response.loss_total == loaded.info["losses"]["total"] and math.isnan(response.loss_n)
     assert response.input_features == len(loaded.arrays["kept"]) > 0
-    wait_for(lambda: listener.messages and listener.messages[-1].stage == "done", 10.0, "the 'done' message")
+    wait_for(lambda: listener.messages and listener.messages[-1].stage == "done", what="the 'done' message")
     assert {m.stage for m in listener.messages} == {"loading", "optimizing", "saving", "done"}
 
 

@@ -62,11 +62,26 @@ def test_unsafe_targets_are_clipped_counted_and_reported(robot):
     assert np.allclose(first.command - q, np.minimum(far - q, robot.velocity_limits * PERIOD))
     assert np.array_equal(controller.reference, first.command)    # the controller integrates what was sent
     second = runner.step(first.command, {})
-    assert np.all(second.command <= robot.upper)
+    bound = robot.velocity_limits * PERIOD
+    assert np.array_equal(second.command, np.clip(first.command + np.clip(outside - first.command, -bound, bound),
+                                                  robot.lower, robot.upper))   # the bound, then the limits
     third = runner.step(second.command, {})
     assert np.array_equal(third.command, second.command)         # NaN: the previous command holds
     assert runner.stats.violations == 4                           # bound, bound + limits, non-finite
     assert len(reported) == 4 and "non-finite" in reported[-1]
+
+
+def test_a_target_past_a_limit_is_clipped_onto_it(robot):
+    """Half a step's bound below the upper limits, a target 1 rad past them: the command is the limits
+    exactly (the step bound would allow more), counted once as a violation of the limits."""
+    bound = robot.velocity_limits * PERIOD
+    q = robot.upper - 0.5 * bound
+    reported = []
+    runner = EpisodeRunner(robot, ScriptedController([robot.upper + 1.0]), max_steps=5, period=PERIOD,
+                           on_violation=reported.append)
+    decided = runner.step(q, {})
+    assert np.array_equal(decided.command, robot.upper)
+    assert runner.stats.violations == 2 and "outside the joint limits" in reported[-1]   # and the bound
 
 
 def test_stale_states_and_missing_poses_hold_without_stepping(robot):

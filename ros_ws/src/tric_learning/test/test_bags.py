@@ -434,9 +434,12 @@ def test_truncated_bag_is_refused_strictly_and_read_up_to_the_damage_tolerantly(
 
 
 def test_every_truncation_yields_a_prefix_or_a_clear_error(tmp_path):
+    """A cut every 29 bytes: strictly refused, tolerantly a prefix of the messages; every prefix
+    length from none to all 5 is met along the way."""
     messages = [("/joint_states", JointState(name=["a"], position=[float(i)]), i) for i in range(5)]
     data = _write_bag(tmp_path / "small.mcap", messages).read_bytes()
     cut_file = tmp_path / "cut.mcap"
+    prefixes = set()
     for cut in range(0, len(data), 29):
         cut_file.write_bytes(data[:cut])
         with pytest.raises(ValueError):
@@ -448,13 +451,19 @@ def test_every_truncation_yields_a_prefix_or_a_clear_error(tmp_path):
         read = [m.message.position[0] for m in bags.read_bag(cut_file, tolerant=True)]
         assert read == [float(i) for i in range(len(read))], cut
         assert bags.bag_info(cut_file, tolerant=True).message_count == len(read)
+        prefixes.add(len(read))
+    assert prefixes == set(range(6))
 
 
 def test_corrupt_bytes_give_the_right_messages_or_a_clear_error(tmp_path):
+    """100 single-bit flips, each read strictly and tolerantly: every read is refused with a
+    ValueError or gives the right messages (strictly: all of them). The outcomes are counted, so that
+    the test fails if the flips never reach a message (every read refused) or are never detected."""
     messages = [("/joint_states", JointState(name=["a"], position=[float(i)]), i) for i in range(5)]
     data = _write_bag(tmp_path / "small.mcap", messages).read_bytes()
     corrupt_file = tmp_path / "corrupt.mcap"
     rng = random.Random(0)
+    outcomes = {(tolerant, outcome): 0 for tolerant in (False, True) for outcome in ("refused", "some", "all")}
     for position in sorted(rng.sample(range(len(data)), 100)):
         corrupt = bytearray(data)
         corrupt[position] ^= 1 << rng.randrange(8)
@@ -465,9 +474,14 @@ def test_corrupt_bytes_give_the_right_messages_or_a_clear_error(tmp_path):
                         for m in bags.read_bag(corrupt_file, tolerant=tolerant)]
                 bags.bag_info(corrupt_file, tolerant=tolerant)
             except ValueError:
+                outcomes[tolerant, "refused"] += 1
                 continue
             assert read == [(i, float(i)) for i in range(len(read))], position
             assert tolerant or len(read) == 5, position
+            outcomes[tolerant, "all" if len(read) == 5 else "some"] += 1
+    assert sum(outcomes.values()) == 200 and outcomes[False, "some"] == 0
+    assert outcomes[False, "refused"] and outcomes[False, "all"], outcomes      # flips found and flips harmless
+    assert outcomes[True, "some"] and outcomes[True, "all"], outcomes           # tolerant: up to the damage
 
 
 def test_a_writer_killed_with_sigkill_leaves_its_flushed_messages(tmp_path):

@@ -1,7 +1,8 @@
 """Nothing used or dropped in silence: failed demonstrations, unfinished recordings, a demonstration
 recorded twice and a demonstration without collision-free noisy samples are named; tric-train fails
-before training on a bad output path; damaged bags and random model files (fuzzed with hypothesis)
-give a clear error or a correct result, never a traceback."""
+before training on a bad output path; model files of another format version, with a definition off
+its fingerprint or with non-finite arrays are refused; damaged bags and random model files (fuzzed
+with hypothesis) give a clear error or a correct result, never a traceback."""
 
 import json
 import math
@@ -13,6 +14,7 @@ import tempfile
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, event, given, settings, strategies as st
+from safetensors import safe_open
 from safetensors.numpy import save_file
 from tric_msgs.msg import EpisodeEvent, TaskMetrics
 
@@ -162,6 +164,46 @@ def test_a_folder_is_not_called_a_missing_model_file(tmp_path):
         ModelFile.load(tmp_path)
 
 
+def _rewrite_metadata(path: pathlib.Path, change) -> None:
+    """Write path again with its arrays and its "tric" metadata as change(metadata dict) leaves it."""
+    with safe_open(str(path), framework="numpy") as handle:
+        meta = json.loads(handle.metadata()["tric"])
+        arrays = {name: handle.get_tensor(name) for name in handle.keys()}
+    change(meta)
+    save_file(arrays, str(path), metadata={"tric": json.dumps(meta)})
+
+
+def test_model_files_of_another_version_or_a_changed_definition_are_refused(robot, tmp_path):
+    path = _tiny_model_file(robot).save(tmp_path / "model.safetensors")
+    assert ModelFile.load(path, FeatureDefinition.for_task("grasp", robot)).kind == "tric"
+    _rewrite_metadata(path, lambda meta: meta.update(version=2))
+    with pytest.raises(ValueError) as refused:
+        ModelFile.load(path)
+    assert str(refused.value) == f"{path} has model format version 2; this reads 1"
+
+    path = _tiny_model_file(robot).save(tmp_path / "edited.safetensors")
+    _rewrite_metadata(path, lambda meta: meta["definition"]["pairs"].reverse())  # the same pairs, reordered
+    with pytest.raises(ValueError) as refused:
+        ModelFile.load(path)
+    assert str(refused.value) == f"{path}: its feature definition does not match its recorded fingerprint"
+
+    path = _tiny_model_file(robot).save(tmp_path / "box.safetensors")
+    with pytest.raises(ValueError, match=f"model {path}.*another feature definition"):
+        ModelFile.load(path, FeatureDefinition.for_task("open_box", robot))
+
+
+@pytest.mark.parametrize("name, bad", [("w1", math.nan), ("w2", math.inf), ("w3", -math.inf),
+                                       ("low", -math.inf), ("high", math.inf)])
+def test_model_files_with_non_finite_arrays_are_refused(robot, tmp_path, name, bad):
+    model = _tiny_model_file(robot)
+    model.arrays[name] = model.arrays[name].astype(float)
+    model.arrays[name].flat[-1] = bad
+    loaded = ModelFile.load(model.save(tmp_path / "model.safetensors"))   # the file itself is readable
+    with pytest.raises(ValueError) as refused:
+        value_function(loaded)
+    assert str(refused.value) == f"the model file's {name} has non-finite values"
+
+
 # --- fuzzed inputs ------------------------------------------------------------------------------
 
 FUZZ = settings(max_examples=60, deadline=None,
@@ -205,11 +247,17 @@ def test_bags_with_flipped_bytes_are_refused_or_read_correctly(robot, good_bag, 
     for _ in range(data.draw(st.integers(1, 4), label="flips")):
         position = data.draw(st.integers(0, len(damaged) - 1), label="position")
         damaged[position] ^= data.draw(st.integers(1, 255), label="mask")
+    reference = load_dataset([good_bag], robot).demos[0]
     with tempfile.TemporaryDirectory() as folder:
         path = pathlib.Path(folder) / "flipped.mcap"
         path.write_bytes(bytes(damaged))
         for tolerant in (False, True):
-            event(f"tolerant={tolerant}: {type(_load(path, robot, tolerant)).__name__}")
+            loaded = _load(path, robot, tolerant)
+            event(f"tolerant={tolerant}: {type(loaded).__name__}")
+            if isinstance(loaded, Dataset):  # read: the recorded samples, or a prefix of them
+                demo = loaded.demos[0]
+                assert np.array_equal(demo.q, reference.q[:demo.length])
+                assert np.array_equal(demo.y, reference.y[:demo.length])
 
 
 def _tiny_model_file(robot) -> ModelFile:

@@ -1,7 +1,8 @@
 """The value function and its training without ROS (tric_learning.value_function, samples, training):
-gradients against finite differences, each loss term on a hand-made case, d_curve on a known
-polyline, refused hyper-parameters, determinism from a seed, and a training on grid demonstrations
-whose value function explains them (decreases along them, gradients against their steps)."""
+gradients against finite differences, each loss term on a hand-made case, the loss's gradient in the
+weights (gradcheck), L-BFGS lowering the loss, d_curve on a known polyline, refused hyper-parameters,
+determinism from a seed, and a training on grid demonstrations whose value function explains them
+(decreases along them, gradients against their steps: the design's goals)."""
 
 import math
 
@@ -9,7 +10,7 @@ import numpy as np
 import pytest
 import torch
 
-from tric_learning.analysis import decreasing_shares, ranked_features
+from tric_learning.analysis import cosines_along_demos, decreasing_shares, ranked_features
 from tric_learning.dataset import Dataset, Demo
 from tric_learning.features import FeatureDefinition, FeatureMap
 from tric_learning.recording import record_offline
@@ -113,6 +114,49 @@ def test_loss_terms_on_a_hand_made_case():
     assert loss_w == pytest.approx(6.0, rel=1e-6)
 
 
+def random_problem(config: TrainingConfig, seed: int = 5) -> _Problem:
+    """The loss of a made-up dataset: one demo of 6 steps in 4 features and 3 joints, every step moving
+    (0.1 rad per joint), random recorded Jacobians, and 3 noisy samples at each step t >= 1."""
+    rng = np.random.default_rng(seed)
+    steps, features, joints = 6, 4, 3
+    q = np.cumsum(np.full((steps, joints), 0.1), axis=0)
+    demo = Demo(name="random", situation=None, q=q, y=rng.uniform(0, 1, (steps, features)),
+                jacobians=rng.normal(0, 1, (steps, features, joints)), object_poses=[{}] * steps,
+                stamps_ns=np.arange(steps))
+    noisy_step = np.repeat(np.arange(1, steps), 3)
+    noisy = NoisySamples(step=noisy_step, y=rng.uniform(0, 1, (len(noisy_step), features)),
+                         weight=rng.uniform(0.1, 1.0, len(noisy_step)),
+                         kept_per_step=np.r_[0, np.full(steps - 1, 3)])
+    scaling = Scaling(kept=np.arange(features), low=np.zeros(features), high=np.ones(features), size=features)
+    return _Problem(Dataset(None, [demo]), noisy, scaling, config)
+
+
+@pytest.mark.parametrize("hidden_units", [0, 3])
+def test_loss_gradient_in_the_weights_passes_gradcheck(hidden_units):
+    """d(L_n, L_g, |w|_1)/dw, as autograd computes it for L-BFGS, against finite differences in
+    float64 (torch.autograd.gradcheck), at random weights (none at |w|_1's kink 0). The lbfgsb
+    configuration builds the problem in float64; its loss terms are the ones lbfgs minimizes."""
+    problem = random_problem(TrainingConfig(hidden_units=hidden_units, optimizer="lbfgsb"))
+    assert problem.u.dtype == torch.float64
+    theta = torch.tensor(np.random.default_rng(6).normal(0, 1, problem.theta.numel()), dtype=torch.float64,
+                         requires_grad=True)
+    assert torch.autograd.gradcheck(lambda weights: torch.stack(problem.terms(weights)), (theta,),
+                                    eps=1e-6, atol=1e-6, rtol=1e-5)
+
+
+def test_l_bfgs_lowers_the_loss_from_its_start(robot, grid_dataset):
+    """The default optimizer (PyTorch's L-BFGS): the first evaluation is at the initial weights; the
+    loss after training is lower."""
+    reported = []
+    config = TrainingConfig(hidden_units=3, noisy_samples=10, max_iterations=30)
+    result = train(grid_dataset.subset(3), robot, config,
+                   lambda stage, _, losses: reported.append(losses) if stage == "optimizing" else None)
+    assert config.optimizer == "lbfgs" and len(reported) >= 2
+    assert 1 <= result.iterations <= 30
+    assert result.losses["total"] < reported[0]["total"]
+    assert min(losses["total"] for losses in reported) == pytest.approx(result.losses["total"], rel=1e-5)
+
+
 def test_d_curve_on_a_known_polyline():
     path = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0]])
     points = np.array([[0.5, 0.3], [2.0, 0.5], [-1.0, 0.0], [1.0, 2.0], [0.8, 0.5], [1.0, 0.0]])
@@ -199,26 +243,29 @@ def test_training_is_determined_by_its_seed(robot, grid_dataset):
     assert not np.array_equal(first.model.w3, other.model.w3)
 
 
-def test_trained_value_function_explains_the_demonstrations(grid_dataset, grid_training):
+def test_trained_value_function_follows_the_demonstrations(grid_dataset, grid_training):
+    """The design's goals (design.md section 5, Fig. 12-17): f decreases along every demonstration, and
+    the mean cosine of its gradient with the demonstrated steps is -0.8 or lower on moving steps."""
     model = grid_training.model
-    cosines = []
-    for demo in grid_dataset.demos:
-        for t in range(demo.length - 1):
-            step = demo.q[t + 1] - demo.q[t]
-            if np.linalg.norm(step) >= MIN_STEP:
-                gradient = model.gradient(demo.y[t])[1] @ demo.jacobians[t]
-                cosines.append(gradient @ step / (np.linalg.norm(gradient) * np.linalg.norm(step)))
-    all_steps, moving_steps = decreasing_shares(model, grid_dataset)
+    cosines = cosines_along_demos(model, grid_dataset, MIN_STEP)
+    cosines = cosines[np.isfinite(cosines)]
     starts = np.array([model.value(demo.y[0]) for demo in grid_dataset.demos])
     ends = np.array([model.value(demo.y[-1]) for demo in grid_dataset.demos])
-    print(f"f decreases on {all_steps:.1%} of all steps, {moving_steps:.1%} of moving steps; mean cosine "
-          f"{np.mean(cosines):.3f} over {len(cosines)} moving steps; {grid_training.train_time_s:.1f} s")
+    print(f"mean cosine {np.mean(cosines):.3f} over {len(cosines)} moving steps; "
+          f"{grid_training.train_time_s:.1f} s")
+    assert len(cosines) == sum(int(np.sum(np.linalg.norm(np.diff(demo.q, axis=0), axis=1) >= MIN_STEP))
+                               for demo in grid_dataset.demos)       # a cosine for every moving step
     assert np.all(ends < starts)
-    # The paper's Fig. 13 / 14 (and the project's target): >= 95 % and <= -0.8. Measured with this
-    # teacher, data and config: 94.4 % of the moving steps (77 % of all: the hand rests for the
-    # last ~16 of 40 samples) and -0.64; these floors guard that level.
-    assert moving_steps >= 0.90
-    assert np.mean(cosines) <= -0.55
+    assert np.mean(cosines) <= -0.8
+
+
+@pytest.mark.xfail(strict=True, reason="goal (design.md section 5): f falls on >= 95% of the moving steps; "
+                   "measured 93.2% (151 of the 162 moving steps of the 7 grid demonstrations; 95% is 154) "
+                   "with TrainingConfig()'s defaults (alpha_g 30, 300 iterations) on 2026-12-01")
+def test_trained_value_function_falls_on_95_percent_of_the_moving_steps(grid_dataset, grid_training):
+    all_steps, moving_steps = decreasing_shares(grid_training.model, grid_dataset)
+    print(f"f decreases on {all_steps:.1%} of all steps, {moving_steps:.1%} of moving steps")
+    assert moving_steps >= 0.95
 
 
 def test_top_features_include_hand_to_object_distances(grid_dataset, grid_training):

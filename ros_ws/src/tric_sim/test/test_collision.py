@@ -1,13 +1,17 @@
-"""Proximity, the controller's collision queries: it finds every pair within reach although it sends
-only some pairs to coal each call (checked against all pairs, computed directly, along walks with
-jumps and moving bodies), and the task's contacts come with the scene. Units: m, rad."""
+"""Collision checking (tric_sim.collision). Proximity, the controller's collision queries: it finds
+every pair within reach although it sends only some pairs to coal each call (checked against all
+pairs, computed directly, along walks with jumps and moving bodies), the rows of the pairs within the
+robot are the gradients of their distances, and the task's contacts come with the scene.
+SceneCollision, the training's batch check: its mask is the one coal's distances of every pair give,
+on colliding and free configurations. Units: m, rad."""
 
+import coal
 import numpy as np
 import pinocchio as pin
 import pytest
 
 from tric_sim import scene, situations
-from tric_sim.collision import CONTACT_TOLERANCE, Proximity
+from tric_sim.collision import CONTACT_TOLERANCE, Proximity, SceneCollision
 from tric_sim.robot_model import RobotModel
 
 INFLUENCE = 0.05
@@ -100,3 +104,83 @@ def test_the_task_s_contacts_come_with_the_scene(robot):
         allowance = dict(zip(proximity.body_names, proximity.scene.allowance))
         assert allowance == {name: CONTACT_TOLERANCE if name in proximity.contacts else 0.0
                              for name in proximity.body_names}
+
+
+# --- SceneCollision.collision_free, against coal on every pair -----------------------------------
+
+
+def colliding_by_coal(collision: SceneCollision, robot: RobotModel, q, object_poses: dict) -> bool:
+    """Whether q collides, from coal's distance of every pair (no bounding spheres): a moving robot
+    geometry deeper than the allowance into a scene body (placed at object_poses), or two robot
+    geometries of a self-collision pair touching."""
+    data = robot.model.createData()
+    geometry_data = pin.GeometryData(robot.collision_model)
+    pin.updateGeometryPlacements(robot.model, data, robot.collision_model, geometry_data, q)
+    request, result = coal.DistanceRequest(), coal.DistanceResult()
+
+    def distance(shape, placement, other, other_placement):
+        result.clear()
+        return coal.distance(shape, coal.Transform3s(placement.rotation, placement.translation), other,
+                             coal.Transform3s(other_placement.rotation, other_placement.translation), request, result)
+
+    objects = robot.collision_model.geometryObjects
+    for body, shape, placement, allowance in zip(collision.bodies, collision.body_shapes,
+                                                 collision.body_placements(object_poses), collision.allowance):
+        for k, geometry in enumerate(objects):
+            if geometry.parentJoint != 0 and distance(geometry.geometry, geometry_data.oMg[k], shape,
+                                                      placement) < -allowance:
+                return True
+    return any(distance(objects[a].geometry, geometry_data.oMg[a], objects[b].geometry, geometry_data.oMg[b]) < 0
+               for a, b in collision.self_pairs)
+
+
+@pytest.mark.parametrize("situation", [situations.dataset("sphere_test")[0], situations.dataset("box_test")[0]],
+                         ids=["sphere", "box"])
+def test_collision_free_agrees_with_coal_on_every_pair(robot, situation):
+    """Random configurations (many collide with the table, the object or the robot itself), the hand
+    pushed into the object, the arm swung down onto the table, and home: collision_free's mask is the
+    one coal's distances of every pair give, and both kinds of configuration are met."""
+    collision = SceneCollision(robot, situation)
+    poses = {"object": (situation.object_position, situation.object_orientation)}
+    rng = np.random.default_rng(7)
+    into_object = robot.reach(robot.home, "palm_center", pin.SE3(np.eye(3), np.array(situation.object_position)))
+    on_table = robot.home.copy()
+    on_table[[1, 3]] = 1.9, 0.3
+    configurations = np.vstack([rng.uniform(robot.lower, robot.upper, (60, robot.n_joints)),
+                                into_object, on_table, robot.home])
+    free = collision.collision_free(configurations, poses)
+    expected = np.array([not colliding_by_coal(collision, robot, q, poses) for q in configurations])
+    assert free.tolist() == expected.tolist()
+    assert free[-1] and not free[-2] and not free[-3]
+    assert 0 < free.sum() < len(free)
+
+
+def test_self_collision_rows_are_the_gradients_of_the_distances(robot):
+    """At random configurations, each pair within the robot that near() returns (arm geometries near
+    other robot geometries, separate) has the row of its distance's gradient in q: the central finite
+    difference of coal's distance, joint by joint, to 1e-3 of its norm (as the scene pairs' rows in
+    test_collision_damper); the joints that move neither side or both together have a zero entry."""
+    proximity = Proximity(robot, situations.dataset("sphere_test")[0])
+    geometry_data = pin.GeometryData(proximity.geometry_model)
+    for pair in range(len(proximity.pair_names)):  # GJK to 1e-10 m: coal's default 1e-6 is too coarse for h
+        geometry_data.distanceRequests[pair] = coal.DistanceRequest()
+        geometry_data.distanceRequests[pair].gjk_tolerance = 1e-10
+    data = robot.model.createData()
+
+    def distance(pair, q):
+        pin.updateGeometryPlacements(robot.model, data, proximity.geometry_model, geometry_data, q)
+        return pin.computeDistance(proximity.geometry_model, geometry_data, pair).min_distance
+
+    rng = np.random.default_rng(11)
+    checked, h = 0, 1e-6
+    for _ in range(12):
+        q = rng.uniform(robot.lower, robot.upper)
+        closest = proximity.near(q, {}, INFLUENCE)
+        for k in np.flatnonzero((closest.bodies == -1) & (closest.distances > 0.0)):
+            pair = int(closest.pairs[k])
+            numeric = np.array([(distance(pair, q + h * e) - distance(pair, q - h * e)) / (2 * h)
+                                for e in np.eye(robot.n_joints)])
+            assert np.abs(closest.rows[k] - numeric).max() <= 1e-3 * np.linalg.norm(numeric), closest.pair_names[pair]
+            assert not closest.hand[k]
+            checked += 1
+    assert checked >= 5

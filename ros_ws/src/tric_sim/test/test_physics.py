@@ -72,7 +72,9 @@ def test_lid_edge_pose_is_the_lip_and_turns_with_the_lid(world):
     assert position[2] > lip[2] + 0.1  # lifted: 25 cm from the hinge, turned by 0.5 rad
 
 
-def test_servos_respect_velocity_limits(world, robot):
+def servo_run(world, robot):
+    """Three joints commanded 1.0, -0.5 and 0.8 rad away from home, 170 control periods: the measured
+    joint positions (171, n) and one period's velocity bound (n,), rad."""
     world.reset(S.sphere("s", (0.6, 0.0, 0.35)))
     target = robot.home.copy()
     target[[0, 3, 8]] += [1.0, -0.5, 0.8]
@@ -81,14 +83,25 @@ def test_servos_respect_velocity_limits(world, robot):
     for _ in range(170):
         world.step()
         trajectory.append(world.joint_state()[0])
-    trajectory = np.array(trajectory)
-    limit = robot.velocity_limits * world.control_period
-    per_period = np.abs(np.diff(trajectory, axis=0))
-    travelled = np.abs(trajectory - trajectory[0])
+    return np.array(trajectory), robot.velocity_limits * world.control_period, target
+
+
+def test_servos_bring_the_joints_to_their_targets(world, robot):
+    trajectory, _, target = servo_run(world, robot)
+    assert np.abs(trajectory[-1] - target).max() < 0.01  # design.md 6's joint tolerance, 0.01 rad
+
+
+@pytest.mark.xfail(strict=True, reason="goal: no measured joint moves faster than its velocity limit; "
+                   "measured on 2026-12-01: 1.30 times the limit in one period (arm_4_joint) and up to 0.65 "
+                   "periods of limit-speed motion ahead of the setpoint (arm_1_joint), in the periods after a "
+                   "joint starts moving, when the servo catches up with its setpoint")
+def test_measured_joints_keep_within_their_velocity_limits(world, robot):
+    """Per period, and in all: after p periods from rest a joint has travelled at most p periods of
+    limit-speed motion."""
+    trajectory, limit, _ = servo_run(world, robot)
     periods = np.arange(len(trajectory))[:, None]
-    assert np.all(per_period <= 1.4 * limit)  # transients when a joint starts moving
-    assert np.all(travelled <= limit * (periods + 1.5))  # never ahead of a limit-speed setpoint
-    assert np.abs(trajectory[-1] - target).max() < 0.01
+    assert np.all(np.abs(np.diff(trajectory, axis=0)) <= limit + 1e-9)
+    assert np.all(np.abs(trajectory - trajectory[0]) <= limit * periods + 1e-9)
 
 
 def test_render_shows_the_scene(world):

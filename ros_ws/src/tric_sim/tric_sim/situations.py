@@ -236,8 +236,11 @@ def load_situations(path, robot=None) -> list:
     try:
         data = json.loads(text) if path.suffix == ".json" else yaml.safe_load(text)
     except (json.JSONDecodeError, yaml.YAMLError) as error:
+        mark = getattr(error, "problem_mark", None)  # YAML's own message spans lines: say it in one
+        detail = (f"{error.problem} at line {mark.line + 1}, column {mark.column + 1}" if mark is not None
+                  else str(error))
         raise ValueError(f"{path} is not valid {'JSON' if path.suffix == '.json' else 'YAML'}: "
-                         f"{error}") from None
+                         f"{detail}") from None
     if isinstance(data, dict):
         data = data.get("situations")
     if not isinstance(data, list) or not data:
