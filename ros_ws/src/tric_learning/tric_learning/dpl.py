@@ -33,7 +33,7 @@ from tric_learning.dataset import Dataset
 from tric_learning.features import FeatureDefinition
 from tric_learning.model_file import ModelFile
 from tric_learning.recording import bag_paths, load_dataset
-from tric_learning.training import BagTraining, model_output_path
+from tric_learning.training import BagTraining, deterministic_torch, model_output_path
 from tric_learning.value_function import Scaling
 from tric_sim.robot_model import RobotModel
 
@@ -173,7 +173,8 @@ def train_dpl(dataset: Dataset, robot: RobotModel, config: DplConfig = DplConfig
     if not target_rms > 0:
         raise ValueError("the demonstrations do not move: every DPL target is zero")
     problem = _Regression(scaling.transform(inputs), targets / target_rms, config)
-    (w1, b1, w2, b2), losses, iterations = problem.solve(progress or (lambda *_: None))
+    with deterministic_torch():
+        (w1, b1, w2, b2), losses, iterations = problem.solve(progress or (lambda *_: None))
     policy = DplPolicy(scaling, w1, b1, w2 * target_rms, b2 * target_rms)
     errors = policy.predict(inputs) - targets
     losses.update(mse=float(np.mean(errors ** 2)), mean_abs_error=float(np.mean(np.abs(errors))))

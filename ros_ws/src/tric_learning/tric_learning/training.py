@@ -10,8 +10,9 @@ The data terms are divided by the number S of demonstration steps (N T): then th
 alpha_w = 0.001 gives its regularization whatever N and T are (summed, it would grow weaker with every
 demonstration added; measured here, the summed form leaves f too rough to control with).
 The noisy samples are drawn once (tric_learning.samples); the optimizer is PyTorch's L-BFGS with a
-strong-Wolfe line search on the full batch, in float32, deterministic for a given seed on a given
-machine. The defaults are the paper's but for the balance of the terms: in this form of the loss (the
+strong-Wolfe line search on the full batch, in float32, with PyTorch's deterministic algorithms
+(deterministic_torch): the same seed gives the same model on a given machine, run after run (with
+PyTorch's defaults, two threads gave another model each run; measured, no slower). The defaults are the paper's but for the balance of the terms: in this form of the loss (the
 data terms averaged per step, L_n's weights summed over the M samples) the paper's alpha_g = 1 leaves
 L_g about ten times weaker than L_n, and the learned gradient does not follow the demonstrations
 (mean cosine -0.6 on spheres and boxes, -0.16 on cylinders); alpha_g = 30 with 300 iterations (the
@@ -22,6 +23,7 @@ train_from_bags() is the whole job that the trainer node and tric-train share: b
 train() -> model file.
 """
 
+import contextlib
 import pathlib
 import time
 from dataclasses import asdict, dataclass
@@ -194,6 +196,18 @@ def train_from_bags(paths, output_path, config: TrainingConfig, robot: RobotMode
     return BagTraining(path, dataset, result)
 
 
+@contextlib.contextmanager
+def deterministic_torch():
+    """Within the block PyTorch uses only its deterministic algorithms (no run-to-run differences of
+    its multi-threaded accumulations); the previous setting is restored after it."""
+    previous = torch.are_deterministic_algorithms_enabled()
+    torch.use_deterministic_algorithms(True)
+    try:
+        yield
+    finally:
+        torch.use_deterministic_algorithms(previous)
+
+
 def _later_steps(dataset: Dataset) -> np.ndarray:
     """Flattened indices of every step t >= 1 (the ones with noisy samples)."""
     offsets = samples.step_offsets(dataset)
@@ -260,10 +274,11 @@ class _Problem:
 
     def solve(self, report):
         """Minimize the loss; ((W1, W2, W3), final loss terms, iterations)."""
-        if self.config.optimizer == "lbfgsb":
-            iterations = self._solve_split(report)
-        else:
-            iterations = self._solve_lbfgs(report)
+        with deterministic_torch():
+            if self.config.optimizer == "lbfgsb":
+                iterations = self._solve_split(report)
+            else:
+                iterations = self._solve_lbfgs(report)
         with torch.no_grad():
             loss_n, loss_g, loss_w = self.terms(self.theta)
         config = self.config
