@@ -66,6 +66,35 @@ def test_grasp_teacher_grasps_and_lifts(world, robot, situation):
     assert phases.index("close") < phases.index("hold") < 500  # phased, and done within 5 s
 
 
+def test_lift_test_grips_before_it_releases_and_holds_the_grip_while_raising(world, robot):
+    """The flexion joints' targets go GRIP_CLOSURE past the final joints (clipped to the limits) for
+    GRIP_DURATION while the fixture holds the object; the knuckle stays; the grip is kept after the
+    release, while the arm rises; a target already past that (the teacher's squeeze) is kept."""
+    world.reset(S.dataset("sphere_test")[3])
+    q, _ = world.joint_state()
+    squeezed = robot.joint_names.index("finger_3_distal_joint")
+    held = q.copy()
+    held[squeezed] = q[squeezed] + 0.3
+    world.command(held)
+    events = []
+    command, step, release = world.command, world.step, world.release_object
+    world.command = lambda target: (events.append(("command", np.array(target))), command(target))
+    world.step = lambda: (events.append(("step", None)), step())
+    world.release_object = lambda: (events.append(("release", None)), release())
+    metrics.lift_test(world, robot)
+    released = events.index(("release", None))
+    assert [kind for kind, _ in events[:released]] == ["command"] + ["step"] * round(metrics.GRIP_DURATION / world.control_period)
+    flexion = [robot.joint_names.index(j) for j in metrics.FLEXION_JOINTS]
+    assert len(flexion) == 6 and "finger_2_knuckle_joint" not in metrics.FLEXION_JOINTS
+    grip = np.minimum(q[flexion] + metrics.GRIP_CLOSURE, robot.upper[flexion])
+    grip[flexion.index(squeezed)] = held[squeezed]
+    knuckle = robot.joint_names.index("finger_2_knuckle_joint")
+    targets = [target for kind, target in events if kind == "command"]
+    for target in targets:
+        assert np.array_equal(target[flexion], grip) and target[knuckle] == q[knuckle]
+    assert not np.array_equal(targets[-1][robot.arm_indices], q[robot.arm_indices])  # the arm rose
+
+
 def test_box_teacher_opens_the_lid(world, robot):
     teacher = demonstrate(world, robot, S.dataset("box_test")[8], 8.5)
     result = metrics.evaluate(world, robot)

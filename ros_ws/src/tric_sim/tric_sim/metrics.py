@@ -16,8 +16,12 @@ the error of a task variable a grasp expert checks, normalized to [0, 1] (1 = as
   must not exceed 180 deg (otherwise the fingers all push from one side). (gap - 180) / 90 deg,
   clipped to [0, 1].
 
-Lift test (grasps): the object is released (given its mass) and the hand raised LIFT_HEIGHT; it passes if the
-object rose by at least LIFT_PASS_FRACTION of that. Box success: lid opened by more than 0.3 rad.
+Lift test (grasps): the fingers grip (every flexion joint's target at least GRIP_CLOSURE past where
+the joint ends the episode, for GRIP_DURATION while the fixture still holds the object), then the object is
+released (given its mass) and the hand raised LIFT_HEIGHT; it passes if the object rose by at least
+LIFT_PASS_FRACTION of that. The grip is the evaluator's, the same for every agent: a learned
+controller stops the fingers where its value function is lowest, at the contacts' cushion, with its
+command equal to the measured joints, so without it the fingers hold the object with no force. Box success: lid opened by more than 0.3 rad.
 
 Failure class (TaskMetrics.failure, "" for a success without collision): why an episode failed,
 from its final state before the lift test and the lift test's result (grasp_failure, box_failure).
@@ -40,7 +44,7 @@ import numpy as np
 import pinocchio as pin
 
 from tric_sim import scene
-from tric_sim.robot_model import FINGERTIPS, PALM, RobotModel
+from tric_sim.robot_model import FINGERTIPS, HAND_JOINTS, PALM, RobotModel
 
 FINGER_CONTACT_TOLERANCE = 0.03
 PALM_DISTANCE_OK = 0.05
@@ -54,6 +58,12 @@ LIFT_HEIGHT = 0.10
 LIFT_DURATION = 1.0
 LIFT_HOLD = 0.5
 LIFT_PASS_FRACTION = 0.7
+#: The lift test's grip: how far past their final positions the finger flexion joints' targets go
+#: (rad; clipped to the joint limits; the grasp teacher's squeeze past contact) and for how long they
+#: close before the release (s). Chosen on the validation sets: docs/decisions/lift-grip.md.
+GRIP_CLOSURE = 0.12
+GRIP_DURATION = 0.2
+FLEXION_JOINTS = tuple(j for j in HAND_JOINTS if not j.endswith("knuckle_joint"))
 #: A signed distance below this between the robot and an avoided body counts as a collision, m.
 COLLISION_DISTANCE = 0.0
 #: Failure classes (see the module docstring): fingers count as flexed when their flexion (proximal +
@@ -203,8 +213,9 @@ def box_failure(robot: RobotModel, q, side: float, object_poses: dict, lid_angle
 
 
 def lift_test(world, robot: RobotModel) -> float:
-    """Release the object and raise the hand LIFT_HEIGHT over LIFT_DURATION, then hold LIFT_HOLD;
-    returns how far the object rose, m. Changes the world (reset it afterwards)."""
+    """Grip (GRIP_CLOSURE over GRIP_DURATION), release the object and raise the hand LIFT_HEIGHT over
+    LIFT_DURATION, then hold LIFT_HOLD; returns how far the object rose, m. Changes the world (reset it
+    afterwards)."""
     q, _ = world.joint_state()
     start_height = world.object_poses()["object"][0][2]
     robot.forward(q)
@@ -212,6 +223,12 @@ def lift_test(world, robot: RobotModel) -> float:
     raised = pin.SE3(palm.rotation, palm.translation + np.array([0.0, 0.0, LIFT_HEIGHT]))
     q_raised = robot.reach(q, PALM, raised)
     hand_targets = world.targets.copy()
+    flexion = np.array([robot.joint_names.index(j) for j in FLEXION_JOINTS])
+    hand_targets[flexion] = np.maximum(hand_targets[flexion],
+                                       np.minimum(q[flexion] + GRIP_CLOSURE, robot.upper[flexion]))
+    world.command(hand_targets)
+    for _ in range(int(round(GRIP_DURATION / world.control_period))):
+        world.step()
     world.release_object()
     periods = int(round(LIFT_DURATION / world.control_period))
     for k in range(1, periods + int(round(LIFT_HOLD / world.control_period)) + 1):
