@@ -11,13 +11,14 @@ BUILD_STAMP := ros_ws/install/.tric-built
 BUILD_INPUTS := $(shell find ros_ws/src -type f \( -name package.xml -o -name CMakeLists.txt -o -name setup.py \
 	-o -name setup.cfg -o -name '*.msg' -o -name '*.srv' -o -name '*.action' -o -path '*/resource/*' \))
 
-.PHONY: help setup demo experiments test bench constraints clean
+.PHONY: help setup demo experiments test lint bench constraints clean
 
 help:
 	@echo "make demo         the main job: record sphere demos, train TRIC, evaluate it against the teacher"
 	@echo "make experiments  the paper's experiments (EXPERIMENTS='fig9 table3' for some), results/REPORT.md"
 	@echo "make setup        create .venv, install pinned ROS 2 Jazzy wheels and libraries, colcon build"
 	@echo "make test         run the test suite (unit + in-process integration tests)"
+	@echo "make lint         ruff check and ruff format --check over every Python file (ruff.toml)"
 	@echo "make bench        run the benchmarks, write results/bench.json"
 	@echo "make constraints  re-pin constraints.txt from the current .venv"
 	@echo "make clean        remove build outputs (keeps .venv)"
@@ -42,6 +43,14 @@ experiments: setup
 
 test: setup
 	$(IN_ENV) python -m pytest
+
+# Every Python file of the repository: the packages and their tests, the integration tests, the
+# benchmarks and the scripts.
+LINT_PATHS := ros_ws/src tests benchmarks scripts conftest.py
+
+lint: setup
+	$(IN_ENV) ruff check $(LINT_PATHS)
+	$(IN_ENV) ruff format --check $(LINT_PATHS)
 
 bench: setup
 	$(IN_ENV) python benchmarks/run.py

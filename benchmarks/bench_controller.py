@@ -3,32 +3,34 @@ same step done with pin-pink.
 
 The model: trained on the demonstrations of six situations of the sphere grid (SITUATIONS), read
 from their bags in bags/sphere when they are there, else demonstrated offline here; with the default
-hyper-parameters (K = 30 hidden units) but half the noisy samples (TRAINING), which leaves the size of
-the tick's work unchanged. The episode: EPISODE_TICKS control periods of the grid's centre situation
-(one of those trained on) on a tric_sim.physics.PhysicsWorld, the controller commanding the simulated
-robot from its home towards the sphere (the log says how close the palm came). The comparison with
-pink replays the episode's states: at each, our tick (its reference set to the episode's target
-after it, so that it sees the very same problems) and the two pink steps below, in turns (which runs
-first rotates state by state, so that none always finds the caches the others left).
+hyper-parameters (K = 30 hidden units) but half the noisy samples (TRAINING), which leaves the size
+of the tick's work unchanged. The episode: EPISODE_TICKS control periods of the grid's centre
+situation (one of those trained on) on a tric_sim.physics.PhysicsWorld, the controller commanding
+the simulated robot from its home towards the sphere (the log says how close the palm came). The
+comparison with pink replays the episode's states: at each, our tick (its reference set to the
+episode's target after it, so that it sees the very same problems) and the two pink steps below, in
+turns (which runs first rotates state by state, so that none always finds the caches the others
+left).
 
 controller_tick_p50_ms, controller_tick_p99_ms: wall time of MotionRateController.tick (features,
-  Jacobian, f and its gradient, domain rows, collision distances, the limits, QP), ms. Target: p99 <= 0.5.
+  Jacobian, f and its gradient, domain rows, collision distances, the limits, QP), ms. Target: p99
+  <= 0.5.
 controller_objective_p50_ms, controller_proximity_p50_ms, controller_qp_p50_ms: the tick's parts
   (ValueObjective: features, Jacobian, f, gradient and domain rows; Proximity.near: collision
   distances and rows; the rest: the limits, QP assembly and solve), medians, ms.
-pink_tick_p50_ms, pink_tick_p99_ms: the same step with pin-pink, the same task under the same limits:
-  Configuration.update(q), the collision distances (Proximity.near), then solve_ik (solver "proxqp")
-  with TRIC's value as one scalar task (Jacobian g = (df/dy)(dphi/dq), error delta, cost sqrt(2 rho),
-  damping 2: the minimizer of rho (g dq + delta)^2 + |dq|^2; computed by the same ValueObjective,
-  domain rows included), the soft side of contact as a second task, and as limits pink's joint
-  position limits (shrunk by JOINT_MARGIN, gain 1) and velocity limits and this controller's
-  collision and domain dampers (the same classes, their rows handed to pink). Our tick, in place of
-  pink's solve_ik, warm-starts one fixed-size QP and bounds the step by a box.
+pink_tick_p50_ms, pink_tick_p99_ms: the same step with pin-pink, the same task under the same
+  limits: Configuration.update(q), the collision distances (Proximity.near), then solve_ik (solver
+  "proxqp") with TRIC's value as one scalar task (Jacobian g = (df/dy)(dphi/dq), error delta, cost
+  sqrt(2 rho), damping 2: the minimizer of rho (g dq + delta)^2 + |dq|^2; computed by the same
+  ValueObjective, domain rows included), the soft side of contact as a second task, and as limits
+  pink's joint position limits (shrunk by JOINT_MARGIN, gain 1) and velocity limits and this
+  controller's collision and domain dampers (the same classes, their rows handed to pink). Our tick,
+  in place of pink's solve_ik, warm-starts one fixed-size QP and bounds the step by a box.
 controller_replay_p50_ms: our tick in the replay, ms.
 controller_vs_pink: controller_replay_p50_ms / pink_tick_p50_ms. Target: < 1.
-pink_bare_tick_p50_ms: pink doing less, as the first version of this benchmark had it: the value task
-  (features and f's gradient) under joint position and velocity limits only, no collision distances,
-  domain rows or contact; controller_vs_pink_bare: ours over it.
+pink_bare_tick_p50_ms: pink doing less, as the first version of this benchmark had it: the value
+  task (features and f's gradient) under joint position and velocity limits only, no collision
+  distances, domain rows or contact; controller_vs_pink_bare: ours over it.
 """
 
 import pathlib
@@ -66,7 +68,8 @@ def log(message: str) -> None:
 
 
 def grasp_model(robot: RobotModel) -> model_file.ModelFile:
-    """A TRIC grasp model trained on the demonstrations of SITUATIONS: their bags, or recorded here."""
+    """A TRIC grasp model trained on the demonstrations of SITUATIONS: their bags, or recorded
+    here."""
     grid = situations.sphere_grid()
     chosen = [grid[k] for k in SITUATIONS]
     bags = [SPHERE_BAGS / f"{situation.name}.mcap" for situation in chosen]
@@ -77,8 +80,10 @@ def grasp_model(robot: RobotModel) -> model_file.ModelFile:
         log(f"no bags in {SPHERE_BAGS}: demonstrating {len(chosen)} situations")
         dataset = record_offline(robot, chosen, DEMO_DURATION_S)
     result = train(dataset, robot, TRAINING)
-    log(f"trained on {len(dataset.demos)} demonstrations in {result.train_time_s:.1f} s "
-        f"({len(result.model.scaling.kept)} kept features, K = {result.model.hidden_units})")
+    log(
+        f"trained on {len(dataset.demos)} demonstrations in {result.train_time_s:.1f} s "
+        f"({len(result.model.scaling.kept)} kept features, K = {result.model.hidden_units})"
+    )
     return model_file.from_training(result, dataset)
 
 
@@ -105,7 +110,8 @@ class TimedProximity:
 class ValueTask(Task):
     """pink task e = delta, J = g = (df/dy)(dphi/dq) at the configuration (1, n): its QP objective
     is 1/2 cost^2 (g dq + delta)^2, TRIC's value term (Eq. 8-10). g comes from objective(q, poses)
-    (object_poses set before solving), whose model is kept in state.objective for the domain limit."""
+    (object_poses set before solving), whose model is kept in state.objective for the domain
+    limit."""
 
     def __init__(self, objective, cost: float, state: StepState):
         super().__init__(cost=cost)
@@ -154,7 +160,8 @@ class LimitCost(Task):
 
 
 class LimitRows(Limit):
-    """A motion-rate limit's inequality rows (lower <= rows dq) as a pink limit (-rows dq <= -lower)."""
+    """A motion-rate limit's inequality rows (lower <= rows dq) as a pink limit (-rows dq <=
+    -lower)."""
 
     def __init__(self, limit, state: StepState, n: int):
         self.limit, self.state = limit, state
@@ -169,7 +176,9 @@ class PinkStep:
     """One step with pin-pink for the same task under the same limits (see the module docstring), or
     (bare) the value task under joint position and velocity limits only."""
 
-    def __init__(self, robot: RobotModel, model: model_file.ModelFile, situation, period: float, bare: bool):
+    def __init__(
+        self, robot: RobotModel, model: model_file.ModelFile, situation, period: float, bare: bool
+    ):
         objective = make_objective(model, robot)
         self.robot, self.period, self.bare = robot, period, bare
         self.state = StepState(max_step=robot.velocity_limits * period)
@@ -187,9 +196,14 @@ class PinkStep:
         self.proximity = Proximity(robot, situation)
         defaults = default_limits(robot, self.proximity.contacts)
         n = robot.n_joints
-        self.limits += [LimitRows(limit, self.state, n) for limit in defaults
-                        if isinstance(limit, (CollisionDamper, DomainDamper))]
-        self.tasks += [LimitCost(limit, self.state, n) for limit in defaults if isinstance(limit, SoftContact)]
+        self.limits += [
+            LimitRows(limit, self.state, n)
+            for limit in defaults
+            if isinstance(limit, (CollisionDamper, DomainDamper))
+        ]
+        self.tasks += [
+            LimitCost(limit, self.state, n) for limit in defaults if isinstance(limit, SoftContact)
+        ]
 
     def __call__(self, q, poses) -> None:
         """One step from q (clipped into the joint limits, which pink's solve_ik requires)."""
@@ -199,8 +213,14 @@ class PinkStep:
         if not self.bare:
             self.state.q = self.state.reference = q
             self.state.closest = self.proximity.near(q, poses, INFLUENCE)
-        pink.solve_ik(self.configuration, self.tasks, self.period, solver="proxqp", damping=2.0,
-                      limits=self.limits)
+        pink.solve_ik(
+            self.configuration,
+            self.tasks,
+            self.period,
+            solver="proxqp",
+            damping=2.0,
+            limits=self.limits,
+        )
 
 
 def controller_episode(robot: RobotModel, model: model_file.ModelFile, situation) -> dict:
@@ -224,27 +244,43 @@ def controller_episode(robot: RobotModel, model: model_file.ModelFile, situation
             world.command(tick.target)
             world.step()
         robot.forward(q)
-        reach = np.linalg.norm(robot.frame_placement("palm_center").translation - situation.object_position)
-        log(f"episode: f from {controller.values[0]:.3f} to {controller.values[-1]:.3f}, palm "
-            f"{reach * 1000:.0f} mm from the object's centre, closest pair {tick.min_distance * 1000:.1f} mm")
-        return {"tick": ticks, "objective": objective.times, "proximity": proximity.near.times, "states": states,
-                "period": world.control_period}
+        reach = np.linalg.norm(
+            robot.frame_placement("palm_center").translation - situation.object_position
+        )
+        log(
+            f"episode: f from {controller.values[0]:.3f} to {controller.values[-1]:.3f}, palm "
+            f"{reach * 1000:.0f} mm from the object's centre, closest pair "
+            f"{tick.min_distance * 1000:.1f} mm"
+        )
+        return {
+            "tick": ticks,
+            "objective": objective.times,
+            "proximity": proximity.near.times,
+            "states": states,
+            "period": world.control_period,
+        }
     finally:
         world.close()
 
 
-def replay(robot: RobotModel, model: model_file.ModelFile, situation, states, period: float) -> dict:
+def replay(
+    robot: RobotModel, model: model_file.ModelFile, situation, states, period: float
+) -> dict:
     """Wall times (s) of our tick and of the two pink steps at each state of the episode, in turns
     (which runs first rotates state by state). Our controller replays the episode: after each tick
     its reference is set to the episode's target, so that it sees the very same problems."""
-    controller = MotionRateController(robot, Proximity(robot, situation), make_objective(model, robot), period)
+    controller = MotionRateController(
+        robot, Proximity(robot, situation), make_objective(model, robot), period
+    )
     controller.reset(states[0][0])
-    pinks = {"pink": PinkStep(robot, model, situation, period, bare=False),
-             "pink_bare": PinkStep(robot, model, situation, period, bare=True)}
+    pinks = {
+        "pink": PinkStep(robot, model, situation, period, bare=False),
+        "pink_bare": PinkStep(robot, model, situation, period, bare=True),
+    }
     times = {"tick": [], "pink": [], "pink_bare": []}
     order = list(times)
     for k, (q, poses, target) in enumerate(states):
-        for name in order[k % 3:] + order[:k % 3]:
+        for name in order[k % 3 :] + order[: k % 3]:
             start = time.perf_counter()
             if name == "tick":
                 controller.tick(q, poses)
@@ -266,7 +302,9 @@ def run() -> dict:
     situation = situations.sphere_grid()[EPISODE_SITUATION]
     episode = controller_episode(robot, model, situation)
     turns = replay(robot, model, situation, episode["states"], episode["period"])
-    rest = np.array(episode["tick"]) - np.array(episode["objective"]) - np.array(episode["proximity"])
+    rest = (
+        np.array(episode["tick"]) - np.array(episode["objective"]) - np.array(episode["proximity"])
+    )
     results = {
         "controller_tick_p50_ms": percentile_ms(episode["tick"], 50),
         "controller_tick_p99_ms": percentile_ms(episode["tick"], 99),
@@ -274,10 +312,15 @@ def run() -> dict:
         "controller_proximity_p50_ms": percentile_ms(episode["proximity"], 50),
         "controller_qp_p50_ms": percentile_ms(rest, 50),
         "controller_replay_p50_ms": percentile_ms(turns["tick"], 50),
-        "pink_tick_p50_ms": percentile_ms(turns["pink"], 50), "pink_tick_p99_ms": percentile_ms(turns["pink"], 99),
+        "pink_tick_p50_ms": percentile_ms(turns["pink"], 50),
+        "pink_tick_p99_ms": percentile_ms(turns["pink"], 99),
         "pink_bare_tick_p50_ms": percentile_ms(turns["pink_bare"], 50),
     }
-    results["controller_vs_pink"] = round(results["controller_replay_p50_ms"] / results["pink_tick_p50_ms"], 3)
-    results["controller_vs_pink_bare"] = round(results["controller_replay_p50_ms"] / results["pink_bare_tick_p50_ms"], 3)
+    results["controller_vs_pink"] = round(
+        results["controller_replay_p50_ms"] / results["pink_tick_p50_ms"], 3
+    )
+    results["controller_vs_pink_bare"] = round(
+        results["controller_replay_p50_ms"] / results["pink_bare_tick_p50_ms"], 3
+    )
     log(f"{len(episode['tick'])} ticks: " + ", ".join(f"{k} {v}" for k, v in results.items()))
     return results

@@ -1,5 +1,6 @@
 """Memory over many episodes: 100 consecutive TRIC episodes through one evaluation graph (simulator,
-controller and client nodes in this process, as tric-eval runs them), each judged with the lift test.
+controller and client nodes in this process, as tric-eval runs them), each judged with the lift
+test.
 
 eval_rss_growth_mb: the process's resident memory after the last episode minus after the first
   WARMUP episodes (those fill caches: DDS, Pinocchio and coal buffers, the allocator's pools), MB.
@@ -7,8 +8,8 @@ eval_rss_growth_mb: the process's resident memory after the last episode minus a
 eval_rss_start_mb / eval_rss_end_mb: the two measurements; eval_episodes: episodes run;
 eval_episode_s: mean wall s per episode after the warm-up.
 Each episode grasps one of the 15 test spheres (in turn) with a small TRIC model (K = 5, trained on
-3 reference demonstrations) for at most EPISODE_STEPS ticks: what is measured is what the graph keeps
-per episode, not the grasp.
+3 reference demonstrations) for at most EPISODE_STEPS ticks: what is measured is what the graph
+keeps per episode, not the grasp.
 """
 
 import gc
@@ -43,10 +44,14 @@ def resident_mb() -> float:
 def run() -> dict:
     robot = RobotModel()
     dataset = load_dataset(sorted(BAGS.glob("*.mcap"))[12:15], robot)
-    result = train(dataset, robot, TrainingConfig(hidden_units=5, noisy_samples=10, max_iterations=20))
+    result = train(
+        dataset, robot, TrainingConfig(hidden_units=5, noisy_samples=10, max_iterations=20)
+    )
     tests = situations.dataset("sphere_test")
     with tempfile.TemporaryDirectory() as folder:
-        path = model_file.from_training(result, dataset).save(pathlib.Path(folder) / "model.safetensors")
+        path = model_file.from_training(result, dataset).save(
+            pathlib.Path(folder) / "model.safetensors"
+        )
         evaluator = Evaluator("grasp", str(path), EPISODE_STEPS, private_domain_id())
         try:
             for k in range(EPISODES):
@@ -54,12 +59,23 @@ def run() -> dict:
                     start_mb, started = resident_mb(), time.perf_counter()
                 record = evaluator.run(tests[k % len(tests)])
                 if record.failed:
-                    raise RuntimeError(f"episode {k} on {record.situation} could not run: {record.message}")
+                    raise RuntimeError(
+                        f"episode {k} on {record.situation} could not run: {record.message}"
+                    )
                 if (k + 1) % 20 == 0:
-                    print(f"[bench] {k + 1} episodes, {resident_mb():.0f} MB resident", file=sys.stderr, flush=True)
+                    print(
+                        f"[bench] {k + 1} episodes, {resident_mb():.0f} MB resident",
+                        file=sys.stderr,
+                        flush=True,
+                    )
             seconds = time.perf_counter() - started
             end_mb = resident_mb()
         finally:
             evaluator.close()
-    return {"eval_rss_growth_mb": end_mb - start_mb, "eval_rss_start_mb": start_mb, "eval_rss_end_mb": end_mb,
-            "eval_episodes": EPISODES, "eval_episode_s": seconds / (EPISODES - WARMUP)}
+    return {
+        "eval_rss_growth_mb": end_mb - start_mb,
+        "eval_rss_start_mb": start_mb,
+        "eval_rss_end_mb": end_mb,
+        "eval_episodes": EPISODES,
+        "eval_episode_s": seconds / (EPISODES - WARMUP),
+    }

@@ -21,8 +21,11 @@ CONFIGURATIONS = 500
 ROUNDS = 5
 
 
-def median_call_us(feature_map: FeatureMap, configurations: np.ndarray, object_poses: dict) -> float:
-    """Median wall time of feature_map.with_jacobian over ROUNDS passes of configurations (B, n), us."""
+def median_call_us(
+    feature_map: FeatureMap, configurations: np.ndarray, object_poses: dict
+) -> float:
+    """Median wall time of feature_map.with_jacobian over ROUNDS passes of configurations (B, n),
+    us."""
     for q in configurations[:50]:  # warm-up
         feature_map.with_jacobian(q, object_poses)
     times = []
@@ -39,20 +42,30 @@ def box_object_poses() -> dict:
     them: the lid's pose is its hinge frame, lid_edge its lip."""
     box = situations.dataset("box_test")[0]
     hinge = scene.hinge_placement(box)
-    return {"object": (box.object_position, box.object_orientation), "lid": scene.pose_tuple(hinge),
-            "lid_edge": scene.pose_tuple(hinge * scene.lid_edge_offset(box.object_dimensions[0]))}
+    return {
+        "object": (box.object_position, box.object_orientation),
+        "lid": scene.pose_tuple(hinge),
+        "lid_edge": scene.pose_tuple(hinge * scene.lid_edge_offset(box.object_dimensions[0])),
+    }
 
 
 def run() -> dict:
     robot = RobotModel()
-    configurations = np.random.default_rng(0).uniform(robot.lower, robot.upper, (CONFIGURATIONS, robot.n_joints))
+    configurations = np.random.default_rng(0).uniform(
+        robot.lower, robot.upper, (CONFIGURATIONS, robot.n_joints)
+    )
     sphere = situations.dataset("sphere_test")[0]
     grasp_poses = {"object": (sphere.object_position, sphere.object_orientation)}
     results = {}
-    for key, task, poses in (("features_us", "grasp", grasp_poses),
-                             ("features_box_us", "open_box", box_object_poses())):
+    for key, task, poses in (
+        ("features_us", "grasp", grasp_poses),
+        ("features_box_us", "open_box", box_object_poses()),
+    ):
         feature_map = FeatureMap(FeatureDefinition.for_task(task, robot), robot)
         results[key] = round(median_call_us(feature_map, configurations, poses), 1)
-        print(f"[bench_features] {task}: {results[key]} us per call (median of "
-              f"{ROUNDS * CONFIGURATIONS})", file=sys.stderr)
+        print(
+            f"[bench_features] {task}: {results[key]} us per call (median of "
+            f"{ROUNDS * CONFIGURATIONS})",
+            file=sys.stderr,
+        )
     return results

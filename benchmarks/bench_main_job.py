@@ -17,9 +17,16 @@ import time
 def run() -> dict:
     with tempfile.TemporaryDirectory() as out:
         start = time.perf_counter()
-        subprocess.run([sys.executable, "-m", "tric_control.demo_cli", "--out", out], check=True,
-                       stdout=subprocess.DEVNULL, env=dict(os.environ))
+        subprocess.run(
+            [sys.executable, "-m", "tric_control.demo_cli", "--out", out],
+            check=True,
+            stdout=subprocess.DEVNULL,
+            env=dict(os.environ),
+        )
         elapsed = time.perf_counter() - start
         summary = json.loads((pathlib.Path(out) / "demo.json").read_text())
-    return {"main_job_s": elapsed, "main_job_tric_cost_mean": summary["tric_cost_mean"],
-            "main_job_teacher_cost_mean": summary["teacher_cost_mean"]}
+    return {
+        "main_job_s": elapsed,
+        "main_job_tric_cost_mean": summary["tric_cost_mean"],
+        "main_job_teacher_cost_mean": summary["teacher_cost_mean"],
+    }

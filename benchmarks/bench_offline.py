@@ -26,8 +26,9 @@ def run() -> dict:
     tests = situations.dataset("sphere_test")
     with tempfile.TemporaryDirectory() as folder:
         print("[bench] training the sphere model ...", file=sys.stderr, flush=True)
-        model = train_from_bags([BAGS], pathlib.Path(folder) / "sphere.safetensors", TrainingConfig(),
-                                RobotModel()).path
+        model = train_from_bags(
+            [BAGS], pathlib.Path(folder) / "sphere.safetensors", TrainingConfig(), RobotModel()
+        ).path
         start = time.perf_counter()
         offline = evaluate_offline(tests, str(model), progress=False)
         offline_s = time.perf_counter() - start
@@ -36,5 +37,8 @@ def run() -> dict:
         nodes_s = time.perf_counter() - start
     if any(r.failed for r in offline + nodes):
         raise RuntimeError("an episode of the offline benchmark failed")
-    return {"offline_sphere_test_s": offline_s, "nodes_sphere_test_s": nodes_s,
-            "offline_speedup": nodes_s / offline_s}
+    return {
+        "offline_sphere_test_s": offline_s,
+        "nodes_sphere_test_s": nodes_s,
+        "offline_speedup": nodes_s / offline_s,
+    }

@@ -2,11 +2,12 @@
 
 sim_lockstep_rtf: real-time factor of the simulator node in lockstep mode, through ROS: the node
   (spun by a SingleThreadedExecutor, as `ros2 run` does) and a trivial commander, which answers each
-  /joint_states with the same positions as its /joint_command, in one process. The commander waits on
-  /joint_states with tric_sim.lockstep.TopicPoller, as the teacher and controller nodes do. Median of
-  three runs of 4 s of wall time each.
+  /joint_states with the same positions as its /joint_command, in one process. The commander waits
+  on /joint_states with tric_sim.lockstep.TopicPoller, as the teacher and controller nodes do.
+  Median of three runs of 4 s of wall time each.
 sim_lockstep_period_us: the median wall time of one lockstep period (state -> command -> step).
-sim_physics_period_us: one control period of raw stepping (3 physics steps + distance check), no ROS.
+sim_physics_period_us: one control period of raw stepping (3 physics steps + distance check), no
+ROS.
 """
 
 import statistics
@@ -32,13 +33,17 @@ RUN_S = 4.0
 def lockstep_rtf() -> float:
     context = Context()
     rclpy.init(context=context)
-    simulator = SimulatorNode(context=context, parameter_overrides=[Parameter("mode", value="lockstep")])
+    simulator = SimulatorNode(
+        context=context, parameter_overrides=[Parameter("mode", value="lockstep")]
+    )
     executor = SingleThreadedExecutor(context=context)
     executor.add_node(simulator)
     threading.Thread(target=executor.spin, daemon=True).start()
     commander = Node("trivial_commander", context=context)
     publisher = commander.create_publisher(JointState, "/joint_command", 10)
-    states = TopicPoller(context, "trivial_commander_poller", {"state": (JointState, "/joint_states", 10)})
+    states = TopicPoller(
+        context, "trivial_commander_poller", {"state": (JointState, "/joint_states", 10)}
+    )
     stop = threading.Event()
 
     def answer():
@@ -81,7 +86,9 @@ def physics_period_us() -> float:
 def run() -> dict:
     rtfs = [lockstep_rtf() for _ in range(3)]
     rtf = statistics.median(rtfs)
-    return {"sim_lockstep_rtf": round(rtf, 1),
-            "sim_lockstep_rtf_runs": [round(r, 1) for r in rtfs],
-            "sim_lockstep_period_us": round(10_000 / rtf),
-            "sim_physics_period_us": round(physics_period_us())}
+    return {
+        "sim_lockstep_rtf": round(rtf, 1),
+        "sim_lockstep_rtf_runs": [round(r, 1) for r in rtfs],
+        "sim_lockstep_period_us": round(10_000 / rtf),
+        "sim_physics_period_us": round(physics_period_us()),
+    }

@@ -29,7 +29,11 @@ def run() -> dict:
     dataset = load_dataset([BAGS], robot)
     results = {"bags_load_s": time.perf_counter() - start}
     for name, hidden in (("default", 30), ("linear", 0)):
-        print(f"[bench] training K = {hidden} on {len(dataset.demos)} demos ...", file=sys.stderr, flush=True)
+        print(
+            f"[bench] training K = {hidden} on {len(dataset.demos)} demos ...",
+            file=sys.stderr,
+            flush=True,
+        )
         result = train(dataset, robot, TrainingConfig(hidden_units=hidden))
         results[f"train_{name}_s"] = result.train_time_s
         results[f"train_{name}_sampling_s"] = result.sampling_time_s
@@ -37,8 +41,14 @@ def run() -> dict:
     print("[bench] recording one demonstration ...", file=sys.stderr, flush=True)
     with tempfile.TemporaryDirectory() as out:
         start = time.perf_counter()
-        rows = demonstrate_all(situations.sphere_grid()[13:14], pathlib.Path(out), 0.125, 0.0, progress=False,
-                               domain_id=private_domain_id())
+        rows = demonstrate_all(
+            situations.sphere_grid()[13:14],
+            pathlib.Path(out),
+            0.125,
+            0.0,
+            progress=False,
+            domain_id=private_domain_id(),
+        )
         results["record_demo_s"] = time.perf_counter() - start
     if not all(result.success and path for _, result, path in rows):
         raise RuntimeError("the benchmark demonstration failed")

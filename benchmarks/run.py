@@ -1,8 +1,8 @@
 """Run the project's benchmarks and write one JSON object to results/bench.json.
 
 Each module benchmarks/bench_*.py defines `run() -> dict` returning flat {key: number} results (keys
-are named in the issues, e.g. "sim_lockstep_rtf"). This runner calls them in name order, merges their
-results with a description of the machine, prints the object and writes it.
+are named in the issues, e.g. "sim_lockstep_rtf"). This runner calls them in name order, merges
+their results with a description of the machine, prints the object and writes it.
 
     python benchmarks/run.py [--only NAME ...] [--out results/bench.json]
 """
@@ -37,8 +37,12 @@ def load(path: pathlib.Path):
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--only", nargs="*", default=None,
-                        help="benchmark module names to run (e.g. bench_sim); default: all")
+    parser.add_argument(
+        "--only",
+        nargs="*",
+        default=None,
+        help="benchmark module names to run (e.g. bench_sim); default: all",
+    )
     parser.add_argument("--out", default="results/bench.json", help="output JSON file")
     args = parser.parse_args(argv)
     results = machine()
@@ -46,8 +50,10 @@ def main(argv=None) -> int:
     if args.only:
         unknown = set(args.only) - {m.stem for m in modules}
         if unknown:
-            parser.error(f"unknown benchmark(s): {', '.join(sorted(unknown))}; "
-                         f"available: {', '.join(m.stem for m in modules)}")
+            parser.error(
+                f"unknown benchmark(s): {', '.join(sorted(unknown))}; "
+                f"available: {', '.join(m.stem for m in modules)}"
+            )
         modules = [m for m in modules if m.stem in args.only]
     for path in modules:
         print(f"[bench] {path.stem} ...", file=sys.stderr, flush=True)

@@ -29,8 +29,12 @@ def reference_sphere_training(tmp_path_factory):
     """TRIC trained with TrainingConfig()'s defaults on the 27 reference sphere demonstrations
     (bags/sphere), as tric-demo --reuse trains it: a training.BagTraining, made once per session for
     the tests that need a model that grasps."""
-    return train_from_bags([REFERENCE_BAGS / "sphere"], tmp_path_factory.mktemp("reference") / "tric_sphere.safetensors",
-                           TrainingConfig(), RobotModel())
+    return train_from_bags(
+        [REFERENCE_BAGS / "sphere"],
+        tmp_path_factory.mktemp("reference") / "tric_sphere.safetensors",
+        TrainingConfig(),
+        RobotModel(),
+    )
 
 
 @pytest.fixture
@@ -108,14 +112,21 @@ def run_action(node, action_type, name, goal, timeout=HANG_S):
     client = ActionClient(node, action_type, name)
     assert client.wait_for_server(timeout_sec=HANG_S), f"action server {name} not available"
     feedback = []
-    goal_future = client.send_goal_async(goal, feedback_callback=lambda msg: feedback.append(msg.feedback))
-    handle = wait_for(lambda: goal_future.result() if goal_future.done() else None, HANG_S, "goal response")
+    goal_future = client.send_goal_async(
+        goal, feedback_callback=lambda msg: feedback.append(msg.feedback)
+    )
+    handle = wait_for(
+        lambda: goal_future.result() if goal_future.done() else None, HANG_S, "goal response"
+    )
     if not handle.accepted:
         client.destroy()
         return None, None, feedback
     result_future = handle.get_result_async()
-    wrapped = wait_for(lambda: result_future.result() if result_future.done() else None, timeout,
-                       f"the result of {name}")
+    wrapped = wait_for(
+        lambda: result_future.result() if result_future.done() else None,
+        timeout,
+        f"the result of {name}",
+    )
     client.destroy()
     return wrapped.status, wrapped.result, feedback
 
@@ -133,8 +144,8 @@ def run_periods(node, periods=ABSENCE_PERIODS, period_s=0.01):
 
 
 def record_fields(record) -> dict:
-    """An EpisodeRecord's fields but its wall time, NaN written as the string "nan" (NaN != NaN): two
-    runs of a deterministic episode give equal ones."""
+    """An EpisodeRecord's fields but its wall time, NaN written as the string "nan" (NaN != NaN):
+    two runs of a deterministic episode give equal ones."""
     fields = dataclasses.asdict(record)
     del fields["wall_time_s"]
     return {k: "nan" if isinstance(v, float) and math.isnan(v) else v for k, v in fields.items()}

@@ -10,9 +10,6 @@ from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState
-from tric_msgs.action import Execute
-from tric_msgs.msg import ControllerStatus, EpisodeEvent, ObjectPoses, Situation as SituationMsg
-from tric_msgs.srv import LoadModel, ResetScene
 
 from conftest import HANG_S, call, run_action, run_periods, wait_for
 from tric_control.controller_node import ControllerNode
@@ -20,6 +17,10 @@ from tric_learning import model_file
 from tric_learning.features import FeatureDefinition
 from tric_learning.recording import record_offline
 from tric_learning.training import TrainingConfig, train
+from tric_msgs.action import Execute
+from tric_msgs.msg import ControllerStatus, EpisodeEvent, ObjectPoses
+from tric_msgs.msg import Situation as SituationMsg
+from tric_msgs.srv import LoadModel, ResetScene
 from tric_sim import messages, situations
 from tric_sim.robot_model import HOME, RobotModel
 from tric_sim.simulator_node import SimulatorNode
@@ -36,10 +37,17 @@ def robot():
 
 @pytest.fixture(scope="module")
 def model_path(tmp_path_factory, robot):
-    """A tiny TRIC grasp model (3 demonstrations, 5 hidden units): fast to make, not meant to grasp."""
+    """A tiny TRIC grasp model (3 demonstrations, 5 hidden units): fast to make, not meant to
+    grasp."""
     dataset = record_offline(robot, situations.sphere_grid()[12:15], 5.0)
-    result = train(dataset, robot, TrainingConfig(hidden_units=5, noisy_samples=10, max_iterations=20))
-    return str(model_file.from_training(result, dataset).save(tmp_path_factory.mktemp("model") / "model.safetensors"))
+    result = train(
+        dataset, robot, TrainingConfig(hidden_units=5, noisy_samples=10, max_iterations=20)
+    )
+    return str(
+        model_file.from_training(result, dataset).save(
+            tmp_path_factory.mktemp("model") / "model.safetensors"
+        )
+    )
 
 
 class Observer(Node):
@@ -49,20 +57,26 @@ class Observer(Node):
         super().__init__("test_observer", context=context)
         self.commands, self.statuses, self.events = [], [], []
         self.create_subscription(JointState, "/joint_command", self.commands.append, KEEP_ALL)
-        self.create_subscription(ControllerStatus, "/controller/status", self.statuses.append, KEEP_ALL)
+        self.create_subscription(
+            ControllerStatus, "/controller/status", self.statuses.append, KEEP_ALL
+        )
         self.create_subscription(EpisodeEvent, "/episode", self.events.append, KEEP_ALL)
 
 
 def make_controller(context, **parameters):
-    return ControllerNode(context=context, parameter_overrides=[
-        Parameter(name, value=value) for name, value in parameters.items()])
+    return ControllerNode(
+        context=context,
+        parameter_overrides=[Parameter(name, value=value) for name, value in parameters.items()],
+    )
 
 
 def load(observer, path):
     return call(observer, LoadModel, "/controller/load_model", LoadModel.Request(model_path=path))
 
 
-def test_load_model_refuses_bad_files_and_keeps_the_current_model(ros_context, spin, robot, model_path, tmp_path):
+def test_load_model_refuses_bad_files_and_keeps_the_current_model(
+    ros_context, spin, robot, model_path, tmp_path
+):
     controller = make_controller(ros_context)
     observer = spin(controller, Observer(ros_context))[1]
     good = load(observer, model_path)
@@ -73,11 +87,22 @@ def test_load_model_refuses_bad_files_and_keeps_the_current_model(ros_context, s
 
     text = tmp_path / "notes.safetensors"
     text.write_text("not a model\n" * 20)
-    box = model_file.ModelFile("tric", FeatureDefinition.for_task("open_box", robot),
-                               {"w1": np.zeros((2, 3))}, {"delta": 0.1, "rho": 1.0}).save(tmp_path / "box.safetensors")
-    dpl = model_file.ModelFile("dpl_joint", grasp, {"w": np.zeros(3)}).save(tmp_path / "dpl.safetensors")
-    refusals = {str(tmp_path / "missing.safetensors"): "does not exist", str(text): "not a readable model file",
-                str(box): "another feature definition", str(dpl): "cannot be run", "": "no model path"}
+    box = model_file.ModelFile(
+        "tric",
+        FeatureDefinition.for_task("open_box", robot),
+        {"w1": np.zeros((2, 3))},
+        {"delta": 0.1, "rho": 1.0},
+    ).save(tmp_path / "box.safetensors")
+    dpl = model_file.ModelFile("dpl_joint", grasp, {"w": np.zeros(3)}).save(
+        tmp_path / "dpl.safetensors"
+    )
+    refusals = {
+        str(tmp_path / "missing.safetensors"): "does not exist",
+        str(text): "not a readable model file",
+        str(box): "another feature definition",
+        str(dpl): "cannot be run",
+        "": "no model path",
+    }
     for path, reason in refusals.items():
         response = load(observer, path)
         assert not response.success and reason in response.message, response.message
@@ -86,17 +111,27 @@ def test_load_model_refuses_bad_files_and_keeps_the_current_model(ros_context, s
 
 
 def test_lockstep_episode_on_the_simulator(ros_context, spin, robot, model_path):
-    simulator = SimulatorNode(context=ros_context, parameter_overrides=[Parameter("mode", value="lockstep")])
+    simulator = SimulatorNode(
+        context=ros_context, parameter_overrides=[Parameter("mode", value="lockstep")]
+    )
     controller = make_controller(ros_context, mode="lockstep")
     observer = spin(simulator, controller, Observer(ros_context))[2]
     situation = situations.dataset("sphere_test")[0]
-    reset = call(observer, ResetScene, "/simulator/reset_scene",
-                 ResetScene.Request(situation=messages.situation_to_msg(situation)))
+    reset = call(
+        observer,
+        ResetScene,
+        "/simulator/reset_scene",
+        ResetScene.Request(situation=messages.situation_to_msg(situation)),
+    )
     assert reset.success, reset.message
     assert load(observer, model_path).success
-    wait_for(lambda: controller.scene is not None and controller.scene.situation == situation, what="the situation")
-    status, result, feedback = run_action(observer, Execute, "/controller/execute",
-                                          Execute.Goal(max_steps=150, episode_id="ctl_test"))
+    wait_for(
+        lambda: controller.scene is not None and controller.scene.situation == situation,
+        what="the situation",
+    )
+    status, result, feedback = run_action(
+        observer, Execute, "/controller/execute", Execute.Goal(max_steps=150, episode_id="ctl_test")
+    )
     assert status == GoalStatus.STATUS_SUCCEEDED, result.message
     assert result.success and result.outcome in ("step_budget", "converged")
     assert 0 < result.steps <= 150
@@ -105,17 +140,22 @@ def test_lockstep_episode_on_the_simulator(ros_context, spin, robot, model_path)
     assert 0 < result.mean_tick_ms <= result.max_tick_ms
     assert [f.step for f in feedback] == list(range(10, result.steps + 1, 10))
 
-    wait_for(lambda: len(observer.commands) >= result.steps and len(observer.statuses) >= result.steps,
-             what="every command and status")
+    wait_for(
+        lambda: len(observer.commands) >= result.steps and len(observer.statuses) >= result.steps,
+        what="every command and status",
+    )
     commands = np.array([observer.commands[k].position for k in range(result.steps)])
     assert list(observer.commands[0].name) == list(robot.joint_names)
     assert np.all(commands >= robot.lower) and np.all(commands <= robot.upper)
     start = messages.joint_positions_from_msg(reset.joint_state, robot.joint_names)
     steps = np.abs(np.diff(np.vstack([start, commands]), axis=0))
     assert np.all(steps <= robot.velocity_limits * 0.01 + 1e-9)
-    stamps = [messages.time_ns(c.header.stamp) for c in observer.commands[:result.steps]]
+    stamps = [messages.time_ns(c.header.stamp) for c in observer.commands[: result.steps]]
     assert np.all(np.diff(stamps) == 10_000_000)  # one command per simulated period, none skipped
-    assert {s.state for s in observer.statuses} <= {ControllerStatus.RUNNING, ControllerStatus.CONVERGED}
+    assert {s.state for s in observer.statuses} <= {
+        ControllerStatus.RUNNING,
+        ControllerStatus.CONVERGED,
+    }
     assert observer.statuses[-1].step == result.steps and observer.statuses[0].value_rate > 0
 
     wait_for(lambda: len(observer.events) >= 2, what="START and END")
@@ -143,14 +183,20 @@ class Feeder(Node):
     def publish(self):
         now = self.get_clock().now().nanoseconds
         if self.poses:
-            self.poses_pub.publish(messages.object_poses_msg({"object": self.object} if self.object_pose else {}, now))
+            self.poses_pub.publish(
+                messages.object_poses_msg({"object": self.object} if self.object_pose else {}, now)
+            )
         if self.states:
-            self.state_pub.publish(messages.joint_state_msg(self.names, self.q, np.zeros(len(self.q)), now))
+            self.state_pub.publish(
+                messages.joint_state_msg(self.names, self.q, np.zeros(len(self.q)), now)
+            )
 
 
-def test_realtime_holds_on_stale_states_and_missing_poses_and_resumes(ros_context, spin, model_path):
-    """Realtime: fresh states and poses step the controller; states that stop coming make it hold the
-    last measured positions (HOLDING); fresh states again resume the stepping; poses without the
+def test_realtime_holds_on_stale_states_and_missing_poses_and_resumes(
+    ros_context, spin, model_path
+):
+    """Realtime: fresh states and poses step the controller; states that stop coming make it hold
+    the last measured positions (HOLDING); fresh states again resume the stepping; poses without the
     object hold it although the states are fresh; a cancel ends the episode."""
     controller = make_controller(ros_context, mode="realtime", model_path=model_path)
     observer = Observer(ros_context)
@@ -161,12 +207,16 @@ def test_realtime_holds_on_stale_states_and_missing_poses_and_resumes(ros_contex
     spin(controller, observer, feeder)
     situation_pub.publish(messages.situation_to_msg(situation))
     wait_for(lambda: controller.scene is not None, what="the situation")
-    wait_for(lambda: any(s.state == ControllerStatus.IDLE for s in observer.statuses), what="idle status")
+    wait_for(
+        lambda: any(s.state == ControllerStatus.IDLE for s in observer.statuses), what="idle status"
+    )
 
     client = ActionClient(observer, Execute, "/controller/execute")
     assert client.wait_for_server(timeout_sec=HANG_S)
     goal_future = client.send_goal_async(Execute.Goal(max_steps=100000))
-    handle = wait_for(lambda: goal_future.result() if goal_future.done() else None, what="goal response")
+    handle = wait_for(
+        lambda: goal_future.result() if goal_future.done() else None, what="goal response"
+    )
     assert handle.accepted
 
     def statuses_since(stamp_ns):
@@ -174,12 +224,19 @@ def test_realtime_holds_on_stale_states_and_missing_poses_and_resumes(ros_contex
         return [s for s in list(observer.statuses) if messages.time_ns(s.header.stamp) > stamp_ns]
 
     feeder.states = feeder.poses = True
-    wait_for(lambda: any(s.state == ControllerStatus.RUNNING for s in observer.statuses), what="running ticks")
-    feeder.states = False                                  # the robot stops answering
+    wait_for(
+        lambda: any(s.state == ControllerStatus.RUNNING for s in observer.statuses),
+        what="running ticks",
+    )
+    feeder.states = False  # the robot stops answering
 
     def holding():
-        return (observer.statuses and observer.statuses[-1].state == ControllerStatus.HOLDING
-                and observer.commands and np.allclose(observer.commands[-1].position, HOME, rtol=0, atol=1e-12))
+        return (
+            observer.statuses
+            and observer.statuses[-1].state == ControllerStatus.HOLDING
+            and observer.commands
+            and np.allclose(observer.commands[-1].position, HOME, rtol=0, atol=1e-12)
+        )
 
     wait_for(holding, what="a hold command at the last positions and status HOLDING")
     held_at, mark = observer.statuses[-1].step, messages.time_ns(observer.statuses[-1].header.stamp)
@@ -189,37 +246,52 @@ def test_realtime_holds_on_stale_states_and_missing_poses_and_resumes(ros_contex
     refused = load(observer, model_path)
     assert not refused.success and "episode is running" in refused.message
     second = client.send_goal_async(Execute.Goal(max_steps=10))
-    assert not wait_for(lambda: second.result() if second.done() else None, what="goal response").accepted
+    assert not wait_for(
+        lambda: second.result() if second.done() else None, what="goal response"
+    ).accepted
 
-    feeder.states = True                                   # fresh states again: the controller resumes
-    wait_for(lambda: any(s.state == ControllerStatus.RUNNING and s.step > held_at for s in observer.statuses),
-             what="running ticks after the hold")
+    # fresh states again: the controller resumes
+    feeder.states = True
+    wait_for(
+        lambda: any(
+            s.state == ControllerStatus.RUNNING and s.step > held_at for s in observer.statuses
+        ),
+        what="running ticks after the hold",
+    )
 
-    feeder.object_pose = False                             # fresh states, poses without the object
+    feeder.object_pose = False  # fresh states, poses without the object
     wait_for(lambda: controller._poses == {}, what="poses without the object")
     mark = controller.get_clock().now().nanoseconds
     run_periods(observer)
     without_object = statuses_since(mark)
     assert len(without_object) >= 10
     assert {s.state for s in without_object} == {ControllerStatus.HOLDING}
-    assert len({s.step for s in without_object}) == 1     # the controller is not stepped
-    wait_for(lambda: np.allclose(observer.commands[-1].position, HOME, rtol=0, atol=1e-12),
-             what="the hold command reaching the measured positions")
+    assert len({s.step for s in without_object}) == 1  # the controller is not stepped
+    wait_for(
+        lambda: np.allclose(observer.commands[-1].position, HOME, rtol=0, atol=1e-12),
+        what="the hold command reaching the measured positions",
+    )
 
     result_future = handle.get_result_async()
     handle.cancel_goal_async()
-    wrapped = wait_for(lambda: result_future.result() if result_future.done() else None, what="the result")
+    wrapped = wait_for(
+        lambda: result_future.result() if result_future.done() else None, what="the result"
+    )
     assert wrapped.status == GoalStatus.STATUS_CANCELED and wrapped.result.outcome == "canceled"
     assert wrapped.result.steps > held_at
-    wait_for(lambda: [e.event for e in observer.events] == [EpisodeEvent.START, EpisodeEvent.ABORT],
-             what="START and ABORT")
+    wait_for(
+        lambda: [e.event for e in observer.events] == [EpisodeEvent.START, EpisodeEvent.ABORT],
+        what="START and ABORT",
+    )
     client.destroy()
 
 
 def test_execute_is_refused_without_model(ros_context, spin):
     without_model = make_controller(ros_context)
     observer = spin(without_model, Observer(ros_context))[1]
-    status, result, _ = run_action(observer, Execute, "/controller/execute", Execute.Goal(max_steps=10))
+    status, result, _ = run_action(
+        observer, Execute, "/controller/execute", Execute.Goal(max_steps=10)
+    )
     assert status == GoalStatus.STATUS_ABORTED and not result.success
     assert result.outcome == "failed" and "no model loaded" in result.message
     run_periods(observer)
@@ -229,7 +301,9 @@ def test_execute_is_refused_without_model(ros_context, spin):
 def test_execute_is_refused_without_situation(ros_context, spin, model_path):
     controller = make_controller(ros_context, model_path=model_path)
     observer = spin(controller, Observer(ros_context))[1]
-    status, result, _ = run_action(observer, Execute, "/controller/execute", Execute.Goal(max_steps=10))
+    status, result, _ = run_action(
+        observer, Execute, "/controller/execute", Execute.Goal(max_steps=10)
+    )
     assert status == GoalStatus.STATUS_ABORTED and "no situation known" in result.message
     run_periods(observer)
     assert not observer.events
@@ -242,44 +316,69 @@ def test_lockstep_episode_aborts_without_joint_states(ros_context, spin, model_p
     spin(controller, observer)
     situation_pub.publish(messages.situation_to_msg(situations.dataset("sphere_test")[0]))
     wait_for(lambda: controller.scene is not None, what="the situation")
-    status, result, _ = run_action(observer, Execute, "/controller/execute", Execute.Goal(max_steps=10))
+    status, result, _ = run_action(
+        observer, Execute, "/controller/execute", Execute.Goal(max_steps=10)
+    )
     assert status == GoalStatus.STATUS_ABORTED and "no joint states for 0.3 s" in result.message
     run_periods(observer)
     assert result.steps == 0 and not observer.commands and not observer.events
 
 
-@pytest.mark.parametrize("name, value, reason", [
-    ("mode", "fast", "parameter mode"), ("task", "juggle", "parameter task"),
-    ("control_rate_hz", 0.0, "control_rate_hz"), ("max_steps", "many", "an integer"),
-    ("state_timeout_s", -1.0, "state_timeout_s"), ("model_path", "/no/such/model.safetensors", "does not exist")])
+@pytest.mark.parametrize(
+    "name, value, reason",
+    [
+        ("mode", "fast", "parameter mode"),
+        ("task", "juggle", "parameter task"),
+        ("control_rate_hz", 0.0, "control_rate_hz"),
+        ("max_steps", "many", "an integer"),
+        ("state_timeout_s", -1.0, "state_timeout_s"),
+        ("model_path", "/no/such/model.safetensors", "does not exist"),
+    ],
+)
 def test_bad_parameters_are_refused(ros_context, name, value, reason):
     with pytest.raises(ValueError, match=reason):
         make_controller(ros_context, **{name: value})
 
 
 @pytest.mark.parametrize("mode", ["lockstep", "realtime"])
-def test_the_simulator_stopping_mid_episode_leaves_the_robot_held_and_aborts(ros_context, executor, spin,
-                                                                               model_path, mode):
-    simulator = SimulatorNode(context=ros_context, parameter_overrides=[Parameter("mode", value=mode)])
-    controller = make_controller(ros_context, mode=mode, state_timeout_s=0.5, use_sim_time=mode == "realtime")
+def test_the_simulator_stopping_mid_episode_leaves_the_robot_held_and_aborts(
+    ros_context, executor, spin, model_path, mode
+):
+    simulator = SimulatorNode(
+        context=ros_context, parameter_overrides=[Parameter("mode", value=mode)]
+    )
+    controller = make_controller(
+        ros_context, mode=mode, state_timeout_s=0.5, use_sim_time=mode == "realtime"
+    )
     observer = Observer(ros_context)
     states = []
     observer.create_subscription(JointState, "/joint_states", states.append, KEEP_ALL)
     spin(simulator, controller, observer)
     situation = situations.dataset("sphere_test")[0]
-    assert call(observer, ResetScene, "/simulator/reset_scene",
-                ResetScene.Request(situation=messages.situation_to_msg(situation))).success
+    assert call(
+        observer,
+        ResetScene,
+        "/simulator/reset_scene",
+        ResetScene.Request(situation=messages.situation_to_msg(situation)),
+    ).success
     assert load(observer, model_path).success
-    wait_for(lambda: controller.scene is not None and controller.scene.situation == situation, what="the situation")
+    wait_for(
+        lambda: controller.scene is not None and controller.scene.situation == situation,
+        what="the situation",
+    )
     client = ActionClient(observer, Execute, "/controller/execute")
     assert client.wait_for_server(timeout_sec=HANG_S)
     goal_future = client.send_goal_async(Execute.Goal(max_steps=100000))
-    handle = wait_for(lambda: goal_future.result() if goal_future.done() else None, what="goal response")
+    handle = wait_for(
+        lambda: goal_future.result() if goal_future.done() else None, what="goal response"
+    )
     result_future = handle.get_result_async()
     wait_for(lambda: len(observer.commands) >= 30, what="30 commands")
     executor.remove_node(simulator)  # the simulator stops in the middle of the episode
     simulator.destroy_node()
-    wrapped = wait_for(lambda: result_future.result() if result_future.done() else None, what="the abort")
+    wrapped = wait_for(
+        lambda: result_future.result() if result_future.done() else None, what="the abort"
+    )
     assert wrapped.status == GoalStatus.STATUS_ABORTED and wrapped.result.outcome == "failed"
     assert wrapped.result.message.startswith("no joint states for 0.5 s: is the")
     # the robot holds: no command moves it on after the last state (lockstep answers states only;
@@ -289,5 +388,8 @@ def test_the_simulator_stopping_mid_episode_leaves_the_robot_held_and_aborts(ros
     after = [c for c in observer.commands if messages.time_ns(c.header.stamp) > last_state]
     assert len(after) <= 3 and (mode == "realtime" or not after)
     assert all(np.allclose(c.position, states[-1].position, atol=1e-3) for c in after)
-    wait_for(lambda: observer.events and observer.events[-1].event == EpisodeEvent.ABORT, what="ABORT on /episode")
+    wait_for(
+        lambda: observer.events and observer.events[-1].event == EpisodeEvent.ABORT,
+        what="ABORT on /episode",
+    )
     client.destroy()

@@ -1,10 +1,10 @@
-"""tric-demo, the main job, on small configurations: the built-in data sets it uses (the 27 sphere-grid
-demonstrations, the 15 test spheres) are cut down to a few situations, so that each run takes seconds
-of episodes; everything else is the tool's own path. Recording, training, the teacher's and TRIC's
-episodes through the nodes (--jobs 2: two worker graphs), the Table 1 comparison, demo.json and the
-figures, --check's exit code following the design's targets, and refused arguments. The run on the
-reference bags takes the session's training of them (the training tric-demo --reuse does; the other
-run goes through the tool's own training)."""
+"""tric-demo, the main job, on small configurations: the built-in data sets it uses (the 27
+sphere-grid demonstrations, the 15 test spheres) are cut down to a few situations, so that each run
+takes seconds of episodes; everything else is the tool's own path. Recording, training, the
+teacher's and TRIC's episodes through the nodes (--jobs 2: two worker graphs), the Table 1
+comparison, demo.json and the figures, --check's exit code following the design's targets, and
+refused arguments. The run on the reference bags takes the session's training of them (the training
+tric-demo --reuse does; the other run goes through the tool's own training)."""
 
 import json
 import pathlib
@@ -28,13 +28,13 @@ def cut_down(monkeypatch, train=(), test=()):
 
 @pytest.mark.slow
 def test_tric_demo_on_the_reference_bags(tmp_path, monkeypatch, capsys, reference_sphere_training):
-    """--reuse bags/sphere --check --jobs 2 on two unseen spheres, TRIC trained with the defaults: every
-    TRIC grasp is good, lifted and free of collisions (design.md section 5, Table 1) and no joint went
-    0.01 rad past a limit (section 6); the verdicts printed and --check's exit code follow the numbers
-    in demo.json. (Table 1's other target, TRIC's mean within 0.03 of the teacher's, is met by some
-    trainings of these bags and missed by others, the training not being the same from run to run:
-    measured gaps on these two spheres from 0.028 to 0.032 in four trainings on 2026-12-01; see
-    the README's shortfalls.)"""
+    """--reuse bags/sphere --check --jobs 2 on two unseen spheres, TRIC trained with the defaults:
+    every TRIC grasp is good, lifted and free of collisions (design.md section 5, Table 1) and no
+    joint went 0.01 rad past a limit (section 6); the verdicts printed and --check's exit code
+    follow the numbers in demo.json. (Table 1's other target, TRIC's mean within 0.03 of the
+    teacher's, is met by some trainings of these bags and missed by others, the training not being
+    the same from run to run: measured gaps on these two spheres from 0.028 to 0.032 in four
+    trainings on 2026-12-01; see the README's shortfalls.)"""
     tests = situations.dataset("sphere_test")[3:5]
     cut_down(monkeypatch, test=tests)
     asked = []
@@ -53,31 +53,46 @@ def test_tric_demo_on_the_reference_bags(tmp_path, monkeypatch, capsys, referenc
         records = report[agent]["episodes"]
         assert [r["situation"] for r in records] == [s.name for s in tests]
         for record in records:
-            assert record["grasp_cost"] < 0.25 and record["lift_passed"] and not record["collided"], record
+            assert (
+                record["grasp_cost"] < 0.25 and record["lift_passed"] and not record["collided"]
+            ), record
             assert record["max_joint_overshoot"] <= 0.01
     assert report["tric_lift_passed"] == 2 and report["tric"]["summary"]["good_grasps"] == 2
     within = report["tric_cost_mean"] <= report["teacher_cost_mean"] + demo_cli.MARGIN_TO_TEACHER
     printed = capsys.readouterr().out
     assert "[1/4] reusing the demonstrations in" in printed
-    assert (f"TRIC mean within {demo_cli.MARGIN_TO_TEACHER} of the teacher: {'met' if within else 'NOT met'}; "
-            "every TRIC grasp below 0.25: met") in printed
+    assert (
+        f"TRIC mean within {demo_cli.MARGIN_TO_TEACHER} of the teacher: "
+        f"{'met' if within else 'NOT met'}; every TRIC grasp below 0.25: met"
+    ) in printed
     assert status == (0 if within else 1)
     for name in ("demo.png", "demo_grasp.png"):
         assert (out / name).read_bytes()[:8] == PNG
-    assert sorted(p.name for p in (out / "demo" / "snapshots").iterdir()) == [f"{s.name}.png" for s in tests]
+    assert sorted(p.name for p in (out / "demo" / "snapshots").iterdir()) == [
+        f"{s.name}.png" for s in tests
+    ]
 
 
 @pytest.mark.slow
-def test_tric_demo_records_its_demonstrations_and_check_fails_when_tric_misses(tmp_path, monkeypatch, capsys):
-    """Without --reuse: two sphere-grid demonstrations recorded through the nodes, one L-BFGS iteration
-    (a model that cannot grasp), one test sphere: the targets are reported as not met and --check
-    makes the exit code 1; the results are written all the same."""
-    cut_down(monkeypatch, train=situations.sphere_grid()[12:14], test=situations.dataset("sphere_test")[:1])
+def test_tric_demo_records_its_demonstrations_and_check_fails_when_tric_misses(
+    tmp_path, monkeypatch, capsys
+):
+    """Without --reuse: two sphere-grid demonstrations recorded through the nodes, one L-BFGS
+    iteration (a model that cannot grasp), one test sphere: the targets are reported as not met and
+    --check makes the exit code 1; the results are written all the same."""
+    cut_down(
+        monkeypatch,
+        train=situations.sphere_grid()[12:14],
+        test=situations.dataset("sphere_test")[:1],
+    )
     out = tmp_path / "results"
     assert demo_cli.main(["--out", str(out), "--iterations", "1", "--jobs", "1", "--check"]) == 1
     printed = capsys.readouterr().out
     assert "[1/4] recording" in printed and "every TRIC grasp below 0.25: NOT met" in printed
-    assert sorted(p.name for p in (out / "demo" / "bags").iterdir()) == ["sphere_grid_12.mcap", "sphere_grid_13.mcap"]
+    assert sorted(p.name for p in (out / "demo" / "bags").iterdir()) == [
+        "sphere_grid_12.mcap",
+        "sphere_grid_13.mcap",
+    ]
     report = json.loads((out / "demo.json").read_text())
     assert report["episodes"] == 2 and report["tric"]["summary"]["good_grasps"] == 0
     assert report["tric"]["episodes"][0]["grasp_cost"] >= 0.25
@@ -87,11 +102,19 @@ def test_tric_demo_records_its_demonstrations_and_check_fails_when_tric_misses(t
 def test_tric_demo_refuses_bad_arguments(tmp_path, capsys):
     with pytest.raises(SystemExit) as refused:
         demo_cli.main(["--jobs", "0", "--out", str(tmp_path / "results")])
-    assert refused.value.code == 2 and "tric-demo: error: --jobs must be at least 1" in capsys.readouterr().err
+    assert (
+        refused.value.code == 2
+        and "tric-demo: error: --jobs must be at least 1" in capsys.readouterr().err
+    )
     plain = tmp_path / "plain"
     plain.write_text("x")
     assert demo_cli.main(["--out", str(plain)]) == 2
-    assert capsys.readouterr().err == f"tric-demo: --out folder {plain} cannot be used: {plain} is a file, not a folder\n"
-    assert demo_cli.main(["--reuse", str(tmp_path / "none"), "--out", str(tmp_path / "results")]) == 2
+    assert (
+        capsys.readouterr().err
+        == f"tric-demo: --out folder {plain} cannot be used: {plain} is a file, not a folder\n"
+    )
+    assert (
+        demo_cli.main(["--reuse", str(tmp_path / "none"), "--out", str(tmp_path / "results")]) == 2
+    )
     assert capsys.readouterr().err.endswith(f"tric-demo: {tmp_path / 'none'} does not exist\n")
     assert not list(tmp_path.rglob("*.json")) and not list(tmp_path.rglob("*.png"))

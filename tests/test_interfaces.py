@@ -1,9 +1,9 @@
-"""Every tric_msgs message, service and action crosses DDS intact between two nodes in one process."""
-
-import math
-import threading
+"""Every tric_msgs message, service and action crosses DDS intact between two nodes in one
+process."""
 
 import importlib
+import math
+import threading
 
 import numpy as np
 import pytest
@@ -14,11 +14,18 @@ from rclpy.task import Future
 import tric_msgs.action
 import tric_msgs.msg
 import tric_msgs.srv
-
 from conftest import HANG_S
 
-MESSAGES = ["ObjectPoses", "Situation", "FeatureDefinition", "FeatureSample", "TaskMetrics",
-            "EpisodeEvent", "ControllerStatus", "TrainingProgress"]
+MESSAGES = [
+    "ObjectPoses",
+    "Situation",
+    "FeatureDefinition",
+    "FeatureSample",
+    "TaskMetrics",
+    "EpisodeEvent",
+    "ControllerStatus",
+    "TrainingProgress",
+]
 SERVICES = ["ResetScene", "EvaluateTask", "RenderScene", "Train", "LoadModel"]
 ACTIONS = ["Demonstrate", "Execute"]
 
@@ -33,7 +40,7 @@ def filled(msg_class, seed=1):
 
 def _value(type_name, seed):
     if type_name.startswith("sequence<"):
-        inner = type_name[len("sequence<"):-1].split(",")[0]
+        inner = type_name[len("sequence<") : -1].split(",")[0]
         return [_value(inner, seed + k) for k in range(2)]
     if "[" in type_name:  # fixed-size array, e.g. double[36]
         inner, size = type_name[:-1].split("[")
@@ -110,7 +117,11 @@ def test_action_round_trip(spin, ros_context, name):
     """Goal, feedback and result cross intact; the server succeeds only once the client has its
     feedback, so exactly one feedback message must arrive."""
     action = getattr(tric_msgs.action, name)
-    goal, feedback, result = filled(action.Goal, 2), filled(action.Feedback, 4), filled(action.Result, 6)
+    goal, feedback, result = (
+        filled(action.Goal, 2),
+        filled(action.Feedback, 4),
+        filled(action.Result, 6),
+    )
     server = Node("action_server", context=ros_context)
     client_node = Node("action_client", context=ros_context)
     seen_goals, feedbacks, feedback_seen = [], [], Future()
@@ -118,7 +129,8 @@ def test_action_round_trip(spin, ros_context, name):
     async def execute(goal_handle):
         seen_goals.append(goal_handle.request)
         goal_handle.publish_feedback(feedback)
-        await feedback_seen        # the executor spins on (the client's feedback callback) meanwhile
+        # the executor spins on (the client's feedback callback) meanwhile
+        await feedback_seen
         goal_handle.succeed()
         return result
 
@@ -152,13 +164,23 @@ def test_action_round_trip(spin, ros_context, name):
 
 def test_nan_inf_and_negative_zero_survive_the_wire(spin, ros_context):
     """TaskMetrics uses NaN for "not applicable": it crosses DDS as NaN, as do inf and -0.0."""
-    sent = tric_msgs.msg.TaskMetrics(task="grasp", grasp_cost=math.nan, lid_angle=math.inf, min_distance=-0.0,
-                                     cost_term_names=["a", "b"], cost_term_values=[math.nan, -math.inf])
+    sent = tric_msgs.msg.TaskMetrics(
+        task="grasp",
+        grasp_cost=math.nan,
+        lid_angle=math.inf,
+        min_distance=-0.0,
+        cost_term_names=["a", "b"],
+        cost_term_values=[math.nan, -math.inf],
+    )
     talker = Node("talker", context=ros_context)
     listener = Node("listener", context=ros_context)
     received, got = [], threading.Event()
-    listener.create_subscription(tric_msgs.msg.TaskMetrics, "/metrics_roundtrip",
-                                 lambda m: (received.append(m), got.set()), 10)
+    listener.create_subscription(
+        tric_msgs.msg.TaskMetrics,
+        "/metrics_roundtrip",
+        lambda m: (received.append(m), got.set()),
+        10,
+    )
     publisher = talker.create_publisher(tric_msgs.msg.TaskMetrics, "/metrics_roundtrip", 10)
     talker.create_timer(0.05, lambda: publisher.publish(sent))
     spin(talker, listener)

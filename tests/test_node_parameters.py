@@ -13,28 +13,100 @@ from tric_sim import simulator_node, teacher_node
 from tric_sim.parameters import AT_LEAST_ONE, POSITIVE, Range, declare
 
 
-@pytest.mark.parametrize("node, assignment, message", [
-    (simulator_node, "control_rate_hz:=0.0", "simulator: parameter control_rate_hz must be in [1, 1000], got 0.0"),
-    (simulator_node, "physics_rate_hz:=.inf", "simulator: parameter physics_rate_hz must be finite, got inf"),
-    (simulator_node, "control_rate_hz:=.nan", "simulator: parameter control_rate_hz must be finite, got nan"),
-    (simulator_node, "solver_iterations:=-5", "simulator: parameter solver_iterations must be in [1, 1000], got -5"),
-    (simulator_node, "lockstep_timeout_s:=0.0", "simulator: parameter lockstep_timeout_s must be positive, got 0.0"),
-    (simulator_node, "mode:=fast", "simulator: parameter mode must be one of 'realtime', 'lockstep', got 'fast'"),
-    (teacher_node, "state_timeout_s:=-1", "teacher: parameter state_timeout_s must be positive, got -1"),
-    (recorder_node, "sample_period_s:=0.0", "recorder: parameter sample_period_s must be positive, got 0.0"),
-    (recorder_node, "outcome_timeout_s:=.inf", "recorder: parameter outcome_timeout_s must be finite, got inf"),
-    (recorder_node, "sources:=[1,2]", "recorder: parameter sources must be a list of strings, got [1, 2]"),
-    (recorder_node, "output_dir:=/proc/bags",
-     "recorder: parameter output_dir /proc/bags cannot be written: /proc refuses new files"),
-    (recorder_node, "output_dir:=/proc/version",
-     "recorder: parameter output_dir /proc/version cannot be used: /proc/version is a file, not a folder"),
-    (recorder_node, "overwrite:=maybe", "recorder: parameter overwrite must be true or false, got 'maybe'"),
-    (recorder_node, "status_topic:=3", "recorder: parameter status_topic must be a string, got 3"),
-    (trainer_node, "progress_period_s:=-0.5", "trainer: parameter progress_period_s must be at least 0, got -0.5"),
-    (controller_node, "max_steps:=2.5", "controller: parameter max_steps must be an integer, got 2.5"),
-    (controller_node, "state_timeout_s:=.nan", "controller: parameter state_timeout_s must be finite, got nan"),
-])
-def test_a_bad_parameter_ends_the_node_with_one_line_and_status_2(node, assignment, message, capsys):
+@pytest.mark.parametrize(
+    "node, assignment, message",
+    [
+        (
+            simulator_node,
+            "control_rate_hz:=0.0",
+            "simulator: parameter control_rate_hz must be in [1, 1000], got 0.0",
+        ),
+        (
+            simulator_node,
+            "physics_rate_hz:=.inf",
+            "simulator: parameter physics_rate_hz must be finite, got inf",
+        ),
+        (
+            simulator_node,
+            "control_rate_hz:=.nan",
+            "simulator: parameter control_rate_hz must be finite, got nan",
+        ),
+        (
+            simulator_node,
+            "solver_iterations:=-5",
+            "simulator: parameter solver_iterations must be in [1, 1000], got -5",
+        ),
+        (
+            simulator_node,
+            "lockstep_timeout_s:=0.0",
+            "simulator: parameter lockstep_timeout_s must be positive, got 0.0",
+        ),
+        (
+            simulator_node,
+            "mode:=fast",
+            "simulator: parameter mode must be one of 'realtime', 'lockstep', got 'fast'",
+        ),
+        (
+            teacher_node,
+            "state_timeout_s:=-1",
+            "teacher: parameter state_timeout_s must be positive, got -1",
+        ),
+        (
+            recorder_node,
+            "sample_period_s:=0.0",
+            "recorder: parameter sample_period_s must be positive, got 0.0",
+        ),
+        (
+            recorder_node,
+            "outcome_timeout_s:=.inf",
+            "recorder: parameter outcome_timeout_s must be finite, got inf",
+        ),
+        (
+            recorder_node,
+            "sources:=[1,2]",
+            "recorder: parameter sources must be a list of strings, got [1, 2]",
+        ),
+        (
+            recorder_node,
+            "output_dir:=/proc/bags",
+            "recorder: parameter output_dir /proc/bags cannot be written: /proc refuses new files",
+        ),
+        (
+            recorder_node,
+            "output_dir:=/proc/version",
+            "recorder: parameter output_dir /proc/version cannot be used: /proc/version is a "
+            "file, not a folder",
+        ),
+        (
+            recorder_node,
+            "overwrite:=maybe",
+            "recorder: parameter overwrite must be true or false, got 'maybe'",
+        ),
+        (
+            recorder_node,
+            "status_topic:=3",
+            "recorder: parameter status_topic must be a string, got 3",
+        ),
+        (
+            trainer_node,
+            "progress_period_s:=-0.5",
+            "trainer: parameter progress_period_s must be at least 0, got -0.5",
+        ),
+        (
+            controller_node,
+            "max_steps:=2.5",
+            "controller: parameter max_steps must be an integer, got 2.5",
+        ),
+        (
+            controller_node,
+            "state_timeout_s:=.nan",
+            "controller: parameter state_timeout_s must be finite, got nan",
+        ),
+    ],
+)
+def test_a_bad_parameter_ends_the_node_with_one_line_and_status_2(
+    node, assignment, message, capsys
+):
     assert node.main(["node", "--ros-args", "-p", assignment]) == 2
     error = capsys.readouterr().err
     assert error.startswith(message) and error.count("\n") == 1, error
@@ -42,8 +114,11 @@ def test_a_bad_parameter_ends_the_node_with_one_line_and_status_2(node, assignme
 
 def test_declare_converts_numbers_and_checks_types_and_ranges(ros_context):
     values = {"rate": 100, "count": 3.0, "flag": True, "names": ["a"], "ratio": 0.5}
-    node = Node("parameters_test", context=ros_context,
-                parameter_overrides=[Parameter(k, value=v) for k, v in values.items()])
+    node = Node(
+        "parameters_test",
+        context=ros_context,
+        parameter_overrides=[Parameter(k, value=v) for k, v in values.items()],
+    )
     try:
         rate = declare(node, "rate", 10.0, "a rate", POSITIVE)
         assert rate == 100.0 and isinstance(rate, float)

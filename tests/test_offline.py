@@ -1,12 +1,13 @@
-"""tric-eval --offline: the controller core on the physics without nodes gives the episodes the nodes
-give, the same records bit for bit but the wall time (the README's tables come from the nodes;
+"""tric-eval --offline: the controller core on the physics without nodes gives the episodes the
+nodes give, the same records bit for bit but the wall time (the README's tables come from the nodes;
 sweeps run offline)."""
 
 import json
 
 import pytest
 
-from conftest import REFERENCE_BAGS as BAGS, record_fields
+from conftest import REFERENCE_BAGS as BAGS
+from conftest import record_fields
 from tric_control import evaluate_cli
 from tric_control.offline import evaluate_offline
 from tric_learning.training import TrainingConfig, train_from_bags
@@ -14,38 +15,49 @@ from tric_sim import situations
 from tric_sim.robot_model import RobotModel
 
 
-
 @pytest.fixture(scope="module")
 def models(tmp_path_factory, reference_sphere_training):
-    box = train_from_bags([BAGS / "box"], tmp_path_factory.mktemp("models") / "box.safetensors", TrainingConfig(),
-                          RobotModel())
+    box = train_from_bags(
+        [BAGS / "box"],
+        tmp_path_factory.mktemp("models") / "box.safetensors",
+        TrainingConfig(),
+        RobotModel(),
+    )
     return {"grasp": reference_sphere_training.path, "open_box": box.path}
 
 
 @pytest.mark.slow
 def test_offline_and_node_episodes_agree_on_three_spheres_and_a_box(models):
     """The same records from both paths, in every field but the wall time: the lockstep simulator
-    node steps the same physics as the offline path, and the controller is deterministic bit for bit."""
+    node steps the same physics as the offline path, and the controller is deterministic bit for
+    bit."""
     spheres = situations.dataset("sphere_test")[:3]
     offline = evaluate_offline(spheres, str(models["grasp"]), progress=False)
     nodes = evaluate_cli.evaluate(spheres, models["grasp"], progress=False)
     assert [record_fields(r) for r in offline] == [record_fields(r) for r in nodes]
-    for record in offline:    # both paths name the failure class; a collision is one, even of a good grasp
+    # both paths name the failure class; a collision is one, even of a good grasp
+    for record in offline:
         assert (record.failure == "") == (record.success and not record.collided)
     boxes = situations.dataset("box_train")[:1]
     [box_offline] = evaluate_offline(boxes, str(models["open_box"]), 1200, progress=False)
     [box_nodes] = evaluate_cli.evaluate(boxes, models["open_box"], 1200, progress=False)
     assert record_fields(box_offline) == record_fields(box_nodes)
     assert (box_offline.failure == "") == (box_offline.success and not box_offline.collided)
-    assert box_offline.max_joint_overshoot <= 0.01   # design.md 6: no joint more than 0.01 rad past a limit
+    # design.md 6: no joint more than 0.01 rad past a limit
+    assert box_offline.max_joint_overshoot <= 0.01
 
 
 def test_both_paths_name_the_failure_of_an_episode_cut_short(tmp_path):
     """Five ticks leave the hand at home, far above the sphere with its fingers open: the hidden
     metrics' failure class reaches the records of both paths."""
-    quick = TrainingConfig(noisy_samples=5, max_iterations=20)  # any model will do: it has no time to move
-    model = train_from_bags(sorted((BAGS / "sphere").glob("*.mcap"))[::9], tmp_path / "quick.safetensors", quick,
-                            RobotModel()).path
+    # any model will do: it has no time to move
+    quick = TrainingConfig(noisy_samples=5, max_iterations=20)
+    model = train_from_bags(
+        sorted((BAGS / "sphere").glob("*.mcap"))[::9],
+        tmp_path / "quick.safetensors",
+        quick,
+        RobotModel(),
+    ).path
     sphere = situations.dataset("sphere_test")[:1]
     [offline] = evaluate_offline(sphere, str(model), max_steps=5, progress=False)
     [nodes] = evaluate_cli.evaluate(sphere, model, max_steps=5, progress=False)
@@ -57,12 +69,19 @@ def test_offline_cli_writes_the_same_table_and_json(tmp_path, capsys):
     chosen = tmp_path / "one.yaml"
     situations.save_situations(chosen, situations.dataset("sphere_test")[:1])
     out = tmp_path / "teacher.json"
-    assert evaluate_cli.main(["--teacher", "--situations-file", str(chosen), "--offline", "--json", str(out)]) == 0
+    assert (
+        evaluate_cli.main(
+            ["--teacher", "--situations-file", str(chosen), "--offline", "--json", str(out)]
+        )
+        == 0
+    )
     printed = capsys.readouterr().out
     assert "(offline)" in printed and "sphere_test_00" in printed
     data = json.loads(out.read_text())
     assert data["summary"]["episodes"] == 1 and data["episodes"][0]["outcome"] == "demonstrated"
-    assert data["episodes"][0]["grasp_cost"] < 0.25 and data["summary"]["max_joint_overshoot"] <= 0.01
+    assert (
+        data["episodes"][0]["grasp_cost"] < 0.25 and data["summary"]["max_joint_overshoot"] <= 0.01
+    )
 
 
 def test_offline_evaluation_refuses_mixed_tasks_and_bad_jobs():

@@ -21,13 +21,13 @@ from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rosbags.highlevel import AnyReader
 from sensor_msgs.msg import JointState
-from tric_msgs.msg import EpisodeEvent, ObjectPoses, TaskMetrics
 
 from conftest import run_periods, wait_for
 from tric_learning import bags, record_cli
 from tric_learning.record_cli import demonstrate_all
 from tric_learning.recorder_node import RecorderNode
 from tric_learning.recording import SAMPLES_TOPIC, load_dataset
+from tric_msgs.msg import EpisodeEvent, ObjectPoses, TaskMetrics
 from tric_sim import messages, scene, scene_view, situations
 from tric_sim.robot_model import RobotModel
 
@@ -57,11 +57,17 @@ def test_a_five_second_demonstration_is_forty_samples(recorded):
     assert demo.metrics["success"] and demo.metrics["lift_tested"]
     assert demo.situation == situations.sphere_grid()[3] and demo.source == "teacher"
     info = bags.bag_info(out / "sphere_grid_03.mcap")
-    assert info.complete and info.custom_data["tric.task"] == "grasp" and "tric.outcome" in info.custom_data
+    assert (
+        info.complete
+        and info.custom_data["tric.task"] == "grasp"
+        and "tric.outcome" in info.custom_data
+    )
     assert info.topics["/joint_states"].message_count >= 499  # every control period of the 5 s
     # nothing after the episode's END (the lift test that follows it moves the robot on)
-    stamps = {topic: [m.stamp_ns for m in bags.read_bag(out / "sphere_grid_04.mcap", topics=[topic])]
-              for topic in ("/episode", "/joint_states", "/object_poses", SAMPLES_TOPIC)}
+    stamps = {
+        topic: [m.stamp_ns for m in bags.read_bag(out / "sphere_grid_04.mcap", topics=[topic])]
+        for topic in ("/episode", "/joint_states", "/object_poses", SAMPLES_TOPIC)
+    }
     end_ns = stamps["/episode"][1]
     assert max(stamps["/joint_states"] + stamps["/object_poses"]) <= end_ns
     assert max(stamps[SAMPLES_TOPIC]) < end_ns
@@ -71,13 +77,21 @@ def test_rosbags_reads_the_same_samples(recorded, tmp_path):
     out, _ = recorded
     bag = out / "sphere_grid_03.mcap"
     with open(bag, "rb") as file:
-        metadata = [yaml.safe_load(m.metadata["serialized_metadata"])
-                    for m in make_reader(file).iter_metadata() if m.name == "rosbag2"][-1]
+        metadata = [
+            yaml.safe_load(m.metadata["serialized_metadata"])
+            for m in make_reader(file).iter_metadata()
+            if m.name == "rosbag2"
+        ][-1]
     shutil.copy(bag, tmp_path / bag.name)
-    (tmp_path / "metadata.yaml").write_text(yaml.safe_dump({"rosbag2_bagfile_information": metadata}))
+    (tmp_path / "metadata.yaml").write_text(
+        yaml.safe_dump({"rosbag2_bagfile_information": metadata})
+    )
     with AnyReader([tmp_path]) as reader:
         connections = [c for c in reader.connections if c.topic == SAMPLES_TOPIC]
-        samples = [reader.deserialize(raw, c.msgtype) for c, _, raw in reader.messages(connections=connections)]
+        samples = [
+            reader.deserialize(raw, c.msgtype)
+            for c, _, raw in reader.messages(connections=connections)
+        ]
     ours = [m.message for m in bags.read_bag(bag, topics=[SAMPLES_TOPIC])]
     assert len(samples) == len(ours) == 40
     for theirs, mine in zip(samples, ours):
@@ -87,20 +101,38 @@ def test_rosbags_reads_the_same_samples(recorded, tmp_path):
 
 
 def test_bags_carry_the_scene_for_3d_replay(recorded):
-    """/tf every 40 ms of the episode: with /tf_static, the links where the recorded joint states put
-    them and the objects where /object_poses did; /scene_markers the situation's bodies and the robot."""
+    """/tf every 40 ms of the episode: with /tf_static, the links where the recorded joint states
+    put them and the objects where /object_poses did; /scene_markers the situation's bodies and the
+    robot."""
     out, _ = recorded
     path = out / "box_train_00.mcap"
     situation = situations.dataset("box_train")[0]
     info = bags.bag_info(path)
-    assert {name: topic.type_name for name, topic in info.topics.items() if name in
-            ("/tf", "/tf_static", "/robot_description", "/scene_markers")} == {
-        "/tf": "tf2_msgs/msg/TFMessage", "/tf_static": "tf2_msgs/msg/TFMessage",
-        "/robot_description": "std_msgs/msg/String", "/scene_markers": "visualization_msgs/msg/MarkerArray"}
-    assert all(info.topics[name].latched for name in ("/tf_static", "/robot_description", "/scene_markers"))
+    assert {
+        name: topic.type_name
+        for name, topic in info.topics.items()
+        if name in ("/tf", "/tf_static", "/robot_description", "/scene_markers")
+    } == {
+        "/tf": "tf2_msgs/msg/TFMessage",
+        "/tf_static": "tf2_msgs/msg/TFMessage",
+        "/robot_description": "std_msgs/msg/String",
+        "/scene_markers": "visualization_msgs/msg/MarkerArray",
+    }
+    assert all(
+        info.topics[name].latched for name in ("/tf_static", "/robot_description", "/scene_markers")
+    )
     read = {}
-    for message in bags.read_bag(path, topics=["/tf", "/tf_static", "/robot_description", "/scene_markers",
-                                                "/joint_states", "/object_poses"]):
+    for message in bags.read_bag(
+        path,
+        topics=[
+            "/tf",
+            "/tf_static",
+            "/robot_description",
+            "/scene_markers",
+            "/joint_states",
+            "/object_poses",
+        ],
+    ):
         read.setdefault(message.topic, []).append(message)
     robot = RobotModel()
     assert read["/robot_description"][0].message.data == robot.urdf_path.read_text()
@@ -110,11 +142,30 @@ def test_bags_carry_the_scene_for_3d_replay(recorded):
 
     def transforms(msg):
         return scene_view.Transforms(
-            tuple(t.header.frame_id for t in msg.transforms), tuple(t.child_frame_id for t in msg.transforms),
-            np.array([[t.transform.translation.x, t.transform.translation.y, t.transform.translation.z]
-                      for t in msg.transforms]),
-            np.array([[t.transform.rotation.x, t.transform.rotation.y, t.transform.rotation.z,
-                       t.transform.rotation.w] for t in msg.transforms]))
+            tuple(t.header.frame_id for t in msg.transforms),
+            tuple(t.child_frame_id for t in msg.transforms),
+            np.array(
+                [
+                    [
+                        t.transform.translation.x,
+                        t.transform.translation.y,
+                        t.transform.translation.z,
+                    ]
+                    for t in msg.transforms
+                ]
+            ),
+            np.array(
+                [
+                    [
+                        t.transform.rotation.x,
+                        t.transform.rotation.y,
+                        t.transform.rotation.z,
+                        t.transform.rotation.w,
+                    ]
+                    for t in msg.transforms
+                ]
+            ),
+        )
 
     static = transforms(read["/tf_static"][0].message)
     states = {m.stamp_ns: m.message for m in read["/joint_states"]}
@@ -124,11 +175,16 @@ def test_bags_carry_the_scene_for_3d_replay(recorded):
         state = states[tf.stamp_ns]
         robot.forward([state.position[list(state.name).index(j)] for j in robot.joint_names])
         for frame in ("palm_center", "finger_2_tip", "base_link"):
-            assert np.allclose(placements[frame].homogeneous, robot.frame_placement(frame).homogeneous, atol=1e-9)
+            assert np.allclose(
+                placements[frame].homogeneous, robot.frame_placement(frame).homogeneous, atol=1e-9
+            )
         lid = poses[tf.stamp_ns].poses[list(poses[tf.stamp_ns].names).index("lid")]
-        assert np.allclose(placements["lid"].translation, [lid.position.x, lid.position.y, lid.position.z])
+        assert np.allclose(
+            placements["lid"].translation, [lid.position.x, lid.position.y, lid.position.z]
+        )
     markers = read["/scene_markers"][0].message.markers
-    assert markers[0].action == 3  # DELETEALL, then the robot's 21 primitives and the scene's bodies
+    # DELETEALL, then the robot's 21 primitives and the scene's bodies
+    assert markers[0].action == 3
     by_frame = {m.header.frame_id: m for m in markers[1:] if m.ns == "scene"}
     assert sorted(by_frame) == ["lid", "object", "world"]
     side = situation.object_dimensions[0]
@@ -180,25 +236,35 @@ class EpisodePlayer(Node):
         self.event_pub.publish(msg)
 
     def states(self, first_ns, count):
-        """count states of the arm moving a little, one every 10 ms from first_ns; the last stamp."""
+        """count states of the arm moving a little, one every 10 ms from first_ns; the last
+        stamp."""
         q = self.robot.home.copy()
         poses = {"object": (self.situation.object_position, self.situation.object_orientation)}
         for k in range(count):
             stamp = first_ns + k * 10_000_000
             q[:3] += 0.002
             self.poses_pub.publish(messages.object_poses_msg(poses, stamp))
-            self.state_pub.publish(messages.joint_state_msg(self.robot.joint_names, q, np.zeros(len(q)), stamp))
+            self.state_pub.publish(
+                messages.joint_state_msg(self.robot.joint_names, q, np.zeros(len(q)), stamp)
+            )
         return stamp
 
 
 def test_an_aborted_episode_leaves_no_bag_and_the_next_one_is_recorded(ros_context, spin, tmp_path):
     """START, 30 states, ABORT: the recorder discards the bag (no .mcap, no .part left) and names no
     failure; the next episode (START, states, END, OUTCOME) is recorded as usual."""
-    recorder = RecorderNode(context=ros_context, parameter_overrides=[Parameter("output_dir", value=str(tmp_path))])
+    recorder = RecorderNode(
+        context=ros_context, parameter_overrides=[Parameter("output_dir", value=str(tmp_path))]
+    )
     situation = situations.sphere_grid()[4]
     player = spin(recorder, EpisodePlayer(ros_context, situation))[1]
-    wait_for(lambda: all(player.count_subscribers(topic) for topic in ("/episode", "/joint_states", "/object_poses")),
-             what="the recorder's subscriptions")
+    wait_for(
+        lambda: all(
+            player.count_subscribers(topic)
+            for topic in ("/episode", "/joint_states", "/object_poses")
+        ),
+        what="the recorder's subscriptions",
+    )
     player.event(EpisodeEvent.START, "aborted", 1_000_000_000)
     wait_for(lambda: recorder.busy, what="the aborted episode's bag to open")
     assert [p.name for p in tmp_path.iterdir()] == ["aborted.mcap.part"]
@@ -212,8 +278,12 @@ def test_an_aborted_episode_leaves_no_bag_and_the_next_one_is_recorded(ros_conte
     wait_for(lambda: recorder.busy, what="the next episode's bag to open")
     last = player.states(2_000_000_000, 30)
     player.event(EpisodeEvent.END, "recorded", last)
-    player.event(EpisodeEvent.OUTCOME, "recorded", last, TaskMetrics(task="grasp", grasp_cost=0.1, success=True,
-                                                                     lid_angle=math.nan))
+    player.event(
+        EpisodeEvent.OUTCOME,
+        "recorded",
+        last,
+        TaskMetrics(task="grasp", grasp_cost=0.1, success=True, lid_angle=math.nan),
+    )
     wait_for(lambda: recorder.finished, what="the recorded bag")
     assert recorder.finished == [tmp_path / "recorded.mcap"] and recorder.failed == []
     info = bags.bag_info(tmp_path / "recorded.mcap")
@@ -223,9 +293,12 @@ def test_an_aborted_episode_leaves_no_bag_and_the_next_one_is_recorded(ros_conte
 
 def test_recorder_killed_mid_demonstration_keeps_finished_bags(tmp_path):
     env = dict(os.environ)
-    process = subprocess.Popen([sys.executable, "-m", "tric_learning.record_cli", "sphere_train",
-                                "--out", str(tmp_path)], env=env, stdout=subprocess.DEVNULL,
-                               stderr=subprocess.DEVNULL)
+    process = subprocess.Popen(
+        [sys.executable, "-m", "tric_learning.record_cli", "sphere_train", "--out", str(tmp_path)],
+        env=env,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
     try:
         deadline = time.monotonic() + 120
         while time.monotonic() < deadline:
@@ -259,42 +332,75 @@ def test_tric_record_checks_its_folder_before_recording(tmp_path, capsys):
     plain = tmp_path / "plain"
     plain.write_text("x")
     assert record_cli.main(["sphere_train", "--out", str(plain)]) == 2
-    assert capsys.readouterr().err == f"tric-record: --out {plain} cannot be used: {plain} is a file, not a folder\n"
+    assert (
+        capsys.readouterr().err
+        == f"tric-record: --out {plain} cannot be used: {plain} is a file, not a folder\n"
+    )
     assert record_cli.main(["sphere_train", "--out", str(tmp_path)]) == 2
-    assert capsys.readouterr().err == (f"tric-record: --out {tmp_path} is not empty (plain); give --overwrite to "
-                                       "record into it anyway\n")
+    assert capsys.readouterr().err == (
+        f"tric-record: --out {tmp_path} is not empty (plain); give --overwrite to "
+        "record into it anyway\n"
+    )
     assert sorted(p.name for p in tmp_path.iterdir()) == ["plain"]
 
 
-@pytest.mark.parametrize("arguments, message", [
-    ([], "give either DATASET or --situations-file"),
-    (["sphere_train", "--situations-file", "{tmp}/one.yaml"], "give either DATASET or --situations-file"),
-    (["sphere_everywhere"], "argument dataset: invalid choice: 'sphere_everywhere'"),
-    (["sphere_train", "--period", "0"], "--period must be positive and --duration not negative"),
-    (["sphere_train", "--duration", "-1"], "--period must be positive and --duration not negative"),
-    (["sphere_train", "--domain-id", "233"], "--domain-id must be in [0, 232]"),
-    (["sphere_train", "--period", "fast"], "argument --period: invalid float value: 'fast'"),
-])
+@pytest.mark.parametrize(
+    "arguments, message",
+    [
+        ([], "give either DATASET or --situations-file"),
+        (
+            ["sphere_train", "--situations-file", "{tmp}/one.yaml"],
+            "give either DATASET or --situations-file",
+        ),
+        (["sphere_everywhere"], "argument dataset: invalid choice: 'sphere_everywhere'"),
+        (
+            ["sphere_train", "--period", "0"],
+            "--period must be positive and --duration not negative",
+        ),
+        (
+            ["sphere_train", "--duration", "-1"],
+            "--period must be positive and --duration not negative",
+        ),
+        (["sphere_train", "--domain-id", "233"], "--domain-id must be in [0, 232]"),
+        (["sphere_train", "--period", "fast"], "argument --period: invalid float value: 'fast'"),
+    ],
+)
 def test_tric_record_refuses_bad_arguments_with_status_2(tmp_path, capsys, arguments, message):
     out = tmp_path / "bags"
     with pytest.raises(SystemExit) as refused:
         record_cli.main([a.format(tmp=tmp_path) for a in arguments] + ["--out", str(out)])
     assert refused.value.code == 2
     error = capsys.readouterr().err
-    assert error.startswith("usage: tric-record") and f"tric-record: error: {message}" in error, error
+    assert error.startswith("usage: tric-record") and f"tric-record: error: {message}" in error, (
+        error
+    )
     assert not out.exists()
 
 
-@pytest.mark.parametrize("make, message", [
-    (lambda folder: None, "cannot read situations file {folder}/none.yaml: No such file or directory"),
-    (lambda folder: (folder / "none.yaml").write_text("- name: [unclosed\n"),
-     "{folder}/none.yaml is not valid YAML: expected ',' or ']', but got '<stream end>' at line 2, column 1"),
-    (lambda folder: (folder / "none.yaml").write_text("[]\n"), "{folder}/none.yaml holds no situations"),
-])
+@pytest.mark.parametrize(
+    "make, message",
+    [
+        (
+            lambda folder: None,
+            "cannot read situations file {folder}/none.yaml: No such file or directory",
+        ),
+        (
+            lambda folder: (folder / "none.yaml").write_text("- name: [unclosed\n"),
+            "{folder}/none.yaml is not valid YAML: expected ',' or ']', but got '<stream end>' at "
+            "line 2, column 1",
+        ),
+        (
+            lambda folder: (folder / "none.yaml").write_text("[]\n"),
+            "{folder}/none.yaml holds no situations",
+        ),
+    ],
+)
 def test_tric_record_refuses_a_bad_situations_file_in_one_line(tmp_path, capsys, make, message):
     make(tmp_path)
     out = tmp_path / "bags"
-    assert record_cli.main(["--situations-file", str(tmp_path / "none.yaml"), "--out", str(out)]) == 2
+    assert (
+        record_cli.main(["--situations-file", str(tmp_path / "none.yaml"), "--out", str(out)]) == 2
+    )
     error = capsys.readouterr().err
     assert error.startswith("tric-record: ") and message.format(folder=tmp_path) in error
     assert error.count("\n") == 1 and not out.exists()
@@ -303,7 +409,9 @@ def test_tric_record_refuses_a_bad_situations_file_in_one_line(tmp_path, capsys,
 def test_tric_record_refuses_a_bad_viz_port_before_recording(tmp_path, capsys):
     out = tmp_path / "bags"
     assert record_cli.main(["sphere_train", "--out", str(out), "--viz", "--viz-port", "70000"]) == 2
-    assert capsys.readouterr().err.endswith("tric-record: --viz-port must be in [1, 65535], got 70000\n")
+    assert capsys.readouterr().err.endswith(
+        "tric-record: --viz-port must be in [1, 65535], got 70000\n"
+    )
     assert not out.exists()
 
 
@@ -316,15 +424,21 @@ def test_overwrite_replaces_a_bag_of_the_same_name(tmp_path):
     first = (out / "sphere_grid_04.mcap").stat().st_ino
     assert record_cli.main(arguments) == 2  # the folder is not empty any more
     record_cli.main(arguments + ["--overwrite"])
-    assert sorted(p.name for p in out.iterdir()) == ["sphere_grid_04.mcap"]  # no sphere_grid_04_1.mcap copy
+    # no sphere_grid_04_1.mcap copy
+    assert sorted(p.name for p in out.iterdir()) == ["sphere_grid_04.mcap"]
     assert (out / "sphere_grid_04.mcap").stat().st_ino != first
     assert bags.bag_info(out / "sphere_grid_04.mcap").complete
 
 
 def test_a_bag_the_recorder_cannot_write_is_reported_not_taken_for_a_success(tmp_path):
-    (tmp_path / "sphere_grid_04.mcap").mkdir()  # in the way of the bag, which overwrite may not replace
-    rows = demonstrate_all(situations.sphere_grid()[4:5], tmp_path, 0.125, 1.0, progress=False, overwrite=True)
-    (_, result, path), = rows
+    # in the way of the bag, which overwrite may not replace
+    (tmp_path / "sphere_grid_04.mcap").mkdir()
+    rows = demonstrate_all(
+        situations.sphere_grid()[4:5], tmp_path, 0.125, 1.0, progress=False, overwrite=True
+    )
+    ((_, result, path),) = rows
     assert path is None and not result.success
-    assert result.message == (f"not recorded: bag {tmp_path / 'sphere_grid_04.mcap'} exists already; "
-                              "refusing to overwrite it")
+    assert result.message == (
+        f"not recorded: bag {tmp_path / 'sphere_grid_04.mcap'} exists already; "
+        "refusing to overwrite it"
+    )

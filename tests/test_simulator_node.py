@@ -1,4 +1,5 @@
-"""The simulator node in-process: lockstep commanding, refused commands, services, latched situation."""
+"""The simulator node in-process: lockstep commanding, refused commands, services, latched
+situation."""
 
 import math
 
@@ -7,10 +8,11 @@ from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, QoSProfile
 from sensor_msgs.msg import JointState
-from tric_msgs.msg import ObjectPoses, Situation as SituationMsg
-from tric_msgs.srv import EvaluateTask, RenderScene, ResetScene
 
 from conftest import call, wait_for
+from tric_msgs.msg import ObjectPoses
+from tric_msgs.msg import Situation as SituationMsg
+from tric_msgs.srv import EvaluateTask, RenderScene, ResetScene
 from tric_sim import messages, situations
 from tric_sim.robot_model import HOME
 from tric_sim.simulator_node import SimulatorNode
@@ -37,8 +39,13 @@ class Commander(Node):
 
 
 def make_simulator(context, mode="lockstep", timeout=1.0):
-    return SimulatorNode(context=context, parameter_overrides=[
-        Parameter("mode", value=mode), Parameter("lockstep_timeout_s", value=timeout)])
+    return SimulatorNode(
+        context=context,
+        parameter_overrides=[
+            Parameter("mode", value=mode),
+            Parameter("lockstep_timeout_s", value=timeout),
+        ],
+    )
 
 
 def test_lockstep_commander_drives_the_arm_to_a_target(ros_context, spin):
@@ -49,7 +56,8 @@ def test_lockstep_commander_drives_the_arm_to_a_target(ros_context, spin):
     spin(simulator, commander)
     wait_for(lambda: len(commander.states) > 150, what="150 lockstep periods")
     stamps = [messages.time_ns(s.header.stamp) for s in commander.states]
-    assert np.all(np.diff(stamps) == 10_000_000)  # one state per 10 ms of simulated time, none skipped
+    # one state per 10 ms of simulated time, none skipped
+    assert np.all(np.diff(stamps) == 10_000_000)
     final = np.array(commander.states[-1].position)
     assert np.abs(final - target).max() < 0.01  # design.md 6's joint tolerance, 0.01 rad
     assert commander.poses and commander.poses[-1].names[0] == "object"
@@ -71,7 +79,8 @@ def test_bad_commands_are_refused_and_the_joints_hold(ros_context, spin):
         commander.publisher.publish(command)  # zero stamp: applies to whatever period is current
     wait_for(lambda: len(commander.states) > 40, what="more periods")
     assert np.allclose(simulator.world.targets, HOME)
-    assert np.abs(np.array(commander.states[-1].position) - HOME).max() < 0.01  # design.md 6's 0.01 rad
+    # design.md 6's 0.01 rad
+    assert np.abs(np.array(commander.states[-1].position) - HOME).max() < 0.01
     # a partial command moves only the joints it names
     commander.publisher.publish(JointState(name=["arm_1_joint"], position=[0.3]))
     wait_for(lambda: abs(simulator.world.targets[0] - 0.3) < 1e-12, what="partial command")
@@ -82,13 +91,21 @@ def test_reset_scene_service_and_latched_situation(ros_context, spin):
     simulator = make_simulator(ros_context, mode="realtime")
     client = Node("test_client", context=ros_context)
     received = []
-    client.create_subscription(SituationMsg, "/situation", received.append,
-                               QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL))
+    client.create_subscription(
+        SituationMsg,
+        "/situation",
+        received.append,
+        QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL),
+    )
     spin(simulator, client)
     wait_for(lambda: received, what="the latched initial situation")
     box = situations.dataset("box_test")[3]
-    response = call(client, ResetScene, "/simulator/reset_scene",
-                    ResetScene.Request(situation=messages.situation_to_msg(box)))
+    response = call(
+        client,
+        ResetScene,
+        "/simulator/reset_scene",
+        ResetScene.Request(situation=messages.situation_to_msg(box)),
+    )
     assert response.success, response.message
     assert set(response.objects.names) == {"object", "lid", "lid_edge"}
     wait_for(lambda: received[-1].name == box.name, what="the new situation on /situation")
@@ -105,9 +122,12 @@ def test_evaluate_and_render_services(ros_context, spin):
     response = call(client, EvaluateTask, "/simulator/evaluate_task", EvaluateTask.Request())
     assert response.success and response.metrics.task == "grasp"
     assert response.metrics.grasp_cost > 0.25  # the hand is far from the sphere: a miss
-    image = call(client, RenderScene, "/simulator/render_scene",
-                 RenderScene.Request(width=64, height=48)).image
+    image = call(
+        client, RenderScene, "/simulator/render_scene", RenderScene.Request(width=64, height=48)
+    ).image
     assert (image.width, image.height, image.encoding) == (64, 48, "rgb8")
     assert len(image.data) == 64 * 48 * 3
-    refused = call(client, RenderScene, "/simulator/render_scene", RenderScene.Request(width=1, height=48))
+    refused = call(
+        client, RenderScene, "/simulator/render_scene", RenderScene.Request(width=1, height=48)
+    )
     assert not refused.success and "width" in refused.message

@@ -3,17 +3,19 @@
 from action_msgs.msg import GoalStatus
 from rclpy.node import Node
 from rclpy.parameter import Parameter
-from tric_msgs.action import Demonstrate
-from tric_msgs.msg import EpisodeEvent
 
 from conftest import run_action, run_periods, wait_for
+from tric_msgs.action import Demonstrate
+from tric_msgs.msg import EpisodeEvent
 from tric_sim import messages, situations
 from tric_sim.simulator_node import SimulatorNode
 from tric_sim.teacher_node import TeacherNode
 
 
 def start(ros_context, spin):
-    simulator = SimulatorNode(context=ros_context, parameter_overrides=[Parameter("mode", value="lockstep")])
+    simulator = SimulatorNode(
+        context=ros_context, parameter_overrides=[Parameter("mode", value="lockstep")]
+    )
     teacher = TeacherNode(context=ros_context)
     client = Node("test_client", context=ros_context)
     events = []
@@ -37,7 +39,11 @@ def test_grasps_a_grid_sphere_and_a_random_test_sphere(ros_context, spin):
         assert abs(result.duration_s - 5.0) < 0.02 and result.steps == 500
         assert {f.phase for f in feedback} >= {"reach", "hold"}
     wait_for(lambda: len(events) == 6, what="three events per episode")
-    assert [e.event for e in events[:3]] == [EpisodeEvent.START, EpisodeEvent.END, EpisodeEvent.OUTCOME]
+    assert [e.event for e in events[:3]] == [
+        EpisodeEvent.START,
+        EpisodeEvent.END,
+        EpisodeEvent.OUTCOME,
+    ]
     assert events[0].situation.name == situations.sphere_grid()[4].name
     assert events[2].metrics.lift_tested
 
@@ -54,7 +60,9 @@ def test_bad_situation_is_refused(ros_context, spin):
     client, events = start(ros_context, spin)
     bad = messages.situation_to_msg(situations.sphere_grid()[0])
     bad.object_kind = "teapot"
-    status, result, _ = run_action(client, Demonstrate, "/teacher/demonstrate", Demonstrate.Goal(situation=bad))
+    status, result, _ = run_action(
+        client, Demonstrate, "/teacher/demonstrate", Demonstrate.Goal(situation=bad)
+    )
     assert status == GoalStatus.STATUS_ABORTED and "teapot" in result.message
     run_periods(client)
     assert not events

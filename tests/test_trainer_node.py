@@ -1,5 +1,5 @@
-"""The trainer node in-process (~/train round trip, ~/progress, the busy answer, refused requests) and
-the tric-train and tric-analyze commands, on three recorded sphere demonstrations."""
+"""The trainer node in-process (~/train round trip, ~/progress, the busy answer, refused requests)
+and the tric-train and tric-analyze commands, on three recorded sphere demonstrations."""
 
 import contextlib
 import io
@@ -11,8 +11,6 @@ import numpy as np
 import pytest
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
-from tric_msgs.msg import TrainingProgress
-from tric_msgs.srv import Train
 
 from conftest import HANG_S, call, wait_for
 from tric_learning import analysis, train_cli, trainer_node
@@ -21,6 +19,8 @@ from tric_learning.model_file import ModelFile, value_function
 from tric_learning.record_cli import demonstrate_all
 from tric_learning.trainer_node import TrainerNode, training_config
 from tric_learning.training import TrainingConfig
+from tric_msgs.msg import TrainingProgress
+from tric_msgs.srv import Train
 from tric_sim import situations
 from tric_sim.robot_model import RobotModel
 
@@ -44,13 +44,29 @@ def cli_run(bag_dir, tmp_path_factory):
     model = tmp_path_factory.mktemp("cli") / "tiny.safetensors"
     printed = io.StringIO()
     with contextlib.redirect_stdout(printed):
-        status = train_cli.main([str(bag_dir), "--out", str(model), "--hidden-units", "5", "--noisy-samples", "10",
-                                 "--iterations", "20", "--seed", "3", "--quiet"])
+        status = train_cli.main(
+            [
+                str(bag_dir),
+                "--out",
+                str(model),
+                "--hidden-units",
+                "5",
+                "--noisy-samples",
+                "10",
+                "--iterations",
+                "20",
+                "--seed",
+                "3",
+                "--quiet",
+            ]
+        )
     return status, printed.getvalue(), model
 
 
 def train_request(bags, output, **overrides) -> Train.Request:
-    return Train.Request(bag_paths=[str(path) for path in bags], output_path=str(output), **dict(TINY, **overrides))
+    return Train.Request(
+        bag_paths=[str(path) for path in bags], output_path=str(output), **dict(TINY, **overrides)
+    )
 
 
 class ProgressListener(Node):
@@ -59,7 +75,9 @@ class ProgressListener(Node):
     def __init__(self, context):
         super().__init__("test_progress_listener", context=context)
         self.messages = []
-        self.create_subscription(TrainingProgress, "/trainer/progress", self.messages.append, KEEP_ALL)
+        self.create_subscription(
+            TrainingProgress, "/trainer/progress", self.messages.append, KEEP_ALL
+        )
 
 
 def test_request_defaults_are_the_training_defaults():
@@ -68,9 +86,10 @@ def test_request_defaults_are_the_training_defaults():
 
 
 class HeldJob:
-    """Stands in for trainer_node.train_from_bags: a training that starts only when the test releases
-    it (`release`), after saying it has begun (`entered`); then the real job runs. It holds the node's
-    training slot for as long as the test needs, so a second request meets a running training."""
+    """Stands in for trainer_node.train_from_bags: a training that starts only when the test
+    releases it (`release`), after saying it has begun (`entered`); then the real job runs. It holds
+    the node's training slot for as long as the test needs, so a second request meets a running
+    training."""
 
     def __init__(self, job):
         self.job, self.entered, self.release = job, threading.Event(), threading.Event()
@@ -81,7 +100,9 @@ class HeldJob:
         return self.job(*args, **kwargs)
 
 
-def test_train_round_trip_with_progress_and_a_busy_answer(ros_context, spin, bag_dir, tmp_path, monkeypatch):
+def test_train_round_trip_with_progress_and_a_busy_answer(
+    ros_context, spin, bag_dir, tmp_path, monkeypatch
+):
     held = HeldJob(trainer_node.train_from_bags)
     monkeypatch.setattr(trainer_node, "train_from_bags", held)
     listener = spin(TrainerNode(context=ros_context), ProgressListener(ros_context))[1]
@@ -90,10 +111,14 @@ def test_train_round_trip_with_progress_and_a_busy_answer(ros_context, spin, bag
     out = tmp_path / "models" / "tiny.safetensors"
     first = client.call_async(train_request([bag_dir], out))
     assert held.entered.wait(HANG_S), "the first training never started"
-    busy = call(listener, Train, "/trainer/train", train_request([bag_dir], tmp_path / "second.safetensors"))
+    busy = call(
+        listener, Train, "/trainer/train", train_request([bag_dir], tmp_path / "second.safetensors")
+    )
     assert not busy.success and busy.message.startswith("busy"), busy.message
     held.release.set()
-    response = wait_for(lambda: first.result() if first.done() else None, what="the training's answer")
+    response = wait_for(
+        lambda: first.result() if first.done() else None, what="the training's answer"
+    )
     assert response.success, response.message
     assert not (tmp_path / "second.safetensors").exists()
 
@@ -103,19 +128,33 @@ def test_train_round_trip_with_progress_and_a_busy_answer(ros_context, spin, bag
     assert response.input_features == len(model.scaling.kept) == len(loaded.info["kept_features"])
     assert 0 < response.selected_features <= response.input_features
     assert loaded.info["hyperparameters"] == TrainingConfig(**TINY).to_dict()
-    assert loaded.info["losses"] == {"n": response.loss_n, "g": response.loss_g, "w": response.loss_w,
-                                     "total": response.loss_total}
+    assert loaded.info["losses"] == {
+        "n": response.loss_n,
+        "g": response.loss_g,
+        "w": response.loss_w,
+        "total": response.loss_total,
+    }
     config = TrainingConfig(**TINY)
-    assert response.loss_total == pytest.approx(config.alpha_n * response.loss_n + config.alpha_g * response.loss_g
-                                                + config.alpha_w * response.loss_w)
+    assert response.loss_total == pytest.approx(
+        config.alpha_n * response.loss_n
+        + config.alpha_g * response.loss_g
+        + config.alpha_w * response.loss_w
+    )
     assert -1.0 <= response.loss_g < 0 < response.loss_n and response.loss_w > 0
     assert 0 < response.sampling_time_s and 0 < response.optimization_time_s
-    assert response.train_time_s == pytest.approx(response.sampling_time_s + response.optimization_time_s)
+    assert response.train_time_s == pytest.approx(
+        response.sampling_time_s + response.optimization_time_s
+    )
 
     wait_for(lambda: listener.messages[-1].stage == "done", what="the 'done' progress message")
     stages = [m.stage for m in listener.messages]
     assert [s for k, s in enumerate(stages) if k == 0 or s != stages[k - 1]] == [
-        "loading", "sampling", "optimizing", "saving", "done"]
+        "loading",
+        "sampling",
+        "optimizing",
+        "saving",
+        "done",
+    ]
     fractions = [m.fraction for m in listener.messages]
     assert fractions == sorted(fractions) and fractions[-1] == 1.0
     optimizing = [m for m in listener.messages if m.stage == "optimizing"]
@@ -137,7 +176,10 @@ def test_bad_requests_are_refused_and_write_nothing(ros_context, spin, bag_dir, 
     truncated.write_bytes(good.read_bytes()[: good.stat().st_size // 2])
     out = tmp_path / "model.safetensors"
     refusals = [
-        (train_request([inputs / "missing.mcap"], out), f"{inputs / 'missing.mcap'} does not exist"),
+        (
+            train_request([inputs / "missing.mcap"], out),
+            f"{inputs / 'missing.mcap'} does not exist",
+        ),
         (train_request([inputs / "empty"], out), "holds no .mcap bags"),
         (train_request([], out), "no bags given"),
         (train_request([good, foreign], out), "notes.mcap"),
@@ -145,26 +187,45 @@ def test_bad_requests_are_refused_and_write_nothing(ros_context, spin, bag_dir, 
         (train_request([bag_dir], out, sigma=0.0), "sigma must be in (0, 1] rad"),
         (train_request([bag_dir], out, noisy_samples=0), "noisy_samples must be in [1, 10000]"),
         (train_request([bag_dir], out, hidden_units=-2), "hidden_units must be in [0, 1000]"),
-        (train_request([bag_dir], out, alpha_w=math.nan), "alpha_n, alpha_g and alpha_w must be finite and >= 0"),
+        (
+            train_request([bag_dir], out, alpha_w=math.nan),
+            "alpha_n, alpha_g and alpha_w must be finite and >= 0",
+        ),
         (train_request([bag_dir], out, max_iterations=0), "max_iterations must be in [1, 100000]"),
-        (train_request([bag_dir], out, correlation_threshold=1.5), "correlation_threshold must be in (0, 1]"),
-        (train_request([bag_dir], out, model_kind="dpl_finger"), "dpl_finger needs the 'box' landmark"),
-        (train_request([bag_dir], out, model_kind="dpl_joint", hidden_units=0), "hidden_units must be in [1, 1000]"),
+        (
+            train_request([bag_dir], out, correlation_threshold=1.5),
+            "correlation_threshold must be in (0, 1]",
+        ),
+        (
+            train_request([bag_dir], out, model_kind="dpl_finger"),
+            "dpl_finger needs the 'box' landmark",
+        ),
+        (
+            train_request([bag_dir], out, model_kind="dpl_joint", hidden_units=0),
+            "hidden_units must be in [1, 1000]",
+        ),
         (train_request([bag_dir], out, model_kind="svm"), "unknown model_kind 'svm'"),
         (train_request([bag_dir], tmp_path / "model.txt"), "must end in .safetensors"),
         (train_request([bag_dir], inputs), "must end in .safetensors"),
-        (train_request([bag_dir], "/proc/x.safetensors"), "cannot be written: /proc refuses new files"),
+        (
+            train_request([bag_dir], "/proc/x.safetensors"),
+            "cannot be written: /proc refuses new files",
+        ),
         (train_request([bag_dir], inputs / "empty.safetensors"), "is a folder"),
     ]
     for request, reason in refusals:
         response = call(listener, Train, "/trainer/train", request)
         assert not response.success and reason in response.message, (reason, response.message)
         assert response.model_path == ""
-    assert sorted(p.name for p in tmp_path.rglob("*") if p.is_file()) == ["notes.mcap", "truncated.mcap"]
+    assert sorted(p.name for p in tmp_path.rglob("*") if p.is_file()) == [
+        "notes.mcap",
+        "truncated.mcap",
+    ]
     failed = lambda: [m for m in listener.messages if m.stage == "failed"]  # noqa: E731
     wait_for(lambda: len(failed()) == len(refusals), what="a 'failed' message per refusal")
     assert [m.message for m in failed()][-1].endswith("is a folder; give a file path")
-    assert {m.stage for m in listener.messages} == {"loading", "failed"}  # bad bags are found while loading
+    # bad bags are found while loading
+    assert {m.stage for m in listener.messages} == {"loading", "failed"}
 
 
 def test_a_client_that_goes_away_leaves_the_service_usable(ros_context, spin, bag_dir, tmp_path):
@@ -175,58 +236,93 @@ def test_a_client_that_goes_away_leaves_the_service_usable(ros_context, spin, ba
     pending = client.call_async(train_request([bag_dir], tmp_path / "abandoned.safetensors"))
     wait_for(lambda: listener.messages, what="the first progress message")
     client.remove_pending_request(pending)  # the caller gives up on its answer ...
-    leaving.destroy_node()                  # ... and goes away while the training runs
-    wait_for(lambda: listener.messages[-1].stage in ("done", "failed"), what="the abandoned training's end")
+    leaving.destroy_node()  # ... and goes away while the training runs
+    wait_for(
+        lambda: listener.messages[-1].stage in ("done", "failed"),
+        what="the abandoned training's end",
+    )
 
     folder = tmp_path / "bags"
     shutil.copytree(bag_dir, folder)
     first = sorted(folder.glob("*.mcap"))[0]
     part = folder / "killed.mcap.part"
     part.write_bytes(first.read_bytes()[: first.stat().st_size // 2])
-    response = call(listener, Train, "/trainer/train", train_request([folder], tmp_path / "next.safetensors"))
+    response = call(
+        listener, Train, "/trainer/train", train_request([folder], tmp_path / "next.safetensors")
+    )
     assert response.success, response.message
     assert f"skipped {part}: an unfinished recording" in response.message
-    assert (tmp_path / "abandoned.safetensors").is_file()  # the abandoned training finished its work
+    # the abandoned training finished its work
+    assert (tmp_path / "abandoned.safetensors").is_file()
 
 
 def test_dpl_kinds_are_routed_to_dpl_training(ros_context, spin, bag_dir, tmp_path):
     listener = spin(TrainerNode(context=ros_context), ProgressListener(ros_context))[1]
     out = tmp_path / "dpl.safetensors"
-    request = Train.Request(bag_paths=[str(bag_dir)], output_path=str(out), model_kind="dpl_joint", max_iterations=20)
+    request = Train.Request(
+        bag_paths=[str(bag_dir)], output_path=str(out), model_kind="dpl_joint", max_iterations=20
+    )
     response = call(listener, Train, "/trainer/train", request)
     assert response.success, response.message
-    assert response.message.startswith("dpl_joint trained on 3 demonstrations") and "training MSE" in response.message
+    assert (
+        response.message.startswith("dpl_joint trained on 3 demonstrations")
+        and "training MSE" in response.message
+    )
     loaded = ModelFile.load(out)
     assert loaded.kind == "dpl_joint" and loaded.info["hyperparameters"]["hidden_units"] == 60
     assert response.loss_total == loaded.info["losses"]["total"] and math.isnan(response.loss_n)
     assert response.input_features == len(loaded.arrays["kept"]) > 0
-    wait_for(lambda: listener.messages and listener.messages[-1].stage == "done", what="the 'done' message")
+    wait_for(
+        lambda: listener.messages and listener.messages[-1].stage == "done",
+        what="the 'done' message",
+    )
     assert {m.stage for m in listener.messages} == {"loading", "optimizing", "saving", "done"}
 
 
 def test_tric_train_writes_a_loadable_model(cli_run):
     status, printed, model = cli_run
     assert status == 0
-    for expected in (f"model      {model}", "kept", "selected", "sampling", "optimization", "delta", "rho"):
+    for expected in (
+        f"model      {model}",
+        "kept",
+        "selected",
+        "sampling",
+        "optimization",
+        "delta",
+        "rho",
+    ):
         assert expected in printed
     loaded = ModelFile.load(model)
-    assert loaded.info["hyperparameters"]["seed"] == 3 and loaded.info["hyperparameters"]["hidden_units"] == 5
+    assert (
+        loaded.info["hyperparameters"]["seed"] == 3
+        and loaded.info["hyperparameters"]["hidden_units"] == 5
+    )
     assert value_function(loaded).hidden_units == 5
 
 
-@pytest.mark.parametrize("arguments, message", [
-    (["{tmp}/missing.mcap"], "tric-train: {tmp}/missing.mcap does not exist"),
-    (["{bags}", "--sigma", "0"], "tric-train: sigma must be in (0, 1] rad"),
-    (["{bags}", "--out", "{tmp}/model.json"], "tric-train: the model path {tmp}/model.json must end in .safetensors"),
-    (["{bags}", "--kind", "dpl_finger", "--quiet"],
-     "tric-train: dpl_finger needs the 'box' landmark and fingertip* landmarks "
-     "(the open_box task); the feature definition of task 'grasp' has object, fingertip_1, fingertip_2, "
-     "fingertip_3, finger_mid_1, finger_mid_2, finger_mid_3, palm"),
-])
+@pytest.mark.parametrize(
+    "arguments, message",
+    [
+        (["{tmp}/missing.mcap"], "tric-train: {tmp}/missing.mcap does not exist"),
+        (["{bags}", "--sigma", "0"], "tric-train: sigma must be in (0, 1] rad"),
+        (
+            ["{bags}", "--out", "{tmp}/model.json"],
+            "tric-train: the model path {tmp}/model.json must end in .safetensors",
+        ),
+        (
+            ["{bags}", "--kind", "dpl_finger", "--quiet"],
+            "tric-train: dpl_finger needs the 'box' landmark and fingertip* landmarks (the "
+            "open_box task); the feature definition of task 'grasp' has object, fingertip_1, "
+            "fingertip_2, fingertip_3, finger_mid_1, finger_mid_2, finger_mid_3, palm",
+        ),
+    ],
+)
 def test_tric_train_refuses_bad_input_with_one_line(bag_dir, tmp_path, capsys, arguments, message):
     fill = lambda text: text.format(tmp=tmp_path, bags=bag_dir)  # noqa: E731
-    status = train_cli.main([fill(a) for a in arguments] + ([] if "--out" in arguments
-                                                              else ["--out", str(tmp_path / "m.safetensors")]))
+    status = train_cli.main(
+        [fill(a) for a in arguments]
+        + ([] if "--out" in arguments else ["--out", str(tmp_path / "m.safetensors")])
+    )
     assert status == 2
     assert capsys.readouterr().err == fill(message) + "\n"
     assert not list(tmp_path.iterdir())
@@ -234,10 +330,25 @@ def test_tric_train_refuses_bad_input_with_one_line(bag_dir, tmp_path, capsys, a
 
 def test_tric_analyze_writes_its_figures(cli_run, bag_dir, tmp_path, capsys):
     _, _, model = cli_run
-    assert analysis.main([str(model), str(bag_dir), "--out", str(tmp_path / "figures"), "--top", "12"]) == 0
-    for name in (analysis.VALUE_FIGURE, analysis.COSINES_FIGURE, analysis.SCORES_FIGURE, analysis.GRADIENTS_FIGURE):
+    assert (
+        analysis.main([str(model), str(bag_dir), "--out", str(tmp_path / "figures"), "--top", "12"])
+        == 0
+    )
+    for name in (
+        analysis.VALUE_FIGURE,
+        analysis.COSINES_FIGURE,
+        analysis.SCORES_FIGURE,
+        analysis.GRADIENTS_FIGURE,
+    ):
         assert (tmp_path / "figures" / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     printed = capsys.readouterr().out
-    assert "f decreases on" in printed and "mean cosine" in printed and "selected features" in printed
-    assert analysis.main([str(tmp_path / "none.safetensors"), str(bag_dir), "--out", str(tmp_path / "x")]) == 2
+    assert (
+        "f decreases on" in printed and "mean cosine" in printed and "selected features" in printed
+    )
+    assert (
+        analysis.main(
+            [str(tmp_path / "none.safetensors"), str(bag_dir), "--out", str(tmp_path / "x")]
+        )
+        == 2
+    )
     assert "does not exist" in capsys.readouterr().err and not (tmp_path / "x").exists()

@@ -5,16 +5,16 @@ threads gave other weights each run), and leaves PyTorch's global setting as it 
 import numpy as np
 import torch
 
+from conftest import REFERENCE_BAGS
 from tric_learning.training import TrainingConfig, train_from_bags
 from tric_sim.robot_model import RobotModel
-
-from conftest import REFERENCE_BAGS
 
 
 def test_the_default_training_gives_the_same_model_twice(reference_sphere_training, tmp_path):
     assert not torch.are_deterministic_algorithms_enabled()
-    again = train_from_bags([REFERENCE_BAGS / "sphere"], tmp_path / "again.safetensors", TrainingConfig(),
-                            RobotModel())
+    again = train_from_bags(
+        [REFERENCE_BAGS / "sphere"], tmp_path / "again.safetensors", TrainingConfig(), RobotModel()
+    )
     assert not torch.are_deterministic_algorithms_enabled()
     first, second = reference_sphere_training.result, again.result
     for name in ("w1", "w2", "w3"):

@@ -1,6 +1,6 @@
 """The live views: a real WebSocket client on `tric-eval --viz` while a short lockstep episode runs,
-the visualizer node's ROS topics against the situation's geometry, and `ros2 run tric_sim visualizer`
-alone (a clean exit on SIGINT, a one-line refusal of a bad port)."""
+the visualizer node's ROS topics against the situation's geometry, and `ros2 run tric_sim
+visualizer` alone (a clean exit on SIGINT, a one-line refusal of a bad port)."""
 
 import asyncio
 import base64
@@ -21,7 +21,6 @@ from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, QoSProfile
 from std_msgs.msg import String
-from tric_msgs.srv import ResetScene
 from visualization_msgs.msg import Marker, MarkerArray
 
 from conftest import call, wait_for
@@ -30,6 +29,7 @@ from tric_control.top_features import TOP_FEATURES
 from tric_learning import bags, model_file
 from tric_learning.recording import record_offline
 from tric_learning.training import TrainingConfig, train
+from tric_msgs.srv import ResetScene
 from tric_sim import messages, scene, scene_view, situations
 from tric_sim.robot_model import RobotModel
 from tric_sim.simulator_node import SimulatorNode
@@ -37,16 +37,26 @@ from tric_sim.visualizer_node import VisualizerNode
 
 LATCHED = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 SUBPROTOCOL = "foxglove.sdk.v1"
-VISUALIZER = pathlib.Path(__file__).resolve().parent.parent / "ros_ws/install/tric_sim/lib/tric_sim/visualizer"
+VISUALIZER = (
+    pathlib.Path(__file__).resolve().parent.parent
+    / "ros_ws/install/tric_sim/lib/tric_sim/visualizer"
+)
 
 
 @pytest.fixture(scope="module")
 def model_path(tmp_path_factory):
-    """A tiny TRIC grasp model (3 demonstrations, 5 hidden units): fast to make, not meant to grasp."""
+    """A tiny TRIC grasp model (3 demonstrations, 5 hidden units): fast to make, not meant to
+    grasp."""
     robot = RobotModel()
     dataset = record_offline(robot, situations.sphere_grid()[12:15], 5.0)
-    result = train(dataset, robot, TrainingConfig(hidden_units=5, noisy_samples=10, max_iterations=20))
-    return str(model_file.from_training(result, dataset).save(tmp_path_factory.mktemp("model") / "model.safetensors"))
+    result = train(
+        dataset, robot, TrainingConfig(hidden_units=5, noisy_samples=10, max_iterations=20)
+    )
+    return str(
+        model_file.from_training(result, dataset).save(
+            tmp_path_factory.mktemp("model") / "model.safetensors"
+        )
+    )
 
 
 # --- reading Foxglove's protobuf messages without a protobuf library --------------------------
@@ -75,11 +85,11 @@ def protobuf_fields(data: bytes) -> list:
             fields.append((number, varint()))
         elif wire == 2:
             size = varint()
-            fields.append((number, data[k:k + size]))
+            fields.append((number, data[k : k + size]))
             k += size
         else:
             size = 8 if wire == 1 else 4
-            fields.append((number, data[k:k + size]))
+            fields.append((number, data[k : k + size]))
             k += size
     return fields
 
@@ -127,8 +137,9 @@ async def watch(port: int, done: threading.Event) -> dict:
     deadline = time.monotonic() + 120
     while True:
         try:
-            connection = await websockets.connect(f"ws://127.0.0.1:{port}", subprotocols=[SUBPROTOCOL],
-                                                  max_size=None)
+            connection = await websockets.connect(
+                f"ws://127.0.0.1:{port}", subprotocols=[SUBPROTOCOL], max_size=None
+            )
             break
         except OSError:
             if time.monotonic() > deadline:
@@ -154,20 +165,26 @@ async def watch(port: int, done: threading.Event) -> dict:
                     for channel in message["channels"]:
                         seen["channels"][channel["topic"]] = channel
                         by_subscription[len(by_subscription)] = channel["topic"]
-                        subscriptions.append({"id": len(by_subscription) - 1, "channelId": channel["id"]})
-                    await connection.send(json.dumps({"op": "subscribe", "subscriptions": subscriptions}))
+                        subscriptions.append(
+                            {"id": len(by_subscription) - 1, "channelId": channel["id"]}
+                        )
+                    await connection.send(
+                        json.dumps({"op": "subscribe", "subscriptions": subscriptions})
+                    )
             elif frame[0] == 0x01:  # message data: subscription id, log time, payload
                 subscription, log_time = struct.unpack_from("<IQ", frame, 1)
-                seen["messages"].setdefault(by_subscription[subscription], []).append((log_time, frame[13:]))
+                seen["messages"].setdefault(by_subscription[subscription], []).append(
+                    (log_time, frame[13:])
+                )
             elif frame[0] == 0x02:  # the server's time
                 seen["times"].append(struct.unpack_from("<Q", frame, 1)[0])
     return seen
 
 
 def test_tric_eval_viz_serves_the_episode_live(model_path, tmp_path):
-    """`tric-eval --viz --record DIR` on one sphere: a Foxglove client gets the server's info and the
-    channels, then the scene of the situation, the frames as the robot moves, the value f, the step and
-    the top features of every few ticks; the recorded bag has the status of every tick."""
+    """`tric-eval --viz --record DIR` on one sphere: a Foxglove client gets the server's info and
+    the channels, then the scene of the situation, the frames as the robot moves, the value f, the
+    step and the top features of every few ticks; the recorded bag has the status of every tick."""
     situation = situations.dataset("sphere_test")[2]
     situations_file = tmp_path / "one.yaml"
     situations.save_situations(situations_file, [situation])
@@ -177,9 +194,23 @@ def test_tric_eval_viz_serves_the_episode_live(model_path, tmp_path):
 
     def run_tool():
         try:
-            exit_codes.append(evaluate_cli.main([
-                "--model", model_path, "--situations-file", str(situations_file), "--max-steps", "150",
-                "--viz", "--viz-port", str(port), "--record", str(tmp_path / "bags")]))
+            exit_codes.append(
+                evaluate_cli.main(
+                    [
+                        "--model",
+                        model_path,
+                        "--situations-file",
+                        str(situations_file),
+                        "--max-steps",
+                        "150",
+                        "--viz",
+                        "--viz-port",
+                        str(port),
+                        "--record",
+                        str(tmp_path / "bags"),
+                    ]
+                )
+            )
         finally:
             done.set()
 
@@ -199,15 +230,21 @@ def test_tric_eval_viz_serves_the_episode_live(model_path, tmp_path):
     assert channels["/controller/status"]["encoding"] == "json"
     numbers = {}
     for topic in ("/scene", "/tf"):
-        assert channels[topic]["encoding"] == "protobuf" and channels[topic]["schemaEncoding"] == "protobuf"
+        assert (
+            channels[topic]["encoding"] == "protobuf"
+            and channels[topic]["schemaEncoding"] == "protobuf"
+        )
         numbers.update(field_numbers(base64.b64decode(channels[topic]["schema"])))
 
-    # the scene: the robot's 21 collision primitives and the situation's table and sphere, frame-locked
+    # the scene: the robot's 21 collision primitives and the situation's table and sphere,
+    # frame-locked
     scenes = [decode(payload, numbers, "SceneUpdate") for _, payload in seen["messages"]["/scene"]]
     entities = {}
     for entity in (decode(e, numbers, "SceneEntity") for e in scenes[-1]["entities"]):
         entities[entity["id"][0].decode()] = entity
-    expected = scene_view.RobotView(RobotModel()).primitives + scene_view.scene_primitives(situation)
+    expected = scene_view.RobotView(RobotModel()).primitives + scene_view.scene_primitives(
+        situation
+    )
     assert sorted(entities) == sorted(p.id for p in expected)
     for primitive in expected:
         entity = entities[primitive.id]
@@ -219,8 +256,10 @@ def test_tric_eval_viz_serves_the_episode_live(model_path, tmp_path):
     # the frames, as the robot moves, at simulated times the server also announces
     frames = seen["messages"]["/tf"]
     assert len(frames) >= 3
-    children = {decode(t, numbers, "FrameTransform")["child_frame_id"][0].decode()
-                for t in decode(frames[-1][1], numbers, "FrameTransforms")["transforms"]}
+    children = {
+        decode(t, numbers, "FrameTransform")["child_frame_id"][0].decode()
+        for t in decode(frames[-1][1], numbers, "FrameTransforms")["transforms"]
+    }
     assert {"base_link", "palm_center", "finger_1_tip", "object"} <= children
     assert seen["times"] and max(seen["times"]) == max(t for t, _ in frames)
 
@@ -231,8 +270,12 @@ def test_tric_eval_viz_serves_the_episode_live(model_path, tmp_path):
     assert steps == sorted(steps) and steps[-1] <= 150 and len(set(steps)) >= 3
     for status in statuses:
         assert math.isfinite(status["value"]) and status["step_norm"] >= 0
-        assert len(status["feature_names"]) == len(status["feature_values"]) == len(status["feature_gradients"]) \
+        assert (
+            len(status["feature_names"])
+            == len(status["feature_values"])
+            == len(status["feature_gradients"])
             == TOP_FEATURES
+        )
         assert isinstance(status["active_constraints"], list)
 
     # the episode's bag: the status of every tick, the outcome, the scene topics
@@ -253,7 +296,12 @@ def test_the_layout_in_docs_is_the_generated_one():
     path = pathlib.Path(__file__).resolve().parent.parent / LAYOUT_PATH
     assert path.read_text() == foxglove_layout(), "regenerate it: python -m tric_sim.foxglove_view"
     panels = json.dumps(json.loads(path.read_text()))
-    for topic in ("/scene", "/scene_markers", "/controller/status.value", "/controller/status.feature_gradients"):
+    for topic in (
+        "/scene",
+        "/scene_markers",
+        "/controller/status.value",
+        "/controller/status.feature_gradients",
+    ):
         assert f'"{topic}' in panels
 
 
@@ -272,18 +320,26 @@ class Viewer(Node):
 
 def test_visualizer_publishes_the_description_and_the_scene_markers(ros_context, spin):
     simulator = SimulatorNode(context=ros_context)
-    visualizer = VisualizerNode(context=ros_context, parameter_overrides=[Parameter("foxglove", value=False)])
+    visualizer = VisualizerNode(
+        context=ros_context, parameter_overrides=[Parameter("foxglove", value=False)]
+    )
     viewer = spin(simulator, visualizer, Viewer(ros_context))[2]
     situation = situations.find_situation("sphere_test_01_obstacle")
-    reset = call(viewer, ResetScene, "/simulator/reset_scene",
-                 ResetScene.Request(situation=messages.situation_to_msg(situation)))
+    reset = call(
+        viewer,
+        ResetScene,
+        "/simulator/reset_scene",
+        ResetScene.Request(situation=messages.situation_to_msg(situation)),
+    )
     assert reset.success, reset.message
     wait_for(lambda: viewer.descriptions, what="/robot_description")
     assert viewer.descriptions[0].data == RobotModel().urdf_path.read_text()
 
     def scene_markers():
         latest = viewer.markers[-1].markers if viewer.markers else []
-        return [m for m in latest if m.ns == "scene" and m.header.frame_id == "obstacle_0"] and latest
+        return [
+            m for m in latest if m.ns == "scene" and m.header.frame_id == "obstacle_0"
+        ] and latest
 
     markers = wait_for(scene_markers, what="the obstacle situation's markers")
     assert markers[0].action == Marker.DELETEALL
@@ -294,10 +350,14 @@ def test_visualizer_publishes_the_description_and_the_scene_markers(ros_context,
     assert plate.type == Marker.CUBE and plate.frame_locked
     assert (plate.scale.x, plate.scale.y, plate.scale.z) == pytest.approx(obstacle.dimensions)
     table = by_frame["world"]
-    assert (table.pose.position.x, table.pose.position.y, table.pose.position.z) == pytest.approx(scene.TABLE_POSITION)
+    assert (table.pose.position.x, table.pose.position.y, table.pose.position.z) == pytest.approx(
+        scene.TABLE_POSITION
+    )
     assert (table.scale.x, table.scale.y, table.scale.z) == pytest.approx(scene.TABLE_SIZE)
     sphere = by_frame["object"]
-    assert sphere.type == Marker.SPHERE and sphere.scale.x == pytest.approx(2 * situation.object_dimensions[0])
+    assert sphere.type == Marker.SPHERE and sphere.scale.x == pytest.approx(
+        2 * situation.object_dimensions[0]
+    )
     robot = [m for m in markers if m.ns == "robot"]
     assert len(robot) == 21 and len({m.id for m in robot}) == 21
     assert {m.header.frame_id for m in robot} >= {"base_link", "palm_link", "finger_3_distal_link"}
@@ -308,8 +368,12 @@ def test_visualizer_publishes_the_description_and_the_scene_markers(ros_context,
 
 
 def test_visualizer_runs_alone_and_exits_cleanly_on_sigint():
-    process = subprocess.Popen([str(VISUALIZER), "--ros-args", "-p", "foxglove_port:=0"],
-                               stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    process = subprocess.Popen(
+        [str(VISUALIZER), "--ros-args", "-p", "foxglove_port:=0"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+    )
     lines = []
     try:
         for line in process.stdout:
@@ -328,8 +392,13 @@ def test_visualizer_runs_alone_and_exits_cleanly_on_sigint():
 
 
 def test_visualizer_refuses_a_bad_port_in_one_line():
-    result = subprocess.run([str(VISUALIZER), "--ros-args", "-p", "foxglove_port:=70000"],
-                            capture_output=True, text=True, timeout=60)
+    result = subprocess.run(
+        [str(VISUALIZER), "--ros-args", "-p", "foxglove_port:=70000"],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
     assert result.returncode == 2
     assert result.stderr.strip().splitlines() == [
-        "visualizer: parameter foxglove_port must be in [0, 65535], got 70000"]
+        "visualizer: parameter foxglove_port must be in [0, 65535], got 70000"
+    ]

@@ -14,13 +14,16 @@ setup(
     zip_safe=False,
     maintainer="TRIC maintainers",
     maintainer_email="maintainers@tric-ros.org",
-    description="TRIC control: the motion-rate QP controller and its node, the DPL controller, evaluation episodes, experiment runners, tables and plots.",
+    description="TRIC control: the motion-rate QP controller and its node, the DPL controller, "
+    "evaluation episodes, experiment runners, tables and plots.",
     license="Apache-2.0",
-    entry_points={"console_scripts": [
-        "controller = tric_control.controller_node:main",
-        "tric-eval = tric_control.evaluate_cli:main",
-        "tric-demo = tric_control.demo_cli:main",
-        "tric-experiments = tric_control.experiments:main",
-        "tric-study = tric_control.study:main",
-    ]},
+    entry_points={
+        "console_scripts": [
+            "controller = tric_control.controller_node:main",
+            "tric-eval = tric_control.evaluate_cli:main",
+            "tric-demo = tric_control.demo_cli:main",
+            "tric-experiments = tric_control.experiments:main",
+            "tric-study = tric_control.study:main",
+        ]
+    },
 )

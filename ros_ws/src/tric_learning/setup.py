@@ -14,13 +14,17 @@ setup(
     zip_safe=False,
     maintainer="TRIC maintainers",
     maintainer_email="maintainers@tric-ros.org",
-    description="TRIC learning: task-space features and their Jacobians, MCAP datasets and the recorder node, the value function, its losses and training, the trainer node, the DPL baseline.",
+    description="TRIC learning: task-space features and their Jacobians, MCAP datasets and the "
+    "recorder node, the value function, its losses and training, the trainer node, "
+    "the DPL baseline.",
     license="Apache-2.0",
-    entry_points={"console_scripts": [
-        "recorder = tric_learning.recorder_node:main",
-        "tric-record = tric_learning.record_cli:main",
-        "trainer = tric_learning.trainer_node:main",
-        "tric-train = tric_learning.train_cli:main",
-        "tric-analyze = tric_learning.analysis:main",
-    ]},
+    entry_points={
+        "console_scripts": [
+            "recorder = tric_learning.recorder_node:main",
+            "tric-record = tric_learning.record_cli:main",
+            "trainer = tric_learning.trainer_node:main",
+            "tric-train = tric_learning.train_cli:main",
+            "tric-analyze = tric_learning.analysis:main",
+        ]
+    },
 )

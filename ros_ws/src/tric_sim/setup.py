@@ -9,20 +9,26 @@ setup(
     data_files=[
         ("share/ament_index/resource_index/packages", ["resource/" + PACKAGE]),
         ("share/" + PACKAGE, ["package.xml"]),
-        ("share/" + PACKAGE + "/urdf", ["tric_sim/description/tric_arm_hand.urdf",
-                                        "tric_sim/description/tric_arm_hand.srdf"]),
+        (
+            "share/" + PACKAGE + "/urdf",
+            ["tric_sim/description/tric_arm_hand.urdf", "tric_sim/description/tric_arm_hand.srdf"],
+        ),
     ],
     install_requires=["setuptools"],
     zip_safe=False,
     maintainer="TRIC maintainers",
     maintainer_email="maintainers@tric-ros.org",
-    description="The world of TRIC: the robot model (URDF, Pinocchio, coal), scenes and situations, the PyBullet simulator node, the teachers and the hidden task metrics.",
+    description="The world of TRIC: the robot model (URDF, Pinocchio, coal), scenes and "
+    "situations, the PyBullet simulator node, the teachers and the hidden task "
+    "metrics.",
     license="Apache-2.0",
     package_data={PACKAGE: ["description/*.urdf", "description/*.srdf"]},
-    entry_points={"console_scripts": [
-        "simulator = tric_sim.simulator_node:main",
-        "teacher = tric_sim.teacher_node:main",
-        "tric-snapshot = tric_sim.snapshot:main",
-        "visualizer = tric_sim.visualizer_node:main",
-    ]},
+    entry_points={
+        "console_scripts": [
+            "simulator = tric_sim.simulator_node:main",
+            "teacher = tric_sim.teacher_node:main",
+            "tric-snapshot = tric_sim.snapshot:main",
+            "visualizer = tric_sim.visualizer_node:main",
+        ]
+    },
 )

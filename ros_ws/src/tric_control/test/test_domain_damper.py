@@ -30,12 +30,15 @@ def objective_on_ranges(robot: RobotModel, seed: int) -> ValueObjective:
     kept = np.arange(definition.size)
     low = y - rng.uniform(0.0, 0.2, len(y))
     scaling = Scaling(kept, low, low + 0.2, definition.size)
-    value = ValueFunction(scaling, np.zeros((0, len(kept))), np.zeros(0), rng.normal(0, 1, len(kept)))
+    value = ValueFunction(
+        scaling, np.zeros((0, len(kept))), np.zeros(0), rng.normal(0, 1, len(kept))
+    )
     return ValueObjective(features, value, delta=0.01, rho=1.0)
 
 
 def margins_at(objective: ValueObjective, q, names) -> np.ndarray:
-    """The domain margins (>= 0 inside [-DOMAIN_MARGIN, 1 + DOMAIN_MARGIN]) of the named features at q."""
+    """The domain margins (>= 0 inside [-DOMAIN_MARGIN, 1 + DOMAIN_MARGIN]) of the named features at
+    q."""
     y = objective.features(q, SPHERE)
     index = [objective.kept_names.index(name) for name in names]
     scaling = objective.value_function.scaling
@@ -54,16 +57,32 @@ def test_rows_are_the_gradients_of_the_nearest_features_margins(robot, seed):
     state = StepState(max_step=robot.velocity_limits * 0.01, objective=model)
     rows, lower = np.zeros((DOMAIN_ROWS, robot.n_joints)), np.zeros(DOMAIN_ROWS)
     DomainDamper(DOMAIN_ROWS, DAMPING).constrain(state, rows, lower)
-    assert np.allclose(margins_at(objective, q, model.domain_names), model.domain_margins, atol=1e-12)
+    assert np.allclose(
+        margins_at(objective, q, model.domain_names), model.domain_margins, atol=1e-12
+    )
     h = 1e-6
-    numeric = np.array([(margins_at(objective, q + h * e, model.domain_names)
-                         - margins_at(objective, q - h * e, model.domain_names)) / (2 * h)
-                        for e in np.eye(robot.n_joints)]).T
+    numeric = np.array(
+        [
+            (
+                margins_at(objective, q + h * e, model.domain_names)
+                - margins_at(objective, q - h * e, model.domain_names)
+            )
+            / (2 * h)
+            for e in np.eye(robot.n_joints)
+        ]
+    ).T
     assert np.allclose(rows, numeric, atol=1e-6 * max(1.0, np.abs(numeric).max()))
-    moving = [name for name, moves in zip(objective.kept_names,
-                                          objective.features.moves_with_q[objective.value_function.scaling.kept])
-              if moves]
-    assert np.all(model.domain_margins <= np.sort(margins_at(objective, q, moving))[DOMAIN_ROWS - 1] + 1e-12)
+    moving = [
+        name
+        for name, moves in zip(
+            objective.kept_names,
+            objective.features.moves_with_q[objective.value_function.scaling.kept],
+        )
+        if moves
+    ]
+    assert np.all(
+        model.domain_margins <= np.sort(margins_at(objective, q, moving))[DOMAIN_ROWS - 1] + 1e-12
+    )
 
 
 def test_bounds_are_dampers_and_unused_rows_are_padded():
@@ -71,8 +90,15 @@ def test_bounds_are_dampers_and_unused_rows_are_padded():
     rows; an objective with fewer rows (a policy: none) leaves the rest padded; a binding row names
     its feature."""
     rows_in = np.array([[1.0, -2.0, 0.0], [0.0, 0.5, 0.5]])
-    model = Objective(hessian=np.zeros((3, 3)), linear=np.zeros(3), value=0.0, gradient_norm=0.0,
-                      domain_rows=rows_in, domain_margins=np.array([0.01, 0.3]), domain_names=["a", "b"])
+    model = Objective(
+        hessian=np.zeros((3, 3)),
+        linear=np.zeros(3),
+        value=0.0,
+        gradient_norm=0.0,
+        domain_rows=rows_in,
+        domain_margins=np.array([0.01, 0.3]),
+        domain_names=["a", "b"],
+    )
     max_step = np.array([0.1, 0.1, 0.2])
     limit = DomainDamper(4, DAMPING)
     rows, lower = np.full((4, 3), 9.0), np.full(4, 9.0)
@@ -80,8 +106,11 @@ def test_bounds_are_dampers_and_unused_rows_are_padded():
     assert np.array_equal(rows[:2], rows_in) and np.all(rows[2:] == 0.0)
     assert np.allclose(lower[:2], [-DAMPING * 0.01, min(-DAMPING * 0.3, 0.5 * (0.05 + 0.1))])
     assert np.all(lower[2:] == UNBOUNDED_BELOW)
-    assert limit.active(StepState(objective=model), np.zeros(3), np.array([False, True, False, False])) \
-        == ["feature_range:b"]
-    policy = Objective(hessian=np.zeros((3, 3)), linear=np.zeros(3), value=float("nan"), gradient_norm=0.0)
+    assert limit.active(
+        StepState(objective=model), np.zeros(3), np.array([False, True, False, False])
+    ) == ["feature_range:b"]
+    policy = Objective(
+        hessian=np.zeros((3, 3)), linear=np.zeros(3), value=float("nan"), gradient_norm=0.0
+    )
     limit.constrain(StepState(max_step=max_step, objective=policy), rows, lower)
     assert np.all(rows == 0.0) and np.all(lower == UNBOUNDED_BELOW)

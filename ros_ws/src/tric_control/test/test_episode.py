@@ -1,4 +1,5 @@
-"""The ROS-free episode runner: safe commands, holds, outcomes and statistics, on a scripted controller."""
+"""The ROS-free episode runner: safe commands, holds, outcomes and statistics, on a scripted
+controller."""
 
 import math
 
@@ -34,9 +35,14 @@ class ScriptedController:
         target = self.targets[min(self.ticks, len(self.targets) - 1)]
         self.ticks += 1
         self.reference = np.array(target, dtype=float)
-        return Tick(target=self.reference.copy(), value=-float(self.ticks), gradient_norm=1.0,
-                    step=np.zeros(len(q)), min_distance=0.02 - 0.001 * self.ticks,
-                    converged=self.ticks == self.converge_at)
+        return Tick(
+            target=self.reference.copy(),
+            value=-float(self.ticks),
+            gradient_norm=1.0,
+            step=np.zeros(len(q)),
+            min_distance=0.02 - 0.001 * self.ticks,
+            converged=self.ticks == self.converge_at,
+        )
 
 
 def test_steps_within_bounds_pass_unchanged_and_statistics_are_kept(robot):
@@ -46,48 +52,74 @@ def test_steps_within_bounds_pass_unchanged_and_statistics_are_kept(robot):
     decided = runner.step(q, {})
     assert np.array_equal(decided.command, small) and decided.held == "" and decided.outcome is None
     assert decided.step_norm == pytest.approx(np.linalg.norm(small - q))
-    assert runner.stats.steps == 1 and runner.stats.initial_value == -1.0 and runner.stats.violations == 0
+    assert (
+        runner.stats.steps == 1
+        and runner.stats.initial_value == -1.0
+        and runner.stats.violations == 0
+    )
     assert runner.stats.min_distance == pytest.approx(0.019)
-    assert runner.stats.min_joint_margin == pytest.approx(min(np.min(q - robot.lower), np.min(robot.upper - q)))
+    assert runner.stats.min_joint_margin == pytest.approx(
+        min(np.min(q - robot.lower), np.min(robot.upper - q))
+    )
 
 
 def test_unsafe_targets_are_clipped_counted_and_reported(robot):
     q = robot.home.copy()
-    far = np.clip(q + 0.1, robot.lower, robot.upper)  # beyond one period's velocity bound, within the limits
-    outside = robot.upper + 0.5                       # beyond the joint limits
+    # beyond one period's velocity bound, within the limits
+    far = np.clip(q + 0.1, robot.lower, robot.upper)
+    outside = robot.upper + 0.5  # beyond the joint limits
     reported = []
     controller = ScriptedController([far, outside, np.full(robot.n_joints, np.nan)])
-    runner = EpisodeRunner(robot, controller, max_steps=10, period=PERIOD, on_violation=reported.append)
+    runner = EpisodeRunner(
+        robot, controller, max_steps=10, period=PERIOD, on_violation=reported.append
+    )
     first = runner.step(q, {})
     assert np.allclose(first.command - q, np.minimum(far - q, robot.velocity_limits * PERIOD))
-    assert np.array_equal(controller.reference, first.command)    # the controller integrates what was sent
+    # the controller integrates what was sent
+    assert np.array_equal(controller.reference, first.command)
     second = runner.step(first.command, {})
     bound = robot.velocity_limits * PERIOD
-    assert np.array_equal(second.command, np.clip(first.command + np.clip(outside - first.command, -bound, bound),
-                                                  robot.lower, robot.upper))   # the bound, then the limits
+    assert np.array_equal(
+        second.command,
+        np.clip(
+            first.command + np.clip(outside - first.command, -bound, bound),
+            # the bound, then the limits
+            robot.lower,
+            robot.upper,
+        ),
+    )
     third = runner.step(second.command, {})
-    assert np.array_equal(third.command, second.command)         # NaN: the previous command holds
-    assert runner.stats.violations == 4                           # bound, bound + limits, non-finite
+    assert np.array_equal(third.command, second.command)  # NaN: the previous command holds
+    # bound, bound + limits, non-finite
+    assert runner.stats.violations == 4
     assert len(reported) == 4 and "non-finite" in reported[-1]
 
 
 def test_a_target_past_a_limit_is_clipped_onto_it(robot):
-    """Half a step's bound below the upper limits, a target 1 rad past them: the command is the limits
-    exactly (the step bound would allow more), counted once as a violation of the limits."""
+    """Half a step's bound below the upper limits, a target 1 rad past them: the command is the
+    limits exactly (the step bound would allow more), counted once as a violation of the limits."""
     bound = robot.velocity_limits * PERIOD
     q = robot.upper - 0.5 * bound
     reported = []
-    runner = EpisodeRunner(robot, ScriptedController([robot.upper + 1.0]), max_steps=5, period=PERIOD,
-                           on_violation=reported.append)
+    runner = EpisodeRunner(
+        robot,
+        ScriptedController([robot.upper + 1.0]),
+        max_steps=5,
+        period=PERIOD,
+        on_violation=reported.append,
+    )
     decided = runner.step(q, {})
     assert np.array_equal(decided.command, robot.upper)
-    assert runner.stats.violations == 2 and "outside the joint limits" in reported[-1]   # and the bound
+    # and the bound
+    assert runner.stats.violations == 2 and "outside the joint limits" in reported[-1]
 
 
 def test_stale_states_and_missing_poses_hold_without_stepping(robot):
     q = robot.home.copy()
     controller = ScriptedController([q + 0.001])
-    runner = EpisodeRunner(robot, controller, max_steps=10, period=PERIOD, required_objects=("object",))
+    runner = EpisodeRunner(
+        robot, controller, max_steps=10, period=PERIOD, required_objects=("object",)
+    )
     period_ns = int(PERIOD * 1e9)
     stale = runner.step(q, {"object": None}, stamp_ns=0, now_ns=(STALE_PERIODS + 1) * period_ns)
     assert stale.tick is None and stale.held == "stale joint states" and controller.ticks == 0
@@ -109,7 +141,9 @@ def test_a_hold_approaches_the_measured_state_within_the_velocity_bound(robot):
 
 def test_the_episode_ends_on_convergence_or_the_step_budget(robot):
     q = robot.home.copy()
-    converging = EpisodeRunner(robot, ScriptedController([q], converge_at=3), max_steps=10, period=PERIOD)
+    converging = EpisodeRunner(
+        robot, ScriptedController([q], converge_at=3), max_steps=10, period=PERIOD
+    )
     outcomes = [converging.step(q, {}).outcome for _ in range(3)]
     assert outcomes[:2] == [None, None] and outcomes[2][0] == "converged"
     budget = EpisodeRunner(robot, ScriptedController([q]), max_steps=2, period=PERIOD)

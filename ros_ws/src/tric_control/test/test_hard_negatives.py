@@ -28,25 +28,36 @@ def demos(robot):
 def test_a_state_on_the_path_costs_nothing_and_one_off_it_its_distance(robot, demos):
     demo = demos.demos[1]
     on_path = demo.q[10]
-    off_path = demo.q[10] + np.r_[np.zeros(7), np.full(7, 0.3)]            # the hand closed further
+    off_path = demo.q[10] + np.r_[np.zeros(7), np.full(7, 0.3)]  # the hand closed further
     states = [[], [(on_path, demo.object_poses[10]), (off_path, demo.object_poses[10])]]
     found = contrasts(demos, robot, states)
     offset = step_offsets(demos)[1]
-    assert found.step[0] == offset + 11                                    # q_{t-1} = q_10 is nearest
-    t = found.step[1] - offset                                             # the off-path state's pairing
+    # q_{t-1} = q_10 is nearest
+    assert found.step[0] == offset + 11
+    # the off-path state's pairing
+    t = found.step[1] - offset
     nearest = np.argmin(np.linalg.norm(demo.q[:-1] - off_path, axis=1)) + 1
     assert t == nearest
     assert found.weight[0] == pytest.approx(0.0, abs=1e-12)
-    assert found.weight[1] > 0.1                                           # well off the path ahead of t
-    np.testing.assert_allclose(found.y[0], demo.y[10], atol=1e-9)          # the features of the state itself
+    # well off the path ahead of t
+    assert found.weight[1] > 0.1
+    # the features of the state itself
+    np.testing.assert_allclose(found.y[0], demo.y[10], atol=1e-9)
     assert found.kept_per_step.sum() == 2 and found.kept_per_step[offset + 11] >= 1
 
 
 def test_rounds_train_again_with_the_rollout_states(robot, demos):
     config = TrainingConfig(hidden_units=3, noisy_samples=10, max_iterations=5)
     rounds = []
-    result = train_with_hard_negatives(demos, robot, config, rounds=1, max_steps=60, every=20,
-                                       progress=lambda round_, k: rounds.append((round_, k)))
+    result = train_with_hard_negatives(
+        demos,
+        robot,
+        config,
+        rounds=1,
+        max_steps=60,
+        every=20,
+        progress=lambda round_, k: rounds.append((round_, k)),
+    )
     assert rounds == [(0, 0), (0, 1)]
     assert result.mean_samples_per_step > 0
     with pytest.raises(ValueError, match="rounds must be >= 0"):

@@ -30,7 +30,9 @@ def test_near_a_limit_the_box_stops_at_the_margin():
     """0.05 below the upper limit: the step may rise by 0.03 (to the margin) and fall by the full
     step bound; 0.05 above the lower limit, the other way round."""
     limits, state = box([0.95, -0.95, 0.0, 0.0], [0.1, 0.1, 0.1, 0.1])
-    assert np.allclose(state.high, [0.03, 0.1, 0.1, 0.1]) and np.allclose(state.low, [-0.1, -0.03, -0.1, -0.1])
+    assert np.allclose(state.high, [0.03, 0.1, 0.1, 0.1]) and np.allclose(
+        state.low, [-0.1, -0.03, -0.1, -0.1]
+    )
     step = np.array([0.03, -0.03, 0.05, 0.1])
     assert limits.active(state, step, np.zeros(0, bool)) == ["joint_limit:a", "joint_limit:b"]
 
@@ -47,6 +49,9 @@ def test_the_box_only_tightens_what_it_is_given():
     """Bounds tighter than the joint limits' (another limit's) stay."""
     limits = JointLimits(LOWER, UPPER, NAMES, MARGIN)
     state = StepState(reference=np.zeros(4), max_step=np.full(4, 0.1))
-    low, high = np.array([-0.01, -np.inf, -np.inf, -np.inf]), np.array([np.inf, 0.02, np.inf, np.inf])
+    low, high = (
+        np.array([-0.01, -np.inf, -np.inf, -np.inf]),
+        np.array([np.inf, 0.02, np.inf, np.inf]),
+    )
     limits.bound(state, low, high)
     assert np.allclose(low, [-0.01, -0.1, -0.1, -0.1]) and np.allclose(high, [0.1, 0.02, 0.1, 0.1])

@@ -9,17 +9,29 @@ import pinocchio as pin
 import pytest
 
 from tric_control.limits import Limit, damper_bounds
-from tric_control.motion_rate import (COLLISION_ROWS, CONVERGED_MOTION, CONVERGED_WINDOW, DOMAIN_MARGIN, DOMAIN_ROWS,
-                                      JOINT_MARGIN, SAFETY, STEP_QUANTUM, MotionRateController, Objective, StepQP,
-                                      ValueObjective, default_limits)
+from tric_control.motion_rate import (
+    COLLISION_ROWS,
+    CONVERGED_MOTION,
+    CONVERGED_WINDOW,
+    DOMAIN_MARGIN,
+    DOMAIN_ROWS,
+    JOINT_MARGIN,
+    SAFETY,
+    STEP_QUANTUM,
+    MotionRateController,
+    Objective,
+    StepQP,
+    ValueObjective,
+    default_limits,
+)
 from tric_control.objectives import make_objective
 from tric_learning.features import FeatureDefinition, FeatureMap
 from tric_learning.model_file import ModelFile, value_function_arrays
 from tric_learning.value_function import Scaling, ValueFunction
 from tric_sim import situations
 from tric_sim.collision import Closest, Proximity
-from tric_sim.shapes import coal_shape
 from tric_sim.robot_model import RobotModel
+from tric_sim.shapes import coal_shape
 
 #: "No bound" for the QP's unused inequality rows, as the controller uses it.
 UNBOUNDED = 1e20
@@ -32,6 +44,7 @@ def robot():
 
 # --- the QP step ---------------------------------------------------------------------------------
 
+
 def unused_rows(rows: int, n: int):
     """Inequality rows that constrain nothing: C (rows, n) = 0, l = -UNBOUNDED."""
     return np.zeros((rows, n)), np.full(rows, -UNBOUNDED)
@@ -40,7 +53,9 @@ def unused_rows(rows: int, n: int):
 def test_step_qp_unconstrained_quadratic():
     """min 1/2 x^T H x + c^T x with every bound inactive: x = -H^-1 c."""
     hessian, linear = np.array([[2.0, 1.0], [1.0, 2.0]]), np.array([-4.0, 0.0])
-    step = StepQP(2, 1).solve(hessian, linear, *unused_rows(1, 2), np.full(2, -10.0), np.full(2, 10.0))
+    step = StepQP(2, 1).solve(
+        hessian, linear, *unused_rows(1, 2), np.full(2, -10.0), np.full(2, 10.0)
+    )
     assert np.allclose(step, [8 / 3, -4 / 3], atol=1e-6)
 
 
@@ -56,11 +71,13 @@ def test_step_qp_active_box_bound_after_an_update():
 
 
 def test_step_qp_active_inequality_row():
-    """min 1/2 |x - a|^2 s.t. r^T x >= b with r^T a < b: the projection x = a + (b - r^T a) r / |r|^2;
-    a second row that constrains nothing stays inactive."""
+    """min 1/2 |x - a|^2 s.t. r^T x >= b with r^T a < b: the projection x = a + (b - r^T a) r /
+    |r|^2; a second row that constrains nothing stays inactive."""
     a, row, bound = np.array([1.0, -2.0, 0.5]), np.array([1.0, 1.0, 0.0]), 0.5
     rows = np.array([row, np.zeros(3)])
-    step = StepQP(3, 2).solve(np.eye(3), -a, rows, np.array([bound, -UNBOUNDED]), np.full(3, -10.0), np.full(3, 10.0))
+    step = StepQP(3, 2).solve(
+        np.eye(3), -a, rows, np.array([bound, -UNBOUNDED]), np.full(3, -10.0), np.full(3, 10.0)
+    )
     assert np.allclose(step, a + (bound - row @ a) * row / (row @ row), atol=1e-6)
     assert np.allclose(step, [1.75, -1.25, 0.5], atol=1e-6)
 
@@ -74,22 +91,26 @@ def test_step_qp_gives_the_same_step_bit_for_bit_in_every_instance():
     factor = rng.normal(size=(n, n))
     hessian, linear = factor @ factor.T + np.eye(n), 20.0 * rng.normal(size=n)
     constraint = rng.normal(size=(rows, n))
-    lower = constraint @ rng.uniform(-0.1, 0.1, n) - np.abs(rng.normal(size=rows)) * 0.05   # feasible
+    # feasible
+    lower = constraint @ rng.uniform(-0.1, 0.1, n) - np.abs(rng.normal(size=rows)) * 0.05
     low, high = np.full(n, -0.2), np.full(n, 0.2)
     kept, steps = [], []
-    for k in range(40):
-        kept.append(np.empty(int(rng.integers(1, 9))))    # move the next allocations around
+    for _ in range(40):
+        kept.append(np.empty(int(rng.integers(1, 9))))  # move the next allocations around
         qp = StepQP(n, rows)
         other = rng.normal(size=n)
         qp.solve(hessian, other, constraint, lower - 1.0, low, high)
-        steps.append(qp.solve(hessian.copy(), linear.copy(), constraint.copy(), lower.copy(), low, high))
+        steps.append(
+            qp.solve(hessian.copy(), linear.copy(), constraint.copy(), lower.copy(), low, high)
+        )
         kept.append(qp)
     assert all(np.array_equal(step, steps[0]) for step in steps)
     assert np.array_equal(np.round(steps[0] / STEP_QUANTUM) * STEP_QUANTUM, steps[0])
-    assert np.sum(constraint @ steps[0] <= lower + 1e-6) >= 2        # a problem with active rows
+    assert np.sum(constraint @ steps[0] <= lower + 1e-6) >= 2  # a problem with active rows
 
 
 # --- limits under an adversarial objective -------------------------------------------------------
+
 
 class NoPairs:
     """A proximity that reports no close pairs: the controller without collision rows."""
@@ -107,8 +128,12 @@ class Push:
 
     def __call__(self, q, object_poses) -> Objective:
         n = len(self.direction)
-        return Objective(hessian=np.zeros((n, n)), linear=-self.strength * self.direction, value=0.0,
-                         gradient_norm=self.strength * np.sqrt(n))
+        return Objective(
+            hessian=np.zeros((n, n)),
+            linear=-self.strength * self.direction,
+            value=0.0,
+            gradient_norm=self.strength * np.sqrt(n),
+        )
 
 
 def measured(mode: str, target: np.ndarray, q: np.ndarray, rng) -> np.ndarray:
@@ -142,10 +167,14 @@ def test_targets_stay_within_joint_and_velocity_limits_under_an_adversarial_obje
             for _ in range(push_ticks):
                 target = controller.tick(q, {}).target
                 assert np.all(target >= robot.lower) and np.all(target <= robot.upper), target
-                assert np.all(np.abs(target - previous) <= max_step * (1 + 1e-12)), target - previous
+                assert np.all(np.abs(target - previous) <= max_step * (1 + 1e-12)), (
+                    target - previous
+                )
                 previous, q = target, measured(mode, target, q, rng)
             if mode != "noisy":
-                pushed_limit = np.where(sign * direction > 0, robot.upper - JOINT_MARGIN, robot.lower + JOINT_MARGIN)
+                pushed_limit = np.where(
+                    sign * direction > 0, robot.upper - JOINT_MARGIN, robot.lower + JOINT_MARGIN
+                )
                 assert np.allclose(target, pushed_limit, atol=1e-9)
 
 
@@ -161,17 +190,27 @@ class PullPalm:
 
     def __init__(self, robot: RobotModel, point, gain: float):
         self.model, self.data = robot.model, robot.model.createData()
-        self.frame, self.point, self.gain = robot.frame_id("palm_center"), np.asarray(point, dtype=float), gain
+        self.frame, self.point, self.gain = (
+            robot.frame_id("palm_center"),
+            np.asarray(point, dtype=float),
+            gain,
+        )
 
     def __call__(self, q, object_poses) -> Objective:
         pin.computeJointJacobians(self.model, self.data, q)
         pin.updateFramePlacements(self.model, self.data)
         towards = self.point - self.data.oMf[self.frame].translation
-        jacobian = pin.getFrameJacobian(self.model, self.data, self.frame, pin.LOCAL_WORLD_ALIGNED)[:3]
+        jacobian = pin.getFrameJacobian(self.model, self.data, self.frame, pin.LOCAL_WORLD_ALIGNED)[
+            :3
+        ]
         gradient = -jacobian.T @ towards / np.linalg.norm(towards)
         n = self.model.nq
-        return Objective(hessian=np.zeros((n, n)), linear=self.gain * gradient, value=float(np.linalg.norm(towards)),
-                         gradient_norm=float(np.linalg.norm(gradient)))
+        return Objective(
+            hessian=np.zeros((n, n)),
+            linear=self.gain * gradient,
+            value=float(np.linalg.norm(towards)),
+            gradient_norm=float(np.linalg.norm(gradient)),
+        )
 
 
 def clearance(robot: RobotModel, q: np.ndarray, obstacle: situations.Obstacle) -> float:
@@ -186,8 +225,16 @@ def clearance(robot: RobotModel, q: np.ndarray, obstacle: situations.Obstacle) -
     distances = []
     for geometry, world in zip(robot.collision_model.geometryObjects, geometry_data.oMg):
         result.clear()
-        distances.append(coal.distance(geometry.geometry, coal.Transform3s(world.rotation, world.translation),
-                                       shape, placement, request, result))
+        distances.append(
+            coal.distance(
+                geometry.geometry,
+                coal.Transform3s(world.rotation, world.translation),
+                shape,
+                placement,
+                request,
+                result,
+            )
+        )
     return min(distances)
 
 
@@ -196,8 +243,14 @@ def test_collision_rows_keep_the_hand_off_an_obstacle(robot, point):
     """The palm pulled to a point under the plate, the target integrated as the measured q: with
     collision rows the robot presses on the plate and stays within SAFETY less 3 mm of
     linearization error of it; without them the hand goes through."""
-    situation = situations.Situation(name="plate", task="grasp", object_kind="sphere", object_dimensions=(0.04,),
-                                     object_position=(0.6, -0.5, 0.1), obstacles=(PLATE,)).validate()
+    situation = situations.Situation(
+        name="plate",
+        task="grasp",
+        object_kind="sphere",
+        object_dimensions=(0.04,),
+        object_position=(0.6, -0.5, 0.1),
+        obstacles=(PLATE,),
+    ).validate()
     poses = {"object": (situation.object_position, situation.object_orientation)}
     closest = {}
     for name, proximity in (("rows", Proximity(robot, situation)), ("none", NoPairs())):
@@ -217,19 +270,24 @@ def test_collision_rows_keep_the_hand_off_an_obstacle(robot, point):
 
 # --- convergence with TRIC's objective -----------------------------------------------------------
 
+
 def palm_distance_value(definition: FeatureDefinition, low: float, high: float) -> ValueFunction:
-    """A linear value function f = u = (d[palm,object] - low) / (high - low): the one kept feature is
-    the palm's distance to the object, scaled as if the demonstrations spanned [low, high] m."""
+    """A linear value function f = u = (d[palm,object] - low) / (high - low): the one kept feature
+    is the palm's distance to the object, scaled as if the demonstrations spanned [low, high] m."""
     kept = np.array([definition.feature_names.index("d[palm,object]")])
-    return ValueFunction(Scaling(kept, np.array([low]), np.array([high]), definition.size),
-                         np.zeros((0, 1)), np.zeros(0), np.array([1.0]))
+    return ValueFunction(
+        Scaling(kept, np.array([low]), np.array([high]), definition.size),
+        np.zeros((0, 1)),
+        np.zeros(0),
+        np.array([1.0]),
+    )
 
 
 def test_value_objective_descends_at_delta_and_converges_at_rest(robot):
     """f falls by delta per tick while the palm approaches the sphere; the model's domain stops the
-    palm (u >= -DOMAIN_MARGIN, i.e. 21 cm from the object's centre, before the fingers touch it), the
-    robot comes to rest, and the tick says converged exactly when its joints have moved less than
-    CONVERGED_MOTION over the
+    palm (u >= -DOMAIN_MARGIN, i.e. 21 cm from the object's centre, before the fingers touch it),
+    the robot comes to rest, and the tick says converged exactly when its joints have moved less
+    than CONVERGED_MOTION over the
     last CONVERGED_WINDOW ticks."""
     definition = FeatureDefinition.for_task("grasp", robot)
     situation = situations.sphere("sphere", (0.55, 0.0, 0.45))
@@ -247,7 +305,11 @@ def test_value_objective_descends_at_delta_and_converges_at_rest(robot):
     assert (values[0] - values[100]) / 100 == pytest.approx(delta, rel=0.1)
     assert ticks[-1].converged, f"not at rest after {len(ticks)} ticks"
     for k, tick in enumerate(ticks):
-        motion = np.linalg.norm(history[k] - history[k - CONVERGED_WINDOW]) if k >= CONVERGED_WINDOW else np.inf
+        motion = (
+            np.linalg.norm(history[k] - history[k - CONVERGED_WINDOW])
+            if k >= CONVERGED_WINDOW
+            else np.inf
+        )
         assert tick.converged == (motion < CONVERGED_MOTION), k
     assert "feature_range:d[palm,object]" in ticks[-1].active
     assert values[-1] >= -DOMAIN_MARGIN - 1e-3
@@ -255,22 +317,35 @@ def test_value_objective_descends_at_delta_and_converges_at_rest(robot):
 
 # --- refused inputs ------------------------------------------------------------------------------
 
-@pytest.mark.parametrize("delta, rho", [(0.0, 1.0), (-0.01, 1.0), (float("nan"), 1.0), (0.01, 0.0), (0.01, -1.0)])
+
+@pytest.mark.parametrize(
+    "delta, rho", [(0.0, 1.0), (-0.01, 1.0), (float("nan"), 1.0), (0.01, 0.0), (0.01, -1.0)]
+)
 def test_value_objective_refuses_non_positive_delta_or_rho(robot, delta, rho):
     definition = FeatureDefinition.for_task("grasp", robot)
     with pytest.raises(ValueError, match="delta and rho must be positive"):
-        ValueObjective(FeatureMap(definition, robot), palm_distance_value(definition, 0.0, 1.0), delta, rho)
+        ValueObjective(
+            FeatureMap(definition, robot), palm_distance_value(definition, 0.0, 1.0), delta, rho
+        )
 
 
 def test_make_objective_runs_tric_models_and_refuses_the_others(robot):
     definition = FeatureDefinition.for_task("grasp", robot)
     arrays = value_function_arrays(palm_distance_value(definition, 0.0, 1.0))
-    objective = make_objective(ModelFile("tric", definition, arrays, {"delta": 0.002, "rho": 50.0}), robot)
-    assert isinstance(objective, ValueObjective) and (objective.delta, objective.rho) == (0.002, 50.0)
+    objective = make_objective(
+        ModelFile("tric", definition, arrays, {"delta": 0.002, "rho": 50.0}), robot
+    )
+    assert isinstance(objective, ValueObjective) and (objective.delta, objective.rho) == (
+        0.002,
+        50.0,
+    )
     assert objective.kept_names == ["d[palm,object]"]
 
-    with pytest.raises(ValueError, match=r"model kind 'svm' cannot be run by this controller "
-                                         r"\(runnable kinds: tric, dpl_joint, dpl_finger\)"):
+    with pytest.raises(
+        ValueError,
+        match=r"model kind 'svm' cannot be run by this controller "
+        r"\(runnable kinds: tric, dpl_joint, dpl_finger\)",
+    ):
         make_objective(ModelFile("svm", definition, {"w": np.zeros(3)}), robot)
     with pytest.raises(ValueError, match="no usable 'delta'"):
         make_objective(ModelFile("tric", definition, arrays, {"rho": 50.0}), robot)
@@ -280,8 +355,10 @@ def test_make_objective_runs_tric_models_and_refuses_the_others(robot):
 
 # --- a limit of one's own ------------------------------------------------------------------------
 
+
 class KeepBelow(Limit):
-    """Joint `joint` stays below `angle` (rad), approached as a velocity damper (the README's example)."""
+    """Joint `joint` stays below `angle` (rad), approached as a velocity damper (the README's
+    example)."""
 
     rows = 1
 
@@ -290,8 +367,10 @@ class KeepBelow(Limit):
 
     def constrain(self, state, rows, lower):
         rows[0] = 0.0
-        rows[0, self.joint] = -1.0       # the margin angle - q falls as q rises
-        damper_bounds(rows, np.array([self.angle - state.q[self.joint]]), self.damping, state.max_step, lower)
+        rows[0, self.joint] = -1.0  # the margin angle - q falls as q rises
+        damper_bounds(
+            rows, np.array([self.angle - state.q[self.joint]]), self.damping, state.max_step, lower
+        )
 
     def active(self, state, step, binding):
         return [f"keep_below:{self.joint}"] if binding[0] else []

@@ -13,9 +13,17 @@ CUSHION, WEIGHT = 0.003, 3.0
 
 def closest(distances, bodies, hand, rows):
     k = len(distances)
-    return Closest(np.arange(k), np.array(distances, float), np.array(rows, float), np.tile([0.0, 0.0, 1.0], (k, 1)),
-                   np.array(bodies), np.array(hand), [f"pair_{i}" for i in range(k)], ("table", "object"),
-                   np.tile(np.eye(3), (2, 1, 1)))
+    return Closest(
+        np.arange(k),
+        np.array(distances, float),
+        np.array(rows, float),
+        np.tile([0.0, 0.0, 1.0], (k, 1)),
+        np.array(bodies),
+        np.array(hand),
+        [f"pair_{i}" for i in range(k)],
+        ("table", "object"),
+        np.tile(np.eye(3), (2, 1, 1)),
+    )
 
 
 def added(pairs: Closest, contacts: dict, n: int = 3):
@@ -30,17 +38,35 @@ def test_the_cost_matches_finite_differences_of_the_springs():
     gradient and Hessian by central differences at random dq."""
     rows = np.array([[1.0, 2.0, 0.0], [0.0, -1.0, 0.5], [0.3, 0.3, 0.3]])
     pairs = closest([0.001, -0.002, 0.02], bodies=[1, 1, 1], hand=[True, True, True], rows=rows)
-    hessian, linear = added(pairs, {"object": scene.Contact(depth=0.005, cushion=CUSHION, cushion_weight=WEIGHT)})
+    hessian, linear = added(
+        pairs, {"object": scene.Contact(depth=0.005, cushion=CUSHION, cushion_weight=WEIGHT)}
+    )
 
     def cost(dq):
-        return sum(WEIGHT / (r @ r) * (d + r @ dq - CUSHION) ** 2 for d, r in zip([0.001, -0.002], rows[:2]))
+        return sum(
+            WEIGHT / (r @ r) * (d + r @ dq - CUSHION) ** 2
+            for d, r in zip([0.001, -0.002], rows[:2])
+        )
 
     h = 1e-5
     for dq in np.random.default_rng(0).normal(0, 0.01, (3, 3)):
         gradient = np.array([(cost(dq + h * e) - cost(dq - h * e)) / (2 * h) for e in np.eye(3)])
         assert np.allclose(hessian @ dq + linear, gradient, atol=1e-7)
-        second = np.array([[(cost(dq + h * a + h * b) - cost(dq + h * a - h * b) - cost(dq - h * a + h * b)
-                             + cost(dq - h * a - h * b)) / (4 * h * h) for b in np.eye(3)] for a in np.eye(3)])
+        second = np.array(
+            [
+                [
+                    (
+                        cost(dq + h * a + h * b)
+                        - cost(dq + h * a - h * b)
+                        - cost(dq - h * a + h * b)
+                        + cost(dq - h * a - h * b)
+                    )
+                    / (4 * h * h)
+                    for b in np.eye(3)
+                ]
+                for a in np.eye(3)
+            ]
+        )
         assert np.allclose(hessian, second, rtol=1e-4, atol=1e-4)
     assert np.linalg.norm(linear) > 0
 
@@ -50,9 +76,22 @@ def test_only_held_contacts_with_a_cushion_push():
     contact without a cushion: nothing is added."""
     rows = np.eye(3)
     for pairs, contacts in [
-            (closest([0.001], bodies=[1], hand=[False], rows=rows[:1]), {"object": scene.Contact(0.005, None, CUSHION, WEIGHT)}),
-            (closest([0.001], bodies=[0], hand=[True], rows=rows[:1]), {"object": scene.Contact(0.005, None, CUSHION, WEIGHT)}),
-            (closest([0.004], bodies=[1], hand=[True], rows=rows[:1]), {"object": scene.Contact(0.005, None, CUSHION, WEIGHT)}),
-            (closest([-0.001], bodies=[1], hand=[True], rows=rows[:1]), {"object": scene.Contact(0.015)})]:
+        (
+            closest([0.001], bodies=[1], hand=[False], rows=rows[:1]),
+            {"object": scene.Contact(0.005, None, CUSHION, WEIGHT)},
+        ),
+        (
+            closest([0.001], bodies=[0], hand=[True], rows=rows[:1]),
+            {"object": scene.Contact(0.005, None, CUSHION, WEIGHT)},
+        ),
+        (
+            closest([0.004], bodies=[1], hand=[True], rows=rows[:1]),
+            {"object": scene.Contact(0.005, None, CUSHION, WEIGHT)},
+        ),
+        (
+            closest([-0.001], bodies=[1], hand=[True], rows=rows[:1]),
+            {"object": scene.Contact(0.015)},
+        ),
+    ]:
         hessian, linear = added(pairs, contacts)
         assert not hessian.any() and not linear.any()

@@ -7,35 +7,55 @@ from tric_control import study
 
 def test_a_variant_is_a_name_and_training_options():
     assert study.parse_variant("default=") == ("default", {})
-    name, changes = study.parse_variant("balanced=per_step_weights=true,optimizer=lbfgsb,alpha_g=3,max_iterations=200")
+    name, changes = study.parse_variant(
+        "balanced=per_step_weights=true,optimizer=lbfgsb,alpha_g=3,max_iterations=200"
+    )
     assert name == "balanced"
-    assert changes == {"per_step_weights": True, "optimizer": "lbfgsb", "alpha_g": 3.0, "max_iterations": 200}
+    assert changes == {
+        "per_step_weights": True,
+        "optimizer": "lbfgsb",
+        "alpha_g": 3.0,
+        "max_iterations": 200,
+    }
 
 
-@pytest.mark.parametrize("text, message", [
-    ("bad name=alpha_g=1", "the name must be"),
-    ("v=alpha_q=1", "unknown option 'alpha_q'"),
-    ("v=seed=3", "unknown option 'seed'"),
-    ("v=alpha_g=many", "alpha_g must be a float"),
-    ("v=per_step_weights=yes", "per_step_weights must be true or false"),
-    ("v=alpha_g=-1", "alpha_n, alpha_g and alpha_w must be finite and >= 0"),
-])
+@pytest.mark.parametrize(
+    "text, message",
+    [
+        ("bad name=alpha_g=1", "the name must be"),
+        ("v=alpha_q=1", "unknown option 'alpha_q'"),
+        ("v=seed=3", "unknown option 'seed'"),
+        ("v=alpha_g=many", "alpha_g must be a float"),
+        ("v=per_step_weights=yes", "per_step_weights must be true or false"),
+        ("v=alpha_g=-1", "alpha_n, alpha_g and alpha_w must be finite and >= 0"),
+    ],
+)
 def test_bad_variants_are_refused_with_a_reason(text, message):
     with pytest.raises(ValueError, match=message):
         study.parse_variant(text)
 
 
 def test_study_sets_are_training_and_validation_sets_only():
-    for bags, sets, steps in study.TASKS.values():
+    for _bags, sets, steps in study.TASKS.values():
         assert all(name.endswith(("_train", "_val")) for name in sets) and steps > 0
 
 
 def test_the_seed_summary_gives_each_seed_and_the_mean_min_max():
-    rows = [{"variant": "v", "task": "box", "seed": seed,
-             "model": {"cosine_moving": -0.5 - 0.1 * seed, "falls_moving": 0.9},
-             "sets": {"box_val": {"opened": opened, "episodes": 25}}} for seed, opened in enumerate((20, 23, 17))]
+    rows = [
+        {
+            "variant": "v",
+            "task": "box",
+            "seed": seed,
+            "model": {"cosine_moving": -0.5 - 0.1 * seed, "falls_moving": 0.9},
+            "sets": {"box_val": {"opened": opened, "episodes": 25}},
+        }
+        for seed, opened in enumerate((20, 23, 17))
+    ]
     text = study.seed_summary(rows)
-    assert "v / box over 3 seeds" in text and "box_val opened 20/23/17 (mean 20, min 17, max 23)" in text
+    assert (
+        "v / box over 3 seeds" in text
+        and "box_val opened 20/23/17 (mean 20, min 17, max 23)" in text
+    )
 
 
 def test_controller_settings_are_variant_options_that_do_not_change_the_training():

@@ -18,8 +18,12 @@ def test_top_features_by_score_with_the_values_and_gradients_of_the_latest_call(
     rng = np.random.default_rng(0)
     kept = np.sort(rng.choice(definition.size, 12, replace=False))
     low, high = rng.uniform(-0.5, 0.0, 12), rng.uniform(0.5, 1.0, 12)
-    model = ValueFunction(Scaling(kept, low, high, definition.size), rng.normal(size=(3, 12)), rng.normal(size=3),
-                          rng.normal(size=12))
+    model = ValueFunction(
+        Scaling(kept, low, high, definition.size),
+        rng.normal(size=(3, 12)),
+        rng.normal(size=3),
+        rng.normal(size=12),
+    )
     objective = ValueObjective(FeatureMap(definition, robot), model, delta=0.01, rho=1.0)
     top = TopFeatures(objective, count=5)
     assert top.read() == ([], [], [])  # nothing evaluated yet
@@ -38,6 +42,8 @@ def test_top_features_by_score_with_the_values_and_gradients_of_the_latest_call(
 def test_no_features_for_objectives_without_a_value_function():
     class Policy:
         def __call__(self, q, object_poses):
-            return Objective(hessian=np.eye(14), linear=np.zeros(14), value=float("nan"), gradient_norm=0.0)
+            return Objective(
+                hessian=np.eye(14), linear=np.zeros(14), value=float("nan"), gradient_norm=0.0
+            )
 
     assert TopFeatures(Policy()).read() == ([], [], [])

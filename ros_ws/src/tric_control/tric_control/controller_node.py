@@ -6,19 +6,19 @@ loaded model's objective and publishes the integrated position target.
 
 Topics:
 - subscribes /joint_states (sensor_msgs/JointState), /object_poses (tric_msgs/ObjectPoses) and
-  /situation (tric_msgs/Situation, depth 1, transient_local, as the simulator latches it: the scene's
-  table, obstacles and box are the geometry the collision priors keep the robot away from);
+  /situation (tric_msgs/Situation, depth 1, transient_local, as the simulator latches it: the
+  scene's table, obstacles and box are the geometry the collision priors keep the robot away from);
 - publishes /joint_command (sensor_msgs/JointState: all of the robot's joints, by name, position
-  targets in rad), /episode (tric_msgs/EpisodeEvent: START with the situation, END, or ABORT on failure
-  or cancel; source = the model kind, e.g. "tric") and ~/status (tric_msgs/ControllerStatus, every
-  tick, with f, the step, the active constraints and the top features (tric_control.top_features);
-  in realtime mode also while idle or holding).
+  targets in rad), /episode (tric_msgs/EpisodeEvent: START with the situation, END, or ABORT on
+  failure or cancel; source = the model kind, e.g. "tric") and ~/status (tric_msgs/ControllerStatus,
+  every tick, with f, the step, the active constraints and the top features
+  (tric_control.top_features); in realtime mode also while idle or holding).
 
 Services and actions:
-- ~/load_model (tric_msgs/srv/LoadModel): load a model file. Refused, keeping the current model, when
-  the file is unreadable, was trained on another feature definition than this controller's task, is
-  of a kind the controller cannot run (see tric_control.objectives.RUNNABLE_KINDS), or while an
-  episode runs.
+- ~/load_model (tric_msgs/srv/LoadModel): load a model file. Refused, keeping the current model,
+  when the file is unreadable, was trained on another feature definition than this controller's
+  task, is of a kind the controller cannot run (see tric_control.objectives.RUNNABLE_KINDS), or
+  while an episode runs.
 - ~/execute (tric_msgs/action/Execute): one episode from the current state, until the controller
   converges (the robot came to rest), the step budget is spent, the goal is canceled, or something
   fails (no model, no situation, no joint states for state_timeout_s). Feedback every 10 ticks. One
@@ -36,15 +36,16 @@ Parameters:
 - use_sim_time: as usual. Realtime mode's timer and staleness test run on the node clock, which must
   be the clock the joint states are stamped with (with the simulator: use_sim_time true).
 
-Lockstep protocol (mode "lockstep", with the simulator in lockstep): the simulator publishes the state
-of period t (stamped t) and waits; the controller answers that /joint_states message with exactly one
-/joint_command stamped t; the simulator then simulates one period and publishes the state t + period.
-The control loop runs in a thread of its own that waits on the topics directly (tric_sim.lockstep).
+Lockstep protocol (mode "lockstep", with the simulator in lockstep): the simulator publishes the
+state of period t (stamped t) and waits; the controller answers that /joint_states message with
+exactly one /joint_command stamped t; the simulator then simulates one period and publishes the
+state t + period. The control loop runs in a thread of its own that waits on the topics directly
+(tric_sim.lockstep).
 
-Realtime mode: a timer at control_rate_hz on the node clock commands from the latest joint state. When
-that state is older than 3 control periods (or the objects' poses are missing) the input is stale: the
-node commands the last measured positions (approached at the velocity bound) with status HOLDING,
-does not step the controller, and resumes when fresh states arrive.
+Realtime mode: a timer at control_rate_hz on the node clock commands from the latest joint state.
+When that state is older than 3 control periods (or the objects' poses are missing) the input is
+stale: the node commands the last measured positions (approached at the velocity bound) with status
+HOLDING, does not step the controller, and resumes when fresh states arrive.
 
 The episode itself (safe commands, the stale-state hold, convergence and the step budget, the
 statistics) is tric_control.episode.EpisodeRunner, the same loop that `tric-eval --offline` runs on
@@ -62,12 +63,17 @@ from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.task import Future
 from sensor_msgs.msg import JointState
-from tric_msgs.action import Execute
-from tric_msgs.msg import ControllerStatus, EpisodeEvent, ObjectPoses, Situation as SituationMsg
-from tric_msgs.srv import LoadModel
 
+from tric_control.episode import DEFAULT_MAX_STEPS, EpisodeRunner
+from tric_control.motion_rate import MotionRateController
+from tric_control.objectives import make_objective
+from tric_control.top_features import TopFeatures
 from tric_learning.features import TASK_LANDMARKS, FeatureDefinition
 from tric_learning.model_file import ModelFile
+from tric_msgs.action import Execute
+from tric_msgs.msg import ControllerStatus, EpisodeEvent, ObjectPoses
+from tric_msgs.msg import Situation as SituationMsg
+from tric_msgs.srv import LoadModel
 from tric_sim import messages
 from tric_sim.collision import Proximity
 from tric_sim.lockstep import StateStream, command_msg, run_in_thread
@@ -75,18 +81,14 @@ from tric_sim.node_main import run_node
 from tric_sim.parameters import AT_LEAST_ONE, POSITIVE, Range, declare
 from tric_sim.robot_model import RobotModel
 
-from tric_control.episode import DEFAULT_MAX_STEPS, EpisodeRunner
-from tric_control.motion_rate import MotionRateController
-from tric_control.objectives import make_objective
-from tric_control.top_features import TopFeatures
-
 STATE_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
 EVENT_QOS = QoSProfile(depth=20, reliability=ReliabilityPolicy.RELIABLE)
 #: /situation as the simulator publishes it: latched for late joiners.
 LATCHED_QOS = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 MODES = ("lockstep", "realtime")
 FEEDBACK_EVERY = 10
-#: Wall seconds between checks of cancel requests and the state timeout (lockstep waits, realtime watchdog).
+#: Wall seconds between checks of cancel requests and the state timeout (lockstep waits, realtime
+#: watchdog).
 POLL_S = 0.05
 
 
@@ -95,14 +97,18 @@ class Canceled(Exception):
 
 
 class Loaded:
-    """A loaded model: its file, path, controller objective and the top features its status shows."""
+    """A loaded model: its file, path, controller objective and the top features its status
+    shows."""
 
     def __init__(self, path: str, model_file: ModelFile, objective):
         self.path, self.file, self.objective = path, model_file, objective
         self.top_features = TopFeatures(objective)
         self.kind = model_file.kind
-        self.objects = tuple(source.partition("/")[2] for source in model_file.definition.landmark_sources
-                             if source.startswith("object/"))
+        self.objects = tuple(
+            source.partition("/")[2]
+            for source in model_file.definition.landmark_sources
+            if source.startswith("object/")
+        )
 
 
 class Scene:
@@ -115,13 +121,20 @@ class Scene:
 class Episode:
     """One run of ~/execute: its goal, model, scene and runner (tric_control.episode)."""
 
-    def __init__(self, goal_handle, episode_id: str, model: Loaded, scene: Scene, runner: EpisodeRunner):
-        self.goal_handle, self.episode_id, self.model, self.scene = goal_handle, episode_id, model, scene
+    def __init__(
+        self, goal_handle, episode_id: str, model: Loaded, scene: Scene, runner: EpisodeRunner
+    ):
+        self.goal_handle, self.episode_id, self.model, self.scene = (
+            goal_handle,
+            episode_id,
+            model,
+            scene,
+        )
         self.runner = runner
-        self.start_ns = None        # stamp of the first answered state (START), None before it
-        self.last_ns = None         # stamp of the last answered state
+        self.start_ns = None  # stamp of the first answered state (START), None before it
+        self.last_ns = None  # stamp of the last answered state
         self.wall_start = time.monotonic()
-        self.done = Future()        # realtime: (outcome, message) when the episode is over
+        self.done = Future()  # realtime: (outcome, message) when the episode is over
 
     @property
     def steps(self) -> int:
@@ -146,14 +159,30 @@ class ControllerNode(Node):
 
     def __init__(self, **kwargs):
         super().__init__("controller", **kwargs)
-        self.task = declare(self, "task", "grasp", "the task models must match", tuple(TASK_LANDMARKS))
+        self.task = declare(
+            self, "task", "grasp", "the task models must match", tuple(TASK_LANDMARKS)
+        )
         model_path = declare(self, "model_path", "", "a model file to load at start (empty: none)")
-        self.mode = declare(self, "mode", "lockstep", "answer every joint state, or tick on a timer", MODES)
-        rate = declare(self, "control_rate_hz", 100.0, "control ticks per second", Range(1.0, 1000.0))
-        self.max_steps = declare(self, "max_steps", DEFAULT_MAX_STEPS[self.task], "an episode's default step budget",
-                                 AT_LEAST_ONE)
-        self.state_timeout = declare(self, "state_timeout_s", 10.0,
-                                     "wall seconds without joint states before an episode aborts", POSITIVE)
+        self.mode = declare(
+            self, "mode", "lockstep", "answer every joint state, or tick on a timer", MODES
+        )
+        rate = declare(
+            self, "control_rate_hz", 100.0, "control ticks per second", Range(1.0, 1000.0)
+        )
+        self.max_steps = declare(
+            self,
+            "max_steps",
+            DEFAULT_MAX_STEPS[self.task],
+            "an episode's default step budget",
+            AT_LEAST_ONE,
+        )
+        self.state_timeout = declare(
+            self,
+            "state_timeout_s",
+            10.0,
+            "wall seconds without joint states before an episode aborts",
+            POSITIVE,
+        )
         self.period = 1.0 / rate
         self.period_ns = int(round(1e9 / rate))
         self.robot = RobotModel()
@@ -172,21 +201,37 @@ class ControllerNode(Node):
         self.status_pub = self.create_publisher(ControllerStatus, "~/status", STATE_QOS)
         self.create_subscription(SituationMsg, "/situation", self._on_situation, LATCHED_QOS)
         self.stream = None
-        self._latest = None   # realtime: (stamp_ns, q, received wall time) of the newest joint state
+        # realtime: (stamp_ns, q, received wall time) of the newest joint state
+        self._latest = None
         self._poses = {}
         if self.mode == "lockstep":
-            self.stream = StateStream(self.context, "controller_state_stream", self.robot.joint_names, STATE_QOS)
+            self.stream = StateStream(
+                self.context, "controller_state_stream", self.robot.joint_names, STATE_QOS
+            )
         else:
             self.create_subscription(JointState, "/joint_states", self._on_joint_state, STATE_QOS)
             self.create_subscription(ObjectPoses, "/object_poses", self._on_object_poses, STATE_QOS)
             self.create_timer(self.period, self._on_control_timer)
-            self.create_timer(POLL_S, self._on_watchdog, clock=Clock(clock_type=ClockType.STEADY_TIME))
+            self.create_timer(
+                POLL_S, self._on_watchdog, clock=Clock(clock_type=ClockType.STEADY_TIME)
+            )
         self.create_service(LoadModel, "~/load_model", self._on_load_model)
-        self._server = ActionServer(self, Execute, "~/execute", execute_callback=self._execute,
-                                    goal_callback=self._on_goal, cancel_callback=lambda _: CancelResponse.ACCEPT)
+        self._server = ActionServer(
+            self,
+            Execute,
+            "~/execute",
+            execute_callback=self._execute,
+            goal_callback=self._on_goal,
+            cancel_callback=lambda _: CancelResponse.ACCEPT,
+        )
         self.get_logger().info(
             f"controller for '{self.task}' in {self.mode} mode at {rate:g} Hz; model: "
-            + (f"{self.model.path} ({self.model.kind})" if self.model else "none (call ~/load_model)"))
+            + (
+                f"{self.model.path} ({self.model.kind})"
+                if self.model
+                else "none (call ~/load_model)"
+            )
+        )
 
     def destroy_node(self):
         self._stop.set()
@@ -213,7 +258,9 @@ class ControllerNode(Node):
         except ValueError:
             raise
         except Exception as error:  # anything else a damaged file provokes: still a clear refusal
-            raise ValueError(f"{path} could not be loaded: {type(error).__name__}: {error}") from None
+            raise ValueError(
+                f"{path} could not be loaded: {type(error).__name__}: {error}"
+            ) from None
         return Loaded(path, model_file, objective)
 
     def _on_load_model(self, request, response):
@@ -226,7 +273,9 @@ class ControllerNode(Node):
             loaded = self._load(request.model_path)
         except ValueError as error:
             response.success = False
-            response.message = f"model refused, keeping {self.model.path if self.model else 'no model'}: {error}"
+            response.message = (
+                f"model refused, keeping {self.model.path if self.model else 'no model'}: {error}"
+            )
             self.get_logger().warning(response.message)
             return response
         finally:
@@ -252,7 +301,8 @@ class ControllerNode(Node):
             return
         self.scene = Scene(situation, msg, proximity)
 
-    # --- realtime inputs ---------------------------------------------------------------------------
+    # --- realtime inputs
+    # ---------------------------------------------------------------------------
 
     def _on_joint_state(self, msg: JointState):
         try:
@@ -283,25 +333,52 @@ class ControllerNode(Node):
 
     async def _run(self, goal_handle):
         goal = goal_handle.request
-        result = Execute.Result(outcome="failed", initial_value=math.nan, final_value=math.nan,
-                                min_distance=math.nan, min_joint_limit_margin=math.nan,
-                                mean_tick_ms=math.nan, max_tick_ms=math.nan)
+        result = Execute.Result(
+            outcome="failed",
+            initial_value=math.nan,
+            final_value=math.nan,
+            min_distance=math.nan,
+            min_joint_limit_margin=math.nan,
+            mean_tick_ms=math.nan,
+            max_tick_ms=math.nan,
+        )
         model, scene = self.model, self.scene
         if model is None:
-            return self._abort(goal_handle, result, "no model loaded: call ~/load_model first "
-                               "(or set the model_path parameter)")
+            return self._abort(
+                goal_handle,
+                result,
+                "no model loaded: call ~/load_model first (or set the model_path parameter)",
+            )
         if scene is None:
-            return self._abort(goal_handle, result, "no situation known: nothing was published on /situation "
-                               "(is the simulator running?)")
+            return self._abort(
+                goal_handle,
+                result,
+                "no situation known: nothing was published on /situation "
+                "(is the simulator running?)",
+            )
         if scene.situation.task != self.task:
-            return self._abort(goal_handle, result, f"the current situation '{scene.situation.name}' is a "
-                               f"'{scene.situation.task}' task; this controller runs '{self.task}'")
+            return self._abort(
+                goal_handle,
+                result,
+                f"the current situation '{scene.situation.name}' is a "
+                f"'{scene.situation.task}' task; this controller runs '{self.task}'",
+            )
         controller = MotionRateController(self.robot, scene.proximity, model.objective, self.period)
         max_steps = int(goal.max_steps) or self.max_steps
-        runner = EpisodeRunner(self.robot, controller, max_steps, self.period, model.objects,
-                               lambda what: self.get_logger().warning(what, throttle_duration_sec=1.0))
-        episode = Episode(goal_handle, goal.episode_id or scene.situation.name, model, scene, runner)
-        self.get_logger().info(f"episode '{episode.episode_id}' ({model.kind}, {max_steps} steps at most)")
+        runner = EpisodeRunner(
+            self.robot,
+            controller,
+            max_steps,
+            self.period,
+            model.objects,
+            lambda what: self.get_logger().warning(what, throttle_duration_sec=1.0),
+        )
+        episode = Episode(
+            goal_handle, goal.episode_id or scene.situation.name, model, scene, runner
+        )
+        self.get_logger().info(
+            f"episode '{episode.episode_id}' ({model.kind}, {max_steps} steps at most)"
+        )
         if self.mode == "lockstep":
             try:
                 outcome, message = await run_in_thread(self, self._drive, episode)
@@ -323,7 +400,9 @@ class ControllerNode(Node):
         if outcome == "canceled":
             self._event(EpisodeEvent.ABORT, episode)
             goal_handle.canceled()
-            self.get_logger().info(f"episode '{episode.episode_id}' canceled after {episode.steps} steps")
+            self.get_logger().info(
+                f"episode '{episode.episode_id}' canceled after {episode.steps} steps"
+            )
             return result
         if outcome == "failed":
             self._event(EpisodeEvent.ABORT, episode)
@@ -345,7 +424,9 @@ class ControllerNode(Node):
         if kind != EpisodeEvent.START and episode.start_ns is None:
             return
         msg = EpisodeEvent(event=kind, episode_id=episode.episode_id, source=episode.model.kind)
-        msg.header.stamp = messages.time_msg(episode.start_ns if kind == EpisodeEvent.START else episode.last_ns)
+        msg.header.stamp = messages.time_msg(
+            episode.start_ns if kind == EpisodeEvent.START else episode.last_ns
+        )
         if kind == EpisodeEvent.START:
             msg.situation = episode.scene.msg
         self.episode_pub.publish(msg)
@@ -362,13 +443,17 @@ class ControllerNode(Node):
                 stamp, q = self._next_state(episode, last)
                 if last >= 0 and stamp - last != self.period_ns and episode.steps == 1:
                     self.get_logger().warning(
-                        f"joint states come every {(stamp - last) / 1e6:g} ms of simulated time, but "
-                        f"control_rate_hz sets a period of {self.period * 1e3:g} ms")
+                        f"joint states come every {(stamp - last) / 1e6:g} ms of simulated time, "
+                        f"but control_rate_hz sets a period of {self.period * 1e3:g} ms"
+                    )
                 last = stamp
                 poses = self.stream.poses
                 missing = episode.runner.missing(poses)
                 if missing:
-                    raise RuntimeError(f"no pose of {', '.join(missing)} on /object_poses: is the simulator running?")
+                    raise RuntimeError(
+                        f"no pose of {', '.join(missing)} on /object_poses: is the simulator "
+                        "running?"
+                    )
                 outcome = self._tick(episode, stamp, q, poses, stamp)
                 if outcome:
                     return outcome
@@ -388,7 +473,9 @@ class ControllerNode(Node):
                 raise RuntimeError("the scene was reset during the episode")
             remaining = deadline - time.monotonic()
             if remaining <= 0:
-                raise RuntimeError(f"no joint states for {self.state_timeout:g} s: is the simulator running?")
+                raise RuntimeError(
+                    f"no joint states for {self.state_timeout:g} s: is the simulator running?"
+                )
             state = self.stream.next_state(min(remaining, POLL_S), after_ns=after_ns)
             if state is not None:
                 return state
@@ -404,32 +491,52 @@ class ControllerNode(Node):
             self._event(EpisodeEvent.START, episode)
         decided = episode.runner.step(q, poses, stamp_ns, now_ns)
         held = decided.tick is None
-        self.command_pub.publish(command_msg(self.robot.joint_names, decided.command,
-                                             now_ns if held and now_ns is not None else stamp_ns))
+        self.command_pub.publish(
+            command_msg(
+                self.robot.joint_names,
+                decided.command,
+                now_ns if held and now_ns is not None else stamp_ns,
+            )
+        )
         if held:
             if "no pose" in decided.held:
-                self.get_logger().warning(f"holding: {decided.held} on /object_poses", throttle_duration_sec=1.0)
+                self.get_logger().warning(
+                    f"holding: {decided.held} on /object_poses", throttle_duration_sec=1.0
+                )
             self._status(ControllerStatus.HOLDING, status_ns, episode)
             return None
         episode.last_ns = stamp_ns
         tick, steps = decided.tick, episode.steps
         status = ControllerStatus(
             state=ControllerStatus.CONVERGED if tick.converged else ControllerStatus.RUNNING,
-            model_path=episode.model.path, step=steps, value=float(tick.value),
+            model_path=episode.model.path,
+            step=steps,
+            value=float(tick.value),
             value_rate=float(getattr(episode.model.objective, "delta", math.nan)),
-            gradient_norm=float(tick.gradient_norm), step_norm=decided.step_norm,
-            min_distance=float(tick.min_distance), active_constraints=list(tick.active),
-            tick_time_ms=decided.tick_ms)
-        status.feature_names, status.feature_values, status.feature_gradients = episode.model.top_features.read()
+            gradient_norm=float(tick.gradient_norm),
+            step_norm=decided.step_norm,
+            min_distance=float(tick.min_distance),
+            active_constraints=list(tick.active),
+            tick_time_ms=decided.tick_ms,
+        )
+        status.feature_names, status.feature_values, status.feature_gradients = (
+            episode.model.top_features.read()
+        )
         status.header.stamp = messages.time_msg(status_ns)
         self.status_pub.publish(status)
         if steps % FEEDBACK_EVERY == 0:
-            episode.goal_handle.publish_feedback(Execute.Feedback(
-                step=steps, value=float(tick.value), step_norm=decided.step_norm,
-                min_distance=float(tick.min_distance)))
+            episode.goal_handle.publish_feedback(
+                Execute.Feedback(
+                    step=steps,
+                    value=float(tick.value),
+                    step_norm=decided.step_norm,
+                    min_distance=float(tick.min_distance),
+                )
+            )
         return decided.outcome
 
-    # --- realtime ----------------------------------------------------------------------------------
+    # --- realtime
+    # ----------------------------------------------------------------------------------
 
     def _on_control_timer(self):
         """Realtime: one runner step from the latest state (a hold when it is stale or the objects'
@@ -447,15 +554,25 @@ class ControllerNode(Node):
         try:
             outcome = self._tick(episode, stamp, q, self._poses, now_ns, now_ns)
         except Exception as error:
-            outcome = ("failed", str(error) if isinstance(error, RuntimeError)
-                       else f"internal error: {type(error).__name__}: {error}")
+            outcome = (
+                "failed",
+                str(error)
+                if isinstance(error, RuntimeError)
+                else f"internal error: {type(error).__name__}: {error}",
+            )
         if outcome:
             episode.finish(*outcome)
 
     def _status(self, state, now_ns: int, episode: Episode = None):
-        status = ControllerStatus(state=state, model_path=self.model.path if self.model else "",
-                                  value=math.nan, value_rate=math.nan, gradient_norm=math.nan,
-                                  min_distance=math.nan, tick_time_ms=0.0)
+        status = ControllerStatus(
+            state=state,
+            model_path=self.model.path if self.model else "",
+            value=math.nan,
+            value_rate=math.nan,
+            gradient_norm=math.nan,
+            min_distance=math.nan,
+            tick_time_ms=0.0,
+        )
         if episode is not None:
             status.step = episode.steps
             status.model_path = episode.model.path
@@ -478,7 +595,9 @@ class ControllerNode(Node):
         latest = self._latest
         last_wall = max(episode.wall_start, latest[2]) if latest is not None else episode.wall_start
         if time.monotonic() - last_wall > self.state_timeout:
-            episode.finish("failed", f"no joint states for {self.state_timeout:g} s: is the robot running?")
+            episode.finish(
+                "failed", f"no joint states for {self.state_timeout:g} s: is the robot running?"
+            )
 
 
 def main(args=None):

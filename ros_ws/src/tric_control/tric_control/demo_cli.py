@@ -1,6 +1,7 @@
 """tric-demo: the main job. Record sphere demonstrations, train TRIC, run it against the teacher.
 
-    tric-demo [--reuse [BAGS]] [--out DIR] [--iterations N] [--jobs N] [--check] [--viz [--viz-port P]]
+    tric-demo [--reuse [BAGS]] [--out DIR] [--iterations N] [--jobs N] [--check] [--viz [--viz-port
+    P]]
 
 1. Record the paper's 27 sphere-grid demonstrations with the teacher through the real nodes
    (simulator in lockstep, teacher, recorder) into DIR/demo/bags, or, with --reuse, take the bags
@@ -47,7 +48,8 @@ from tric_sim.robot_model import RobotModel  # noqa: E402
 from tric_sim.situations import dataset  # noqa: E402
 from tric_sim.visualizer_node import add_view_arguments, open_view  # noqa: E402
 
-#: Paper Table 1 (mean grasp cost on the 15 test situations) and the margin TRIC must keep to our teacher.
+#: Paper Table 1 (mean grasp cost on the 15 test situations) and the margin TRIC must keep to our
+#: teacher.
 PAPER_TEACHER, PAPER_TRIC = 0.06, 0.08
 MARGIN_TO_TEACHER = 0.03
 
@@ -58,7 +60,9 @@ def record(out: pathlib.Path, domain_id: int, view=None) -> pathlib.Path:
     bags = out / "bags"
     if bags.exists():
         shutil.rmtree(bags)
-    rows = demonstrate_all(dataset("sphere_train"), bags, 0.125, 0.0, domain_id=domain_id, view=view)
+    rows = demonstrate_all(
+        dataset("sphere_train"), bags, 0.125, 0.0, domain_id=domain_id, view=view
+    )
     failed = [s.name for s, result, path in rows if not (result.success and path)]
     if failed:
         raise RuntimeError(f"the teacher failed to demonstrate {', '.join(failed)}")
@@ -73,7 +77,9 @@ def train(bags: pathlib.Path, model: pathlib.Path, config: TrainingConfig):
         bar.set_description(f"training ({stage})")
         bar.n = round(100 * fraction)
         if losses and "iteration" in losses:
-            bar.set_postfix_str(f"L_n {losses['n']:.3f} L_g {losses['g']:.3f} |w| {losses['w']:.0f}")
+            bar.set_postfix_str(
+                f"L_n {losses['n']:.3f} L_g {losses['g']:.3f} |w| {losses['w']:.0f}"
+            )
         bar.refresh()
 
     try:
@@ -86,12 +92,16 @@ def comparison_table(teacher, tric) -> str:
     """Paper Table 1 beside ours: the grasp cost of every test situation, then the means."""
     lines = [f"{'test situation':18s} {'teacher':>8s} {'TRIC':>8s} {'TRIC lift':>9s}"]
     for t, r in zip(teacher, tric):
-        lines.append(f"{r.situation:18s} {t.grasp_cost:8.3f} {r.grasp_cost:8.3f} "
-                     f"{'yes' if r.lift_passed else 'no':>9s}")
+        lines.append(
+            f"{r.situation:18s} {t.grasp_cost:8.3f} {r.grasp_cost:8.3f} "
+            f"{'yes' if r.lift_passed else 'no':>9s}"
+        )
     ts, rs = summarize(teacher), summarize(tric)
     lines.append("-" * len(lines[0]))
-    lines.append(f"{'mean (ours)':18s} {ts['grasp_cost_mean']:8.3f} {rs['grasp_cost_mean']:8.3f} "
-                 f"{rs['lift_passed']:>5d}/{len(tric)}")
+    lines.append(
+        f"{'mean (ours)':18s} {ts['grasp_cost_mean']:8.3f} {rs['grasp_cost_mean']:8.3f} "
+        f"{rs['lift_passed']:>5d}/{len(tric)}"
+    )
     lines.append(f"{'mean (paper)':18s} {PAPER_TEACHER:8.3f} {PAPER_TRIC:8.3f} {'-':>9s}")
     return "\n".join(lines)
 
@@ -102,7 +112,9 @@ def plot(teacher, tric, snapshot: pathlib.Path, out: pathlib.Path):
     figure, axis = plt.subplots(figsize=(9, 3.6))
     axis.bar(x - 0.2, [r.grasp_cost for r in teacher], 0.4, label="teacher")
     axis.bar(x + 0.2, [r.grasp_cost for r in tric], 0.4, label="TRIC")
-    axis.axhline(GOOD_GRASP, color="grey", linestyle="--", linewidth=1, label=f"good grasp < {GOOD_GRASP}")
+    axis.axhline(
+        GOOD_GRASP, color="grey", linestyle="--", linewidth=1, label=f"good grasp < {GOOD_GRASP}"
+    )
     axis.set_xticks(x, [r.situation.replace("sphere_test_", "") for r in tric])
     axis.set_xlabel("sphere test situation")
     axis.set_ylabel("grasp cost (lower is better)")
@@ -119,20 +131,36 @@ def plot(teacher, tric, snapshot: pathlib.Path, out: pathlib.Path):
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(prog="tric-demo", description=__doc__.splitlines()[0])
-    parser.add_argument("--reuse", nargs="?", const="bags/sphere", default=None, metavar="BAGS",
-                        help="train on recorded bags instead of recording (default folder: bags/sphere)")
+    parser.add_argument(
+        "--reuse",
+        nargs="?",
+        const="bags/sphere",
+        default=None,
+        metavar="BAGS",
+        help="train on recorded bags instead of recording (default folder: bags/sphere)",
+    )
     parser.add_argument("--out", default="results", help="results folder (default: results)")
-    parser.add_argument("--iterations", type=int, default=TrainingConfig.max_iterations,
-                        help="L-BFGS iterations (default: the paper's 100)")
-    parser.add_argument("--jobs", type=int, default=os.cpu_count() or 1,
-                        help="evaluation graphs run at once (default: the number of CPUs)")
+    parser.add_argument(
+        "--iterations",
+        type=int,
+        default=TrainingConfig.max_iterations,
+        help="L-BFGS iterations (default: the paper's 100)",
+    )
+    parser.add_argument(
+        "--jobs",
+        type=int,
+        default=os.cpu_count() or 1,
+        help="evaluation graphs run at once (default: the number of CPUs)",
+    )
     parser.add_argument("--check", action="store_true", help="exit 1 when TRIC misses its targets")
     add_view_arguments(parser)
     args = parser.parse_args(argv)
     if args.jobs < 1:
         parser.error("--jobs must be at least 1")
     if args.viz and args.jobs > 1:
-        print("tric-demo: --viz shows one graph: the evaluations run with --jobs 1", file=sys.stderr)
+        print(
+            "tric-demo: --viz shows one graph: the evaluations run with --jobs 1", file=sys.stderr
+        )
         args.jobs = 1
     started = time.monotonic()
     try:
@@ -156,15 +184,27 @@ def main(argv=None) -> int:
         print("[2/4] training TRIC (K = 30, M = 60, the paper's alphas)")
         trained = train(bags, work / "tric_sphere.safetensors", config)
         result = trained.result
-        print(f"      {trained.path}: {result.selected_features} selected features, "
-              f"L_n {result.losses['n']:.3f}, L_g {result.losses['g']:.3f}, trained in {result.train_time_s:.1f} s")
+        print(
+            f"      {trained.path}: {result.selected_features} selected features, L_n "
+            f"{result.losses['n']:.3f}, L_g {result.losses['g']:.3f}, trained in "
+            f"{result.train_time_s:.1f} s"
+        )
         print("[3/4] the teacher on the 15 test situations")
         tests = dataset("sphere_test")
-        teacher = evaluate(tests, None, domain_id=domain_id, desc="teacher", jobs=args.jobs, view=view)
+        teacher = evaluate(
+            tests, None, domain_id=domain_id, desc="teacher", jobs=args.jobs, view=view
+        )
         print("[4/4] TRIC on the 15 test situations")
         snapshots = work / "snapshots"
-        tric = evaluate(tests, trained.path, snapshots=snapshots, domain_id=domain_id, desc="TRIC",
-                        jobs=args.jobs, view=view)
+        tric = evaluate(
+            tests,
+            trained.path,
+            snapshots=snapshots,
+            domain_id=domain_id,
+            desc="TRIC",
+            jobs=args.jobs,
+            view=view,
+        )
     except (ValueError, RuntimeError) as error:
         print(f"tric-demo: {error}", file=sys.stderr)
         return 2
@@ -177,19 +217,36 @@ def main(argv=None) -> int:
     total = time.monotonic() - started
     best = min(tric, key=lambda r: r.grasp_cost if math.isfinite(r.grasp_cost) else math.inf)
     plot(teacher, tric, snapshots / f"{best.situation}.png", out)
-    summary = {"teacher_cost_mean": ts["grasp_cost_mean"], "tric_cost_mean": rs["grasp_cost_mean"],
-               "tric_cost_max": rs["grasp_cost_max"], "tric_lift_passed": rs["lift_passed"],
-               "episodes": len(teacher) + len(tric), "train_s": result.train_time_s, "total_s": total}
-    write_json(out / "demo.json", {**summary, "model": str(trained.path), "bags": str(bags),
-                                   "training": {"losses": result.losses,
-                                                "selected_features": result.selected_features},
-                                   "tric": report(tric), "teacher": report(teacher)})
+    summary = {
+        "teacher_cost_mean": ts["grasp_cost_mean"],
+        "tric_cost_mean": rs["grasp_cost_mean"],
+        "tric_cost_max": rs["grasp_cost_max"],
+        "tric_lift_passed": rs["lift_passed"],
+        "episodes": len(teacher) + len(tric),
+        "train_s": result.train_time_s,
+        "total_s": total,
+    }
+    write_json(
+        out / "demo.json",
+        {
+            **summary,
+            "model": str(trained.path),
+            "bags": str(bags),
+            "training": {"losses": result.losses, "selected_features": result.selected_features},
+            "tric": report(tric),
+            "teacher": report(teacher),
+        },
+    )
     within = rs["grasp_cost_mean"] <= ts["grasp_cost_mean"] + MARGIN_TO_TEACHER
     all_good = rs["good_grasps"] == len(tric)
-    print(f"\nTRIC mean within {MARGIN_TO_TEACHER} of the teacher: {'met' if within else 'NOT met'}; "
-          f"every TRIC grasp below {GOOD_GRASP}: {'met' if all_good else 'NOT met'}")
-    print(f"wrote {out / 'demo.json'}, {out / 'demo.png'} and {out / 'demo_grasp.png'} "
-          f"({best.situation}); total {total:.0f} s")
+    print(
+        f"\nTRIC mean within {MARGIN_TO_TEACHER} of the teacher: {'met' if within else 'NOT met'}; "
+        f"every TRIC grasp below {GOOD_GRASP}: {'met' if all_good else 'NOT met'}"
+    )
+    print(
+        f"wrote {out / 'demo.json'}, {out / 'demo.png'} and {out / 'demo_grasp.png'} "
+        f"({best.situation}); total {total:.0f} s"
+    )
     print(json.dumps(summary, indent=2))
     return 1 if args.check and not (within and all_good) else 0
 

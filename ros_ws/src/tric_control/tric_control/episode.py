@@ -10,10 +10,11 @@ and the objects' poses, and returns the command to send:
   controller respects both already; a violation is clipped, counted and reported);
 - a stale state (older than STALE_PERIODS control periods) or missing object poses: a hold, the last
   measured positions approached within the velocity bound; the controller is not stepped;
-- the episode ends when the controller converges (the robot came to rest) or the step budget is spent.
+- the episode ends when the controller converges (the robot came to rest) or the step budget is
+  spent.
 
-It also keeps the episode's statistics (values of the objective, closest approach, joint-limit margin,
-tick times). Units: rad, m, s; stamps in ns.
+It also keeps the episode's statistics (values of the objective, closest approach, joint-limit
+margin, tick times). Units: rad, m, s; stamps in ns.
 """
 
 import math
@@ -27,10 +28,10 @@ from tric_sim.robot_model import RobotModel
 
 #: A state older than this many control periods is stale: the runner holds instead of stepping.
 STALE_PERIODS = 3
-#: An episode's step budget when none is given, by task, ticks at 100 Hz: 8 s for a grasp (the paper's
-#: take 5 s), 20 s for a box (its demonstrations last 8 s; chosen on box_train and box_val over three
-#: seeds: 2000 ticks opened 8/9/9 and 23/22/20 boxes where 1200 opened 8/9/8 and 22/21/20,
-#: docs/decisions/loss-balance.md).
+#: An episode's step budget when none is given, by task, ticks at 100 Hz: 8 s for a grasp (the
+#: paper's take 5 s), 20 s for a box (its demonstrations last 8 s; chosen on box_train and box_val
+#: over three seeds: 2000 ticks opened 8/9/9 and 23/22/20 boxes where 1200 opened 8/9/8 and
+#: 22/21/20, docs/decisions/loss-balance.md).
 DEFAULT_MAX_STEPS = {"grasp": 800, "open_box": 2000}
 
 
@@ -61,8 +62,9 @@ class EpisodeStats:
 @dataclass
 class Step:
     """What the runner decided for one state: the command (n,) to send; the controller's tick (None
-    when holding); why it held ("" when it stepped); the command's distance from the previous one, rad;
-    the tick's computing time, ms; and (outcome, message) when the episode is over, else None."""
+    when holding); why it held ("" when it stepped); the command's distance from the previous one,
+    rad; the tick's computing time, ms; and (outcome, message) when the episode is over, else
+    None."""
 
     command: np.ndarray
     tick: Tick = None
@@ -84,19 +86,31 @@ class EpisodeRunner:
         on_violation: called with a description each time a command had to be clipped.
     """
 
-    def __init__(self, robot: RobotModel, controller: MotionRateController, max_steps: int, period: float,
-                 required_objects=(), on_violation=None):
+    def __init__(
+        self,
+        robot: RobotModel,
+        controller: MotionRateController,
+        max_steps: int,
+        period: float,
+        required_objects=(),
+        on_violation=None,
+    ):
         if max_steps < 1:
             raise ValueError(f"the step budget must be at least 1 tick, got {max_steps}")
         if not (math.isfinite(period) and period > 0):
             raise ValueError(f"the control period must be finite and positive, got {period!r}")
-        self.robot, self.controller, self.max_steps, self.period = robot, controller, max_steps, period
+        self.robot, self.controller, self.max_steps, self.period = (
+            robot,
+            controller,
+            max_steps,
+            period,
+        )
         self.period_ns = int(round(period * 1e9))
         self.required_objects = tuple(required_objects)
         self.on_violation = on_violation or (lambda _: None)
         self.max_step = robot.velocity_limits * period
         self.stats = EpisodeStats()
-        self.previous = None      # the last command sent (n,), None before the first state
+        self.previous = None  # the last command sent (n,), None before the first state
 
     @property
     def started(self) -> bool:
@@ -112,20 +126,29 @@ class EpisodeRunner:
         the controller fails on this input."""
         q = np.asarray(q, dtype=float)
         if q.shape != (self.robot.n_joints,) or not np.all(np.isfinite(q)):
-            raise ValueError(f"the measured state must be {self.robot.n_joints} finite joint positions")
+            raise ValueError(
+                f"the measured state must be {self.robot.n_joints} finite joint positions"
+            )
         if self.previous is None:
             self.previous = q.copy()
             self.controller.reset(q)
-        stale = (stamp_ns is not None and now_ns is not None
-                 and now_ns - stamp_ns > STALE_PERIODS * self.period_ns)
+        stale = (
+            stamp_ns is not None
+            and now_ns is not None
+            and now_ns - stamp_ns > STALE_PERIODS * self.period_ns
+        )
         missing = self.missing(object_poses)
         if stale or missing:
-            return self.hold(q, "stale joint states" if stale else f"no pose of {', '.join(missing)}")
+            return self.hold(
+                q, "stale joint states" if stale else f"no pose of {', '.join(missing)}"
+            )
         started = time.perf_counter()
         try:
             tick = self.controller.tick(q, object_poses)
         except Exception as error:  # the objective or the QP failed on this input
-            raise RuntimeError(f"control tick {self.stats.steps} failed: {type(error).__name__}: {error}") from None
+            raise RuntimeError(
+                f"control tick {self.stats.steps} failed: {type(error).__name__}: {error}"
+            ) from None
         tick_ms = (time.perf_counter() - started) * 1e3
         command = self.safe_command(tick.target)
         if not np.array_equal(command, tick.target):
@@ -146,7 +169,9 @@ class EpisodeRunner:
             outcome = ("converged", f"converged after {stats.steps} steps")
         elif stats.steps >= self.max_steps:
             outcome = ("step_budget", f"step budget of {self.max_steps} spent")
-        return Step(command=command, tick=tick, step_norm=step_norm, tick_ms=tick_ms, outcome=outcome)
+        return Step(
+            command=command, tick=tick, step_norm=step_norm, tick_ms=tick_ms, outcome=outcome
+        )
 
     def hold(self, q, reason: str) -> Step:
         """Command the measured positions q (approached within the velocity bound), without stepping
@@ -173,8 +198,11 @@ class EpisodeRunner:
             self._violation("a non-finite or mis-sized target; holding the previous command")
             return previous.copy()
         change = target - previous
-        command = np.clip(previous + np.clip(change, -self.max_step, self.max_step),
-                          self.robot.lower, self.robot.upper)
+        command = np.clip(
+            previous + np.clip(change, -self.max_step, self.max_step),
+            self.robot.lower,
+            self.robot.upper,
+        )
         if count and np.any(np.abs(change) > self.max_step + 1e-12):
             self._violation("a target step beyond the velocity bound")
         if count and np.any((target < self.robot.lower) | (target > self.robot.upper)):
@@ -183,4 +211,6 @@ class EpisodeRunner:
 
     def _violation(self, what: str) -> None:
         self.stats.violations += 1
-        self.on_violation(f"clipped {what} ({self.stats.violations} safety violations in this episode)")
+        self.on_violation(
+            f"clipped {what} ({self.stats.violations} safety violations in this episode)"
+        )

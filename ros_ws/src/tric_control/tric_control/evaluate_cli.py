@@ -1,28 +1,29 @@
 """tric-eval: run a model (or the teacher) on situations through the real nodes, and judge it.
 
     tric-eval (--model MODEL | --teacher) (DATASET | --situations-file FILE) [--json OUT]
-              [--max-steps N] [--snapshots DIR] [--domain-id N] [--jobs N] [--offline] [--record DIR]
-              [--viz [--viz-port P]]
+              [--max-steps N] [--snapshots DIR] [--domain-id N] [--jobs N] [--offline] [--record
+              DIR] [--viz [--viz-port P]]
 
 Runs the simulator (lockstep), the teacher and the controller nodes in one process. For each
 situation: reset the scene (/simulator/reset_scene); the teacher demonstrates it
-(/teacher/demonstrate) or the controller runs the loaded model for one episode (/controller/execute);
-then the simulator judges the final state with the hidden metrics (/simulator/evaluate_task, with
-the lift test for grasps). Prints a table, and writes the per-episode records and their summary to
-the --json file. DATASET is a built-in data set (sphere_test, cylinder_test, obstacle_test,
-box_test, ...); any YAML/JSON situations file of one task works too. --snapshots DIR writes a PNG
-of each final state (before the lift test). The --json file and the --snapshots folder are checked
-before the first episode, and written atomically. The nodes run in a private DDS domain unless --domain-id
-names one. --jobs N runs N such graphs at once, each in a worker process of its own on its own
-domain (the base one and the N - 1 above it), the situations shared out one at a time; the records
-keep the situations' order. --offline runs the same episodes without nodes: the controller core (or
-the teacher's) on the physics directly (tric_control.offline), several times faster, for sweeps; the
-table and JSON are the same. --record DIR writes one bag per episode (the recorder node: the joint
-states, poses, samples and outcome, the controller's status of every tick, and /tf,
-/robot_description and /scene_markers for Foxglove to replay it in 3D). --viz serves a live Foxglove
-view of the run (tric_sim.visualizer_node) on ws://127.0.0.1:P (default 8765); it shows one graph, so
-it takes --jobs 1. --record and --viz need the nodes (not --offline). Exits 0 when every episode ran
-(whatever its score), 1 when one could not be run, 2 on bad arguments.
+(/teacher/demonstrate) or the controller runs the loaded model for one episode
+(/controller/execute); then the simulator judges the final state with the hidden metrics
+(/simulator/evaluate_task, with the lift test for grasps). Prints a table, and writes the
+per-episode records and their summary to the --json file. DATASET is a built-in data set
+(sphere_test, cylinder_test, obstacle_test, box_test, ...); any YAML/JSON situations file of one
+task works too. --snapshots DIR writes a PNG of each final state (before the lift test). The --json
+file and the --snapshots folder are checked before the first episode, and written atomically. The
+nodes run in a private DDS domain unless --domain-id names one. --jobs N runs N such graphs at once,
+each in a worker process of its own on its own domain (the base one and the N - 1 above it), the
+situations shared out one at a time; the records keep the situations' order. --offline runs the same
+episodes without nodes: the controller core (or the teacher's) on the physics directly
+(tric_control.offline), several times faster, for sweeps; the table and JSON are the same. --record
+DIR writes one bag per episode (the recorder node: the joint states, poses, samples and outcome, the
+controller's status of every tick, and /tf, /robot_description and /scene_markers for Foxglove to
+replay it in 3D). --viz serves a live Foxglove view of the run (tric_sim.visualizer_node) on
+ws://127.0.0.1:P (default 8765); it shows one graph, so it takes --jobs 1. --record and --viz need
+the nodes (not --offline). Exits 0 when every episode ran (whatever its score), 1 when one could not
+be run, 2 on bad arguments.
 """
 
 import argparse
@@ -45,9 +46,6 @@ from rclpy.node import Node  # noqa: E402
 from rclpy.parameter import Parameter  # noqa: E402
 from rclpy.qos import QoSProfile, ReliabilityPolicy  # noqa: E402
 from tqdm import tqdm  # noqa: E402
-from tric_msgs.action import Demonstrate, Execute  # noqa: E402
-from tric_msgs.msg import EpisodeEvent  # noqa: E402
-from tric_msgs.srv import EvaluateTask, LoadModel, RenderScene, ResetScene  # noqa: E402
 
 from tric_control.controller_node import ControllerNode  # noqa: E402
 from tric_control.evaluation import EpisodeRecord, report, table, write_json  # noqa: E402
@@ -55,6 +53,9 @@ from tric_control.objectives import RUNNABLE_KINDS  # noqa: E402
 from tric_control.offline import evaluate_offline  # noqa: E402
 from tric_learning.record_cli import InProcessGraph, private_domain_id, wait  # noqa: E402
 from tric_learning.recorder_node import RecorderNode  # noqa: E402
+from tric_msgs.action import Demonstrate, Execute  # noqa: E402
+from tric_msgs.msg import EpisodeEvent  # noqa: E402
+from tric_msgs.srv import EvaluateTask, LoadModel, RenderScene, ResetScene  # noqa: E402
 from tric_sim import messages  # noqa: E402
 from tric_sim.output_files import atomic_path, check_output_file, check_output_folder  # noqa: E402
 from tric_sim.simulator_node import IN_PROCESS_LOCKSTEP_TIMEOUT_S, SimulatorNode  # noqa: E402
@@ -79,32 +80,65 @@ class Evaluator:
     domain of the graph (None: the environment's); view: a FoxgloveView to show the episodes in
     (None: no visualizer); record: a folder for one bag per episode (None: no recorder)."""
 
-    def __init__(self, task: str, model: str = None, max_steps: int = 0, domain_id: int = None, view=None,
-                 record=None):
+    def __init__(
+        self,
+        task: str,
+        model: str = None,
+        max_steps: int = 0,
+        domain_id: int = None,
+        view=None,
+        record=None,
+    ):
         self.task, self.model, self.max_steps = task, model, max_steps
         self.graph = InProcessGraph(domain_id)
         self.recorder = None
         try:
-            self.graph.add(SimulatorNode(context=self.graph.context,
-                                         parameter_overrides=[Parameter("mode", value="lockstep"), Parameter(
-                                             "lockstep_timeout_s", value=IN_PROCESS_LOCKSTEP_TIMEOUT_S)]))
+            self.graph.add(
+                SimulatorNode(
+                    context=self.graph.context,
+                    parameter_overrides=[
+                        Parameter("mode", value="lockstep"),
+                        Parameter("lockstep_timeout_s", value=IN_PROCESS_LOCKSTEP_TIMEOUT_S),
+                    ],
+                )
+            )
             if view is not None:
                 self.graph.add(VisualizerNode(view=view, context=self.graph.context))
             if record is not None:
-                self.recorder = self.graph.add(RecorderNode(context=self.graph.context, parameter_overrides=[
-                    Parameter("output_dir", value=str(record)),
-                    Parameter("sources", value=["teacher"] if model is None else list(RUNNABLE_KINDS)),
-                    Parameter("status_topic", value="" if model is None else "/controller/status")]))
+                self.recorder = self.graph.add(
+                    RecorderNode(
+                        context=self.graph.context,
+                        parameter_overrides=[
+                            Parameter("output_dir", value=str(record)),
+                            Parameter(
+                                "sources",
+                                value=["teacher"] if model is None else list(RUNNABLE_KINDS),
+                            ),
+                            Parameter(
+                                "status_topic", value="" if model is None else "/controller/status"
+                            ),
+                        ],
+                    )
+                )
             if model is None:
                 self.graph.add(TeacherNode(context=self.graph.context))
             else:
-                self.controller = self.graph.add(ControllerNode(context=self.graph.context, parameter_overrides=[
-                    Parameter("task", value=task), Parameter("mode", value="lockstep")]))
+                self.controller = self.graph.add(
+                    ControllerNode(
+                        context=self.graph.context,
+                        parameter_overrides=[
+                            Parameter("task", value=task),
+                            Parameter("mode", value="lockstep"),
+                        ],
+                    )
+                )
             self.client = self.graph.add(Node("tric_eval", context=self.graph.context))
             if self.recorder is not None and model is not None:
                 # the evaluator publishes each controller episode's OUTCOME, stamped as its END
                 self._end_stamps = {}
-                self.client.create_subscription(EpisodeEvent, "/episode", self._on_episode_event, EVENT_QOS)
+                self.client.create_subscription(
+                    EpisodeEvent, "/episode", self._on_episode_event, EVENT_QOS
+                )
                 self.outcome_pub = self.client.create_publisher(EpisodeEvent, "/episode", EVENT_QOS)
             self.graph.start()
             self.reset_scene = self._service(ResetScene, "/simulator/reset_scene")
@@ -114,8 +148,11 @@ class Evaluator:
                 self.action = self._action(Demonstrate, "/teacher/demonstrate")
             else:
                 self.action = self._action(Execute, "/controller/execute")
-                loaded = self._call(self._service(LoadModel, "/controller/load_model"),
-                                    LoadModel.Request(model_path=str(model)), "loading the model")
+                loaded = self._call(
+                    self._service(LoadModel, "/controller/load_model"),
+                    LoadModel.Request(model_path=str(model)),
+                    "loading the model",
+                )
                 if not loaded.success:
                     raise ValueError(loaded.message)
         except BaseException:
@@ -154,33 +191,62 @@ class Evaluator:
         """One episode of the agent on situation, judged by the hidden metrics."""
         started = time.monotonic()
         grasp = situation.task == "grasp"
-        record = dict(situation=situation.name, task=situation.task, agent=self.agent, success=False,
-                      grasp_cost=math.nan, lift_passed=None, lid_angle=math.nan, min_distance=math.nan,
-                      collided=False, min_joint_margin=math.nan, steps=0)
+        record = dict(
+            situation=situation.name,
+            task=situation.task,
+            agent=self.agent,
+            success=False,
+            grasp_cost=math.nan,
+            lift_passed=None,
+            lid_angle=math.nan,
+            min_distance=math.nan,
+            collided=False,
+            min_joint_margin=math.nan,
+            steps=0,
+        )
         situation_msg = messages.situation_to_msg(situation)
         bags_before = len(self.recorder.finished) if self.recorder is not None else 0
         if self.model is None:
-            result = self._run_goal(Demonstrate.Goal(situation=situation_msg, episode_id=situation.name),
-                                    f"the demonstration of '{situation.name}'")
+            result = self._run_goal(
+                Demonstrate.Goal(situation=situation_msg, episode_id=situation.name),
+                f"the demonstration of '{situation.name}'",
+            )
             if not result.metrics.task:  # the teacher could not run it (no metrics were computed)
-                return EpisodeRecord(**record, wall_time_s=time.monotonic() - started, outcome="failed",
-                                     message=result.message)
+                return EpisodeRecord(
+                    **record,
+                    wall_time_s=time.monotonic() - started,
+                    outcome="failed",
+                    message=result.message,
+                )
             metrics, steps, outcome = result.metrics, result.steps, "demonstrated"
         else:
-            reset = self._call(self.reset_scene, ResetScene.Request(situation=situation_msg), "the scene reset")
+            reset = self._call(
+                self.reset_scene, ResetScene.Request(situation=situation_msg), "the scene reset"
+            )
             if not reset.success:
-                return EpisodeRecord(**record, wall_time_s=time.monotonic() - started, outcome="failed",
-                                     message=reset.message)
+                return EpisodeRecord(
+                    **record,
+                    wall_time_s=time.monotonic() - started,
+                    outcome="failed",
+                    message=reset.message,
+                )
             self._wait_for_scene(situation)
-            result = self._run_goal(Execute.Goal(max_steps=self.max_steps, episode_id=situation.name),
-                                    f"the episode on '{situation.name}'")
+            result = self._run_goal(
+                Execute.Goal(max_steps=self.max_steps, episode_id=situation.name),
+                f"the episode on '{situation.name}'",
+            )
             if result.outcome == "failed":
-                return EpisodeRecord(**record, wall_time_s=time.monotonic() - started, outcome="failed",
-                                     message=result.message)
+                return EpisodeRecord(
+                    **record,
+                    wall_time_s=time.monotonic() - started,
+                    outcome="failed",
+                    message=result.message,
+                )
             if snapshot is not None:
                 self._snapshot(snapshot / f"{situation.name}.png")
-            evaluation = self._call(self.evaluate_task, EvaluateTask.Request(run_lift_test=grasp),
-                                    "the metrics")
+            evaluation = self._call(
+                self.evaluate_task, EvaluateTask.Request(run_lift_test=grasp), "the metrics"
+            )
             metrics, steps, outcome = evaluation.metrics, result.steps, result.outcome
             record["min_joint_margin"] = result.min_joint_limit_margin
             if self.recorder is not None:
@@ -188,10 +254,16 @@ class Evaluator:
         if self.recorder is not None:
             self._wait_for_bag(situation.name, bags_before)
         if snapshot is not None and self.model is None:
-            self._snapshot(snapshot / f"{situation.name}.png")  # after the lift test: the teacher judges itself
-        record.update(success=bool(metrics.success), min_distance=metrics.min_distance,
-                      collided=bool(metrics.collided), steps=int(steps),
-                      max_joint_overshoot=float(metrics.max_joint_overshoot), failure=metrics.failure)
+            # after the lift test: the teacher judges itself
+            self._snapshot(snapshot / f"{situation.name}.png")
+        record.update(
+            success=bool(metrics.success),
+            min_distance=metrics.min_distance,
+            collided=bool(metrics.collided),
+            steps=int(steps),
+            max_joint_overshoot=float(metrics.max_joint_overshoot),
+            failure=metrics.failure,
+        )
         if grasp:
             record.update(grasp_cost=metrics.grasp_cost, lift_passed=bool(metrics.lift_passed))
         else:
@@ -209,48 +281,70 @@ class Evaluator:
             if time.monotonic() > deadline:
                 raise RuntimeError(f"the controller's END of '{episode_id}' never arrived")
             time.sleep(0.002)
-        event = EpisodeEvent(event=EpisodeEvent.OUTCOME, episode_id=episode_id, source=self.agent, metrics=metrics)
+        event = EpisodeEvent(
+            event=EpisodeEvent.OUTCOME, episode_id=episode_id, source=self.agent, metrics=metrics
+        )
         event.header.stamp = self._end_stamps.pop(episode_id)
         self.outcome_pub.publish(event)
 
     def _wait_for_bag(self, episode_id: str, bags_before: int):
-        """--record: wait until the recorder has closed the episode's bag (one more than bags_before);
-        RuntimeError if it does not."""
+        """--record: wait until the recorder has closed the episode's bag (one more than
+        bags_before); RuntimeError if it does not."""
         deadline = time.monotonic() + BAG_TIMEOUT
         while len(self.recorder.finished) <= bags_before:
             if time.monotonic() > deadline:
-                raise RuntimeError(f"the recorder did not finish the bag of '{episode_id}' "
-                                   f"within {BAG_TIMEOUT:g} s")
+                raise RuntimeError(
+                    f"the recorder did not finish the bag of '{episode_id}' "
+                    f"within {BAG_TIMEOUT:g} s"
+                )
             time.sleep(0.01)
 
     def _wait_for_scene(self, situation):
-        """Wait until the controller has taken the new scene from /situation (latched, asynchronous)."""
+        """Wait until the controller has taken the new scene from /situation (latched,
+        asynchronous)."""
         deadline = time.monotonic() + SERVICE_TIMEOUT
         while True:
             scene = self.controller.scene
             if scene is not None and scene.situation == situation:
                 return
             if time.monotonic() > deadline:
-                raise RuntimeError(f"the controller never received the situation '{situation.name}'")
+                raise RuntimeError(
+                    f"the controller never received the situation '{situation.name}'"
+                )
             time.sleep(0.002)
 
     def _snapshot(self, path: pathlib.Path):
-        answer = self._call(self.render_scene, RenderScene.Request(width=480, height=360), "a snapshot")
+        answer = self._call(
+            self.render_scene, RenderScene.Request(width=480, height=360), "a snapshot"
+        )
         if answer.success:
             image = np.frombuffer(bytes(answer.image.data), dtype=np.uint8)
             with atomic_path(path) as temporary:
                 plt.imsave(temporary, image.reshape(answer.image.height, answer.image.width, 3))
 
 
-def evaluate(situations, model=None, max_steps: int = 0, snapshots=None, progress=True, desc="evaluating",
-             domain_id: int = None, jobs: int = 1, view=None, record=None):
+def evaluate(
+    situations,
+    model=None,
+    max_steps: int = 0,
+    snapshots=None,
+    progress=True,
+    desc="evaluating",
+    domain_id: int = None,
+    jobs: int = 1,
+    view=None,
+    record=None,
+):
     """Run the agent (model file, or the teacher if None) on every situation; [EpisodeRecord] in the
     situations' order. jobs > 1: that many worker processes (spawned), each with its own Evaluator
     on DDS domain domain_id + k (domain_id None: the environment's ROS_DOMAIN_ID, else 0).
-    view: a FoxgloveView to show the run in (jobs 1 only); record: a folder for one bag per episode."""
+    view: a FoxgloveView to show the run in (jobs 1 only); record: a folder for one bag per
+    episode."""
     tasks = {s.task for s in situations}
     if len(tasks) != 1:
-        raise ValueError(f"the situations mix tasks ({', '.join(sorted(tasks))}): evaluate one task at a time")
+        raise ValueError(
+            f"the situations mix tasks ({', '.join(sorted(tasks))}): evaluate one task at a time"
+        )
     if jobs < 1:
         raise ValueError(f"jobs must be at least 1, not {jobs}")
     if view is not None and min(jobs, len(situations)) > 1:
@@ -260,14 +354,27 @@ def evaluate(situations, model=None, max_steps: int = 0, snapshots=None, progres
     bar = tqdm(total=len(situations), desc=desc, unit="episode", disable=not progress)
     try:
         if min(jobs, len(situations)) == 1:
-            return _evaluate_here(situations, task, model, max_steps, snapshot, domain_id, bar, view, record)
-        return _evaluate_in_workers(situations, task, model, max_steps, snapshot, domain_id,
-                                    min(jobs, len(situations)), bar, record)
+            return _evaluate_here(
+                situations, task, model, max_steps, snapshot, domain_id, bar, view, record
+            )
+        return _evaluate_in_workers(
+            situations,
+            task,
+            model,
+            max_steps,
+            snapshot,
+            domain_id,
+            min(jobs, len(situations)),
+            bar,
+            record,
+        )
     finally:
         bar.close()
 
 
-def _evaluate_here(situations, task, model, max_steps, snapshot, domain_id, bar, view, record) -> list:
+def _evaluate_here(
+    situations, task, model, max_steps, snapshot, domain_id, bar, view, record
+) -> list:
     """Every situation in turn on one Evaluator in this process."""
     evaluator = Evaluator(task, model, max_steps, domain_id, view, record)
     records = []
@@ -281,19 +388,31 @@ def _evaluate_here(situations, task, model, max_steps, snapshot, domain_id, bar,
     return records
 
 
-def _evaluate_in_workers(situations, task, model, max_steps, snapshot, domain_id, jobs, bar, record) -> list:
+def _evaluate_in_workers(
+    situations, task, model, max_steps, snapshot, domain_id, jobs, bar, record
+) -> list:
     """The situations shared out over jobs spawned workers (see _start_worker), one at a time."""
     base = int(os.environ.get("ROS_DOMAIN_ID", "0")) if domain_id is None else domain_id
     if not 0 <= base <= MAX_DOMAIN_ID - jobs + 1:
-        raise ValueError(f"{jobs} workers from DDS domain {base} on would pass the last domain {MAX_DOMAIN_ID}")
-    spawn = multiprocessing.get_context("spawn")  # never fork a process that may hold rclpy's threads
+        raise ValueError(
+            f"{jobs} workers from DDS domain {base} on would pass the last domain {MAX_DOMAIN_ID}"
+        )
+    # never fork a process that may hold rclpy's threads
+    spawn = multiprocessing.get_context("spawn")
     domain_ids = spawn.Queue()
     for offset in range(jobs):
         domain_ids.put(base + offset)
     records = [None] * len(situations)
-    with concurrent.futures.ProcessPoolExecutor(jobs, mp_context=spawn, initializer=_start_worker,
-                                                initargs=(task, model, max_steps, domain_ids, record)) as pool:
-        futures = {pool.submit(_run_in_worker, situation, snapshot): k for k, situation in enumerate(situations)}
+    with concurrent.futures.ProcessPoolExecutor(
+        jobs,
+        mp_context=spawn,
+        initializer=_start_worker,
+        initargs=(task, model, max_steps, domain_ids, record),
+    ) as pool:
+        futures = {
+            pool.submit(_run_in_worker, situation, snapshot): k
+            for k, situation in enumerate(situations)
+        }
         try:
             for future in concurrent.futures.as_completed(futures):
                 records[futures[future]] = future.result()
@@ -305,15 +424,20 @@ def _evaluate_in_workers(situations, task, model, max_steps, snapshot, domain_id
     return records
 
 
-#: A worker process's Evaluator, or the error that building it raised (re-raised by each of its runs).
+#: A worker process's Evaluator, or the error that building it raised (re-raised by each of its
+#: runs).
 _worker = {}
 
 
 def _start_worker(task, model, max_steps, domain_ids, record):
-    """Worker initializer: build this process's Evaluator on the next free domain; closed at exit."""
+    """Worker initializer: build this process's Evaluator on the next free domain; closed at
+    exit."""
     try:
-        evaluator = Evaluator(task, model, max_steps, domain_ids.get(timeout=SERVICE_TIMEOUT), record=record)
-    except Exception as error:  # an initializer's exception would only break the pool, without its message
+        evaluator = Evaluator(
+            task, model, max_steps, domain_ids.get(timeout=SERVICE_TIMEOUT), record=record
+        )
+    # an initializer's exception would only break the pool, without its message
+    except Exception as error:
         _worker["error"] = error
         return
     _worker["evaluator"] = evaluator
@@ -331,21 +455,41 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(prog="tric-eval", description=__doc__.splitlines()[0])
     agent = parser.add_mutually_exclusive_group(required=True)
     agent.add_argument("--model", help="a model file (from tric-train or the trainer node)")
-    agent.add_argument("--teacher", action="store_true", help="evaluate the teacher instead of a model")
+    agent.add_argument(
+        "--teacher", action="store_true", help="evaluate the teacher instead of a model"
+    )
     parser.add_argument("dataset", nargs="?", choices=sorted(DATASETS), help="a built-in data set")
     parser.add_argument("--situations-file", help="a YAML/JSON situations file instead of DATASET")
     parser.add_argument("--json", help="write the per-episode records and the summary to this file")
-    parser.add_argument("--max-steps", type=int, default=0,
-                        help="control ticks per episode at most (default: the controller's, 800)")
+    parser.add_argument(
+        "--max-steps",
+        type=int,
+        default=0,
+        help="control ticks per episode at most (default: the controller's, 800)",
+    )
     parser.add_argument("--snapshots", help="write a PNG of each final state into this folder")
-    parser.add_argument("--domain-id", type=int, default=None,
-                        help="DDS domain of the in-process nodes (default: a private one, 1 + pid %% 100)")
-    parser.add_argument("--jobs", type=int, default=1,
-                        help="evaluation graphs run at once, each in a process on its own domain (default 1)")
-    parser.add_argument("--offline", action="store_true",
-                        help="run the controller core (or the teacher's) on the physics directly, without nodes")
-    parser.add_argument("--record", metavar="DIR",
-                        help="write one bag per episode into DIR (with the controller's status, /tf and markers)")
+    parser.add_argument(
+        "--domain-id",
+        type=int,
+        default=None,
+        help="DDS domain of the in-process nodes (default: a private one, 1 + pid %% 100)",
+    )
+    parser.add_argument(
+        "--jobs",
+        type=int,
+        default=1,
+        help="evaluation graphs run at once, each in a process on its own domain (default 1)",
+    )
+    parser.add_argument(
+        "--offline",
+        action="store_true",
+        help="run the controller core (or the teacher's) on the physics directly, without nodes",
+    )
+    parser.add_argument(
+        "--record",
+        metavar="DIR",
+        help="write one bag per episode into DIR (with the controller's status, /tf and markers)",
+    )
     add_view_arguments(parser)
     args = parser.parse_args(argv)
     if bool(args.dataset) == bool(args.situations_file):
@@ -356,30 +500,50 @@ def main(argv=None) -> int:
     if not 1 <= args.jobs <= 64:
         parser.error("--jobs must be in [1, 64]")
     if not 0 <= domain_id <= MAX_DOMAIN_ID - args.jobs + 1:
-        parser.error(f"--domain-id must be in [0, {MAX_DOMAIN_ID - args.jobs + 1}] with --jobs {args.jobs}")
+        parser.error(
+            f"--domain-id must be in [0, {MAX_DOMAIN_ID - args.jobs + 1}] with --jobs {args.jobs}"
+        )
     if args.viz and args.jobs > 1:
         parser.error("--viz shows one evaluation graph: use --jobs 1")
     if args.offline and (args.viz or args.record):
         parser.error("--viz and --record watch the nodes: not with --offline")
-    if args.record and pathlib.Path(args.record).exists() and not pathlib.Path(args.record).is_dir():
+    if (
+        args.record
+        and pathlib.Path(args.record).exists()
+        and not pathlib.Path(args.record).is_dir()
+    ):
         parser.error(f"--record {args.record} exists and is not a folder")
     view = None
     try:
-        situations = load_situations(args.situations_file) if args.situations_file else dataset(args.dataset)
+        situations = (
+            load_situations(args.situations_file) if args.situations_file else dataset(args.dataset)
+        )
         if args.model and not pathlib.Path(args.model).is_file():
-            raise ValueError(f"model file {args.model} "
-                             + ("is a folder" if pathlib.Path(args.model).is_dir() else "does not exist"))
+            raise ValueError(
+                f"model file {args.model} "
+                + ("is a folder" if pathlib.Path(args.model).is_dir() else "does not exist")
+            )
         if args.json:
             check_output_file(args.json, what="--json file")
         if args.snapshots:
             check_output_folder(args.snapshots, "--snapshots folder")
         model = None if args.teacher else args.model
         if args.offline:
-            records = evaluate_offline(situations, model, args.max_steps, args.snapshots, jobs=args.jobs)
+            records = evaluate_offline(
+                situations, model, args.max_steps, args.snapshots, jobs=args.jobs
+            )
         else:
             view = open_view(args, "tric-eval")
-            records = evaluate(situations, model, args.max_steps, args.snapshots, domain_id=domain_id,
-                               jobs=args.jobs, view=view, record=args.record)
+            records = evaluate(
+                situations,
+                model,
+                args.max_steps,
+                args.snapshots,
+                domain_id=domain_id,
+                jobs=args.jobs,
+                view=view,
+                record=args.record,
+            )
     except ValueError as error:
         print(f"tric-eval: {error}", file=sys.stderr)
         return 2
@@ -387,7 +551,13 @@ def main(argv=None) -> int:
         if view is not None:
             view.close()
     name = "teacher" if args.teacher else args.model
-    print(table(records, f"\n{name} on {args.dataset or args.situations_file}" + (" (offline)" if args.offline else "")))
+    print(
+        table(
+            records,
+            f"\n{name} on {args.dataset or args.situations_file}"
+            + (" (offline)" if args.offline else ""),
+        )
+    )
     if args.json:
         print(f"wrote {write_json(args.json, {'agent': name, **report(records)})}")
     return 1 if any(r.failed for r in records) else 0

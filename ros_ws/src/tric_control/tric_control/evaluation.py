@@ -3,8 +3,8 @@
 An evaluation runs one agent (the teacher, or a model file run by the controller) on a list of
 situations and judges each episode with the hidden task metrics (tric_sim.metrics): the grasp cost
 and lift test for grasps, the lid angle for boxes, the closest approach to the avoided geometry and
-the smallest joint-limit margin. This module holds what that produces: one EpisodeRecord per episode,
-their summary, the table printed to stdout and the JSON file.
+the smallest joint-limit margin. This module holds what that produces: one EpisodeRecord per
+episode, their summary, the table printed to stdout and the JSON file.
 """
 
 import collections
@@ -17,7 +17,8 @@ import numpy as np
 
 from tric_sim.output_files import write_text_atomic
 
-#: A grasp is good below this cost (the paper's convention); a box is open beyond this lid angle, rad.
+#: A grasp is good below this cost (the paper's convention); a box is open beyond this lid angle,
+#: rad.
 GOOD_GRASP = 0.25
 OPEN_LID = 0.3
 
@@ -26,17 +27,17 @@ OPEN_LID = 0.3
 class EpisodeRecord:
     """One evaluated episode. Distances in m, angles and margins in rad, times in s.
 
-    grasp_cost, lift_passed: grasps only (NaN / None otherwise); lid_angle: boxes only (NaN otherwise).
-    min_distance: the smallest signed distance between the robot and the table, obstacles and box
-    body over the episode, as the simulator measured it (negative: penetration); collided: it went
-    below zero. min_joint_margin: the smallest distance of a commanded joint's measured position to
-    its limit (NaN for the teacher, whose episodes the controller does not see). max_joint_overshoot:
-    the largest distance a measured joint (arm, hand or the lid's hinge) went past its limit, as the
-    simulator measured it (0: none did). outcome: how the episode ended
+    grasp_cost, lift_passed: grasps only (NaN / None otherwise); lid_angle: boxes only (NaN
+    otherwise). min_distance: the smallest signed distance between the robot and the table,
+    obstacles and box body over the episode, as the simulator measured it (negative: penetration);
+    collided: it went below zero. min_joint_margin: the smallest distance of a commanded joint's
+    measured position to its limit (NaN for the teacher, whose episodes the controller does not
+    see). max_joint_overshoot: the largest distance a measured joint (arm, hand or the lid's hinge)
+    went past its limit, as the simulator measured it (0: none did). outcome: how the episode ended
     ("converged", "step_budget", "demonstrated", "failed", ...). message: why, when it failed.
     failure: why the task failed, by the hidden metrics' failure class (tric_sim.metrics: "palm off
-    target", "under the lip", ...; "collision" whenever the robot collided, even in a success; "" for
-    a success without collision, or a run that failed).
+    target", "under the lip", ...; "collision" whenever the robot collided, even in a success; ""
+    for a success without collision, or a run that failed).
     """
 
     situation: str
@@ -94,7 +95,9 @@ def summarize(records) -> dict:
         "max_joint_overshoot": _max(r.max_joint_overshoot for r in records),
         "steps_mean": _mean(r.steps for r in records),
         "wall_time_s_mean": _mean(r.wall_time_s for r in records),
-        "failures": dict(collections.Counter(r.failure for r in records if r.failure).most_common()),
+        "failures": dict(
+            collections.Counter(r.failure for r in records if r.failure).most_common()
+        ),
     }
 
 
@@ -110,31 +113,41 @@ def _cell(value, fmt: str) -> str:
 
 def table(records, title: str = "") -> str:
     """A fixed-width table of the records, with a summary line."""
-    header = (f"{'situation':22s} {'agent':10s} {'ok':>3s} {'cost':>6s} {'lift':>4s} {'lid':>5s} "
-              f"{'min d (mm)':>10s} {'margin':>6s} {'over':>5s} {'steps':>5s} {'wall s':>6s}  {'outcome':12s} failure")
+    header = (
+        f"{'situation':22s} {'agent':10s} {'ok':>3s} {'cost':>6s} {'lift':>4s} {'lid':>5s} "
+        f"{'min d (mm)':>10s} {'margin':>6s} {'over':>5s} {'steps':>5s} {'wall s':>6s}  "
+        f"{'outcome':12s} failure"
+    )
     lines = [title] if title else []
     lines += [header, "-" * len(header)]
     for r in records:
         lines.append(
             f"{r.situation[:22]:22s} {r.agent[:10]:10s} {_cell(bool(r.success), ''):>3s} "
-            f"{_cell(r.grasp_cost, '.3f'):>6s} {_cell(r.lift_passed, ''):>4s} {_cell(r.lid_angle, '.2f'):>5s} "
-            f"{_cell(r.min_distance * 1e3, '.1f'):>10s} {_cell(r.min_joint_margin, '.3f'):>6s} "
-            f"{_cell(r.max_joint_overshoot, '.3f'):>5s} "
+            f"{_cell(r.grasp_cost, '.3f'):>6s} {_cell(r.lift_passed, ''):>4s} "
+            f"{_cell(r.lid_angle, '.2f'):>5s} {_cell(r.min_distance * 1e3, '.1f'):>10s} "
+            f"{_cell(r.min_joint_margin, '.3f'):>6s} {_cell(r.max_joint_overshoot, '.3f'):>5s} "
             f"{r.steps:5d} {r.wall_time_s:6.1f}  {r.outcome:12s} "
-            f"{'(run failed: ' + r.message + ')' if r.failed else r.failure or '-'}")
+            f"{'(run failed: ' + r.message + ')' if r.failed else r.failure or '-'}"
+        )
     s = summarize(records)
     lines.append("-" * len(header))
     parts = [f"{s['successes']}/{s['episodes']} succeeded"]
     if math.isfinite(s["grasp_cost_mean"]):
-        parts.append(f"grasp cost mean {s['grasp_cost_mean']:.3f}, max {s['grasp_cost_max']:.3f}, "
-                     f"{s['good_grasps']} below {GOOD_GRASP}, lift passed {s['lift_passed']}")
+        parts.append(
+            f"grasp cost mean {s['grasp_cost_mean']:.3f}, max {s['grasp_cost_max']:.3f}, "
+            f"{s['good_grasps']} below {GOOD_GRASP}, lift passed {s['lift_passed']}"
+        )
     if math.isfinite(s["lid_angle_mean"]):
         parts.append(f"{s['boxes_opened']} boxes opened (lid mean {s['lid_angle_mean']:.2f} rad)")
-    parts.append(f"{s['collisions']} collisions (closest {_cell(s['min_distance'] * 1e3, '.1f')} mm)")
+    parts.append(
+        f"{s['collisions']} collisions (closest {_cell(s['min_distance'] * 1e3, '.1f')} mm)"
+    )
     if math.isfinite(s["max_joint_overshoot"]):
         parts.append(f"joints at most {s['max_joint_overshoot']:.3f} rad past a limit")
     if s["failures"]:
-        parts.append("failures: " + ", ".join(f"{name} {count}" for name, count in s["failures"].items()))
+        parts.append(
+            "failures: " + ", ".join(f"{name} {count}" for name, count in s["failures"].items())
+        )
     if s["failed_runs"]:
         parts.append(f"{s['failed_runs']} runs failed")
     lines.append("; ".join(parts))

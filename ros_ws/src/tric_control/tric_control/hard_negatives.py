@@ -26,7 +26,9 @@ from tric_sim.physics import PhysicsWorld
 from tric_sim.robot_model import RobotModel
 
 
-def rollout_states(world: PhysicsWorld, robot: RobotModel, situation, objective, max_steps: int, every: int) -> list:
+def rollout_states(
+    world: PhysicsWorld, robot: RobotModel, situation, objective, max_steps: int, every: int
+) -> list:
     """[(q (n,), object poses)] of the controller's states every `every` ticks of one episode."""
     world.reset(situation)
     controller = MotionRateController(robot, Proximity(robot, situation), objective, CONTROL_PERIOD)
@@ -46,9 +48,9 @@ def rollout_states(world: PhysicsWorld, robot: RobotModel, situation, objective,
 
 def contrasts(dataset: Dataset, robot: RobotModel, demo_states: list) -> NoisySamples:
     """The rollout states of each demonstration's situation (demo_states[i]: [(q, poses)]) as L_n
-    contrasts: each paired with the demonstration step t >= 1 whose q_{t-1} is nearest (noisy samples
-    are drawn around q_{t-1}) and weighted by d_curve to the path q_{t-1}, ..., q_{T-1} (so that a
-    state on the demonstrated path costs nothing)."""
+    contrasts: each paired with the demonstration step t >= 1 whose q_{t-1} is nearest (noisy
+    samples are drawn around q_{t-1}) and weighted by d_curve to the path q_{t-1}, ..., q_{T-1} (so
+    that a state on the demonstrated path costs nothing)."""
     features = FeatureMap(dataset.definition, robot)
     offsets = step_offsets(dataset)
     steps, ys, weights = [], [], []
@@ -56,23 +58,35 @@ def contrasts(dataset: Dataset, robot: RobotModel, demo_states: list) -> NoisySa
         if not states:
             continue
         qs = np.array([q for q, _ in states])
-        distances = np.linalg.norm(qs[:, None, :] - demo.q[None, :-1, :], axis=2)     # (S, T - 1)
-        nearest = np.argmin(distances, axis=1) + 1                                    # t in [1, T - 1]
+        distances = np.linalg.norm(qs[:, None, :] - demo.q[None, :-1, :], axis=2)  # (S, T - 1)
+        # t in [1, T - 1]
+        nearest = np.argmin(distances, axis=1) + 1
         for q, poses, t in zip(qs, (p for _, p in states), nearest):
             steps.append(offsets[i] + t)
             ys.append(features(q, poses))
-            weights.append(float(d_curve(q[None, :], demo.q[t - 1:])[0]))
+            weights.append(float(d_curve(q[None, :], demo.q[t - 1 :])[0]))
     kept = np.zeros(offsets[-1], dtype=int)
     np.add.at(kept, np.array(steps, dtype=int), 1)
-    return NoisySamples(step=np.array(steps, dtype=int), y=np.array(ys).reshape(len(ys), -1),
-                        weight=np.array(weights), kept_per_step=kept)
+    return NoisySamples(
+        step=np.array(steps, dtype=int),
+        y=np.array(ys).reshape(len(ys), -1),
+        weight=np.array(weights),
+        kept_per_step=kept,
+    )
 
 
-def train_with_hard_negatives(dataset: Dataset, robot: RobotModel, config: TrainingConfig, rounds: int,
-                              max_steps: int, every: int = 20, progress=None) -> TrainingResult:
+def train_with_hard_negatives(
+    dataset: Dataset,
+    robot: RobotModel,
+    config: TrainingConfig,
+    rounds: int,
+    max_steps: int,
+    every: int = 20,
+    progress=None,
+) -> TrainingResult:
     """Train f, then `rounds` times: roll the learned controller out in every training situation for
-    max_steps ticks, add its states every `every` ticks as contrasts (see contrasts()) and train again
-    from scratch on all of them. progress(round, situation index) after each rollout."""
+    max_steps ticks, add its states every `every` ticks as contrasts (see contrasts()) and train
+    again from scratch on all of them. progress(round, situation index) after each rollout."""
     if rounds < 0 or max_steps < 1 or every < 1:
         raise ValueError("rounds must be >= 0, max_steps and every >= 1")
     result = train(dataset, robot, config)
@@ -80,10 +94,14 @@ def train_with_hard_negatives(dataset: Dataset, robot: RobotModel, config: Train
     world = PhysicsWorld(robot)
     try:
         for round_ in range(rounds):
-            objective = make_objective(model_file.from_training(result, dataset), robot, CONTROL_PERIOD)
+            objective = make_objective(
+                model_file.from_training(result, dataset), robot, CONTROL_PERIOD
+            )
             states = []
             for k, demo in enumerate(dataset.demos):
-                states.append(rollout_states(world, robot, demo.situation, objective, max_steps, every))
+                states.append(
+                    rollout_states(world, robot, demo.situation, objective, max_steps, every)
+                )
                 if progress is not None:
                     progress(round_, k)
             found = contrasts(dataset, robot, states)

@@ -1,5 +1,5 @@
-"""Motion-rate control (paper Eq. 8-9): each tick one small joint step that decreases a learned cost,
-within joint limits, velocity bounds and collision constraints. ROS-free.
+"""Motion-rate control (paper Eq. 8-9): each tick one small joint step that decreases a learned
+cost, within joint limits, velocity bounds and collision constraints. ROS-free.
 
 TRIC's step minimizes, linearized at the current configuration q_t (g = grad_q (f o phi)(q_t),
 Eq. 10):
@@ -13,15 +13,16 @@ demonstration's start value to its end value) while keeping the step small. The 
 and a per-tick step bound (JointLimits), velocity dampers on the COLLISION_ROWS closest collision
 pairs within INFLUENCE (CollisionDamper, with the safety distances below), on the DOMAIN_ROWS
 features nearest the bounds of the model's domain (DomainDamper), and the soft side of the task's
-contacts as a cost (SoftContact). What the hand may press, how deep and from which side is the task's
-(tric_sim.scene.contacts, through the Proximity), handed to the limits when they are built. The QP
-has a fixed size (n variables with bounds, the limits' inequality rows) and is solved by proxsuite's
-dense solver, re-used tick after tick. Each solve starts cold and its solution is rounded
-(StepQP): an episode is then the same, bit for bit, in every run, through the nodes or offline.
+contacts as a cost (SoftContact). What the hand may press, how deep and from which side is the
+task's (tric_sim.scene.contacts, through the Proximity), handed to the limits when they are built.
+The QP has a fixed size (n variables with bounds, the limits' inequality rows) and is solved by
+proxsuite's dense solver, re-used tick after tick. Each solve starts cold and its solution is
+rounded (StepQP): an episode is then the same, bit for bit, in every run, through the nodes or
+offline.
 
 The command is a reference that integrates the steps; it may lead the measured joints by at most
-MAX_LEAD (the arm: a blocked arm does not wind up) or MAX_HAND_LEAD (the hand: fingers held back by an
-object keep squeezing it, with a force that grows with the lead).
+MAX_LEAD (the arm: a blocked arm does not wind up) or MAX_HAND_LEAD (the hand: fingers held back by
+an object keep squeezing it, with a force that grows with the lead).
 Units: rad, m, s.
 """
 
@@ -31,8 +32,16 @@ from dataclasses import dataclass, field
 import numpy as np
 import proxsuite
 
-from tric_control.limits import (UNBOUNDED_BELOW, CollisionDamper, ContactRules, DomainDamper, JointLimits, Limit,
-                                 SoftContact, StepState)
+from tric_control.limits import (
+    UNBOUNDED_BELOW,
+    CollisionDamper,
+    ContactRules,
+    DomainDamper,
+    JointLimits,
+    Limit,
+    SoftContact,
+    StepState,
+)
 from tric_sim.collision import Proximity
 from tric_sim.robot_model import RobotModel
 
@@ -51,8 +60,9 @@ JOINT_MARGIN = 0.02
 MAX_LEAD = 0.03
 MAX_HAND_LEAD = 0.03
 #: The step QP's solution is rounded to a multiple of this (rad): far coarser than the last-bit
-#: differences between solver instances (1e-16), far finer than a tick's step (up to 1e-2); see StepQP.
-STEP_QUANTUM = 2.0 ** -26
+#: differences between solver instances (1e-16), far finer than a tick's step (up to 1e-2); see
+#: StepQP.
+STEP_QUANTUM = 2.0**-26
 #: Convergence: the robot has come to rest, its joints having moved less than CONVERGED_MOTION (rad,
 #: in norm) over the last CONVERGED_WINDOW ticks.
 CONVERGED_WINDOW = 100
@@ -63,10 +73,12 @@ def default_limits(robot: RobotModel, contacts: dict) -> list:
     """The controller's limits: joint limits, collision and domain dampers, and the soft side of
     the task's contacts ({scene body name: tric_sim.scene.Contact})."""
     rules = ContactRules(contacts)
-    return [CollisionDamper(rules, COLLISION_ROWS, SAFETY, SELF_SAFETY, DAMPING),
-            DomainDamper(DOMAIN_ROWS, DAMPING),
-            JointLimits(robot.lower, robot.upper, robot.joint_names, JOINT_MARGIN),
-            SoftContact(rules)]
+    return [
+        CollisionDamper(rules, COLLISION_ROWS, SAFETY, SELF_SAFETY, DAMPING),
+        DomainDamper(DOMAIN_ROWS, DAMPING),
+        JointLimits(robot.lower, robot.upper, robot.joint_names, JOINT_MARGIN),
+        SoftContact(rules),
+    ]
 
 
 @dataclass
@@ -84,24 +96,26 @@ class Tick:
 
 
 #: The solver outcomes whose step is used.
-_SOLVED = (proxsuite.proxqp.QPSolverOutput.PROXQP_SOLVED,
-           proxsuite.proxqp.QPSolverOutput.PROXQP_SOLVED_CLOSEST_PRIMAL_FEASIBLE)
+_SOLVED = (
+    proxsuite.proxqp.QPSolverOutput.PROXQP_SOLVED,
+    proxsuite.proxqp.QPSolverOutput.PROXQP_SOLVED_CLOSEST_PRIMAL_FEASIBLE,
+)
 
 
 class StepQP:
-    """min 1/2 dq^T H dq + c^T dq over dq (n,) with bounds on each variable and `rows` inequality rows
-    l <= C dq; solve() returns None when the solver finds no solution.
+    """min 1/2 dq^T H dq + c^T dq over dq (n,) with bounds on each variable and `rows` inequality
+    rows l <= C dq; solve() returns None when the solver finds no solution.
 
     Every solve starts cold and its solution is rounded to a multiple of STEP_QUANTUM: proxsuite's
     result for the same problem differs in its last bit from one solver instance to another (its
-    vectorized loops depend on where its buffers lie in memory), and contacts amplify that into other
-    episodes. Rounded, two instances give the same step unless an entry lies within 1e-16 of a
+    vectorized loops depend on where its buffers lie in memory), and contacts amplify that into
+    other episodes. Rounded, two instances give the same step unless an entry lies within 1e-16 of a
     rounding boundary (about 1 in 10^8 entries). A warm start would carry the unrounded difference
-    into the next solve, where it grows to the solver's tolerance. The cost is divided by its largest
-    coefficient first (the same minimizer), so that the absolute tolerance means the same for
-    objectives of every scale. Measured over the 1200 ticks of a TRIC episode (box_train_00): every
-    solve succeeded in 9 iterations (p50; 18 at most), where the warm start with the unscaled cost
-    had failed 104 of 737 ticks (the controller then holds still) and needed up to 2687."""
+    into the next solve, where it grows to the solver's tolerance. The cost is divided by its
+    largest coefficient first (the same minimizer), so that the absolute tolerance means the same
+    for objectives of every scale. Measured over the 1200 ticks of a TRIC episode (box_train_00):
+    every solve succeeded in 9 iterations (p50; 18 at most), where the warm start with the unscaled
+    cost had failed 104 of 737 ticks (the controller then holds still) and needed up to 2687."""
 
     def __init__(self, n: int, rows: int):
         self.n, self.rows = n, rows
@@ -122,7 +136,9 @@ class StepQP:
         if scale > 1.0:
             hessian, linear = hessian / scale, linear / scale
         if self.initialized:
-            self.qp.update(H=hessian, g=linear, C=rows, l=lower, u=self._upper, l_box=box_low, u_box=box_high)
+            self.qp.update(
+                H=hessian, g=linear, C=rows, l=lower, u=self._upper, l_box=box_low, u_box=box_high
+            )
         else:
             self.qp.init(hessian, linear, None, None, rows, lower, self._upper, box_low, box_high)
             self.initialized = True
@@ -140,15 +156,29 @@ class MotionRateController:
     |dq|^2 term, which this adds), the cost's value and gradient norm, and the domain rows.
     proximity.near(q, object_poses, INFLUENCE) -> tric_sim.collision.Closest: the collision pairs.
     contacts: what the hand may press ({scene body name: tric_sim.scene.Contact}), default the
-    proximity's (its situation's task's). limits: the QP's pieces (tric_control.limits.Limit), default
-    default_limits(robot, contacts); the inequality rows are stacked in their order. max_lead: how far
-    the command may lead the measured joints, rad, one for all or (n,); default MAX_LEAD on the arm
-    and MAX_HAND_LEAD on the hand.
+    proximity's (its situation's task's). limits: the QP's pieces (tric_control.limits.Limit),
+    default default_limits(robot, contacts); the inequality rows are stacked in their order.
+    max_lead: how far the command may lead the measured joints, rad, one for all or (n,); default
+    MAX_LEAD on the arm and MAX_HAND_LEAD on the hand.
     """
 
-    def __init__(self, robot: RobotModel, proximity: Proximity, objective, period: float = 0.01, *,
-                 contacts: dict = None, limits: list = None, max_lead=None):
-        self.robot, self.proximity, self.objective, self.period = robot, proximity, objective, period
+    def __init__(
+        self,
+        robot: RobotModel,
+        proximity: Proximity,
+        objective,
+        period: float = 0.01,
+        *,
+        contacts: dict = None,
+        limits: list = None,
+        max_lead=None,
+    ):
+        self.robot, self.proximity, self.objective, self.period = (
+            robot,
+            proximity,
+            objective,
+            period,
+        )
         if max_lead is None:
             max_lead = np.full(robot.n_joints, MAX_LEAD)
             max_lead[robot.hand_indices] = MAX_HAND_LEAD
@@ -156,10 +186,18 @@ class MotionRateController:
         if not np.all(np.isfinite(self.max_lead) & (self.max_lead >= 0)):
             raise ValueError("max_lead must be finite and >= 0 rad")
         if limits is None:
-            limits = default_limits(robot, getattr(proximity, "contacts", {}) if contacts is None else contacts)
+            limits = default_limits(
+                robot, getattr(proximity, "contacts", {}) if contacts is None else contacts
+            )
         self.limits = list(limits)
-        n, overridden = robot.n_joints, lambda method: [limit for limit in self.limits
-                                                        if getattr(type(limit), method) is not getattr(Limit, method)]
+        n, overridden = (
+            robot.n_joints,
+            lambda method: [
+                limit
+                for limit in self.limits
+                if getattr(type(limit), method) is not getattr(Limit, method)
+            ],
+        )
         self._costs, self._boxes = overridden("add_cost"), overridden("bound")
         self._slices, start = [], 0
         for limit in self.limits:
@@ -169,7 +207,7 @@ class MotionRateController:
         self.reference = None
         self.values = []
         self.history = []
-        self._step_metric = 2.0 * np.eye(n)        # the |dq|^2 term's Hessian
+        self._step_metric = 2.0 * np.eye(n)  # the |dq|^2 term's Hessian
         self._max_step = robot.velocity_limits * period
         self._state = StepState(max_step=self._max_step)
         self._hessian, self._linear = np.empty((n, n)), np.empty(n)
@@ -188,7 +226,9 @@ class MotionRateController:
         if self.reference is None:
             self.reset(q)
         previous = self.reference
-        self.reference = q + np.maximum(np.minimum(self.reference - q, self.max_lead), -self.max_lead)
+        self.reference = q + np.maximum(
+            np.minimum(self.reference - q, self.max_lead), -self.max_lead
+        )
         model = self.objective(q, object_poses)
         state = self._state
         state.q, state.reference, state.objective = q, self.reference, model
@@ -213,7 +253,9 @@ class MotionRateController:
             step = np.zeros(robot.n_joints)
         # the command moves by at most one velocity-bounded step per tick, within the joint limits
         max_step = self._max_step
-        target = previous + np.maximum(np.minimum(self.reference + step - previous, max_step), -max_step)
+        target = previous + np.maximum(
+            np.minimum(self.reference + step - previous, max_step), -max_step
+        )
         self.reference = np.maximum(np.minimum(target, robot.upper), robot.lower)
         binding = rows @ step <= lower + 1e-7
         active = []
@@ -223,12 +265,18 @@ class MotionRateController:
         self.history.append(q)
         if len(self.history) > CONVERGED_WINDOW:
             motion = q - self.history[-CONVERGED_WINDOW - 1]
-            converged = motion @ motion < CONVERGED_MOTION ** 2
+            converged = motion @ motion < CONVERGED_MOTION**2
         else:
             converged = False
-        return Tick(target=self.reference.copy(), value=model.value, gradient_norm=model.gradient_norm, step=step,
-                    min_distance=float(closest.distances[0]) if len(closest) else INFLUENCE, active=active,
-                    converged=converged)
+        return Tick(
+            target=self.reference.copy(),
+            value=model.value,
+            gradient_norm=model.gradient_norm,
+            step=step,
+            min_distance=float(closest.distances[0]) if len(closest) else INFLUENCE,
+            active=active,
+            converged=converged,
+        )
 
 
 @dataclass
@@ -254,21 +302,31 @@ class ValueObjective:
     Its domain rows: the DOMAIN_ROWS kept features nearest the bounds of their training range
     (scaled u in [-DOMAIN_MARGIN, 1 + DOMAIN_MARGIN]) among those a step can change (not, say, an
     object's position seen from the robot's base), nearest first: the gradients du/dq of their
-    margins (the upper bound's margin falls as u rises), the margins and their names. After each call,
-    scaled_features (s,) and value_gradient (s,) hold u and df/du at that q (for the status)."""
+    margins (the upper bound's margin falls as u rises), the margins and their names. After each
+    call, scaled_features (s,) and value_gradient (s,) hold u and df/du at that q (for the
+    status)."""
 
     def __init__(self, feature_map, value_function, delta: float, rho: float, feature_names=None):
         if not (delta > 0 and rho > 0):
             raise ValueError("delta and rho must be positive")
-        self.features, self.value_function, self.delta, self.rho = feature_map, value_function, delta, rho
+        self.features, self.value_function, self.delta, self.rho = (
+            feature_map,
+            value_function,
+            delta,
+            rho,
+        )
         scaling = value_function.scaling
         names = feature_names or feature_map.definition.feature_names
         self.kept_names = [names[k] for k in scaling.kept]
         self._kept, self._low, self._span = scaling.kept, scaling.low, scaling.high - scaling.low
         self._factor = scaling.factor
-        self._weights = np.zeros(scaling.size)                    # df/dy on the raw features
+        self._weights = np.zeros(scaling.size)  # df/dy on the raw features
         moving = np.flatnonzero(feature_map.moves_with_q[scaling.kept])
-        self._moving, self._moving_raw, self._moving_factor = moving, scaling.kept[moving], self._factor[moving]
+        self._moving, self._moving_raw, self._moving_factor = (
+            moving,
+            scaling.kept[moving],
+            self._factor[moving],
+        )
         self.scaled_features = self.value_gradient = None
 
     def __call__(self, q, object_poses) -> Objective:
@@ -284,8 +342,18 @@ class ValueObjective:
         margins = np.minimum(to_low, to_high)
         nearest = np.argsort(margins)[:DOMAIN_ROWS]
         signs = np.where(to_low.take(nearest) <= to_high.take(nearest), 1.0, -1.0)
-        rows = jacobian.take(self._moving_raw.take(nearest), axis=0) * (self._moving_factor.take(nearest) * signs)[:, None]
+        rows = (
+            jacobian.take(self._moving_raw.take(nearest), axis=0)
+            * (self._moving_factor.take(nearest) * signs)[:, None]
+        )
         two_rho = 2.0 * self.rho
-        return Objective(hessian=two_rho * (g[:, None] * g), linear=two_rho * self.delta * g, value=value,
-                         gradient_norm=math.sqrt(g @ g), gradient=g, domain_rows=rows, domain_margins=margins.take(nearest),
-                         domain_names=[self.kept_names[k] for k in self._moving.take(nearest).tolist()])
+        return Objective(
+            hessian=two_rho * (g[:, None] * g),
+            linear=two_rho * self.delta * g,
+            value=value,
+            gradient_norm=math.sqrt(g @ g),
+            gradient=g,
+            domain_rows=rows,
+            domain_margins=margins.take(nearest),
+            domain_names=[self.kept_names[k] for k in self._moving.take(nearest).tolist()],
+        )

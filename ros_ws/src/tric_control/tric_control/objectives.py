@@ -1,30 +1,29 @@
 """Objectives of the motion-rate controller, built from model files. ROS-free.
 
 make_objective(model_file, robot, period) turns a loaded tric_learning.model_file.ModelFile into the
-objective that tric_control.motion_rate.MotionRateController minimizes each tick. Every model kind the
-controller can run has its constructor here; the controller node refuses the others.
+objective that tric_control.motion_rate.MotionRateController minimizes each tick. Every model kind
+the controller can run has its constructor here; the controller node refuses the others.
 
 - "tric": Eq. 8-10, see motion_rate.ValueObjective.
 - "dpl_joint", "dpl_finger": the IK scheme of Sec. 5.3.2,
       C_DPL = |dq|^2 + DPL_WEIGHT |A dq - s pi(y)|^2 (+ C_prior: the controller's constraints)
-  with A = I for dpl_joint and A = J_f, the Jacobian (3 F, n) of the fingertips' positions in the box
-  frame (rows of dphi/dq), for dpl_finger. pi predicts the step per sample period of the
-  demonstrations (the paper's 125 ms, the model's sample_period_s); the controller takes one step per
-  control period, so s = period / sample_period_s scales it to a tick: the policy's velocity is
-  kept, and a demonstration's 5 s take about 5 s (500 ticks at 100 Hz) to imitate. The |dq|^2 term is
-  the controller's own; unconstrained, dpl_joint's step is DPL_WEIGHT / (DPL_WEIGHT + 1) s pi(y).
+  with A = I for dpl_joint and A = J_f, the Jacobian (3 F, n) of the fingertips' positions in the
+  box frame (rows of dphi/dq), for dpl_finger. pi predicts the step per sample period of the
+  demonstrations (the paper's 125 ms, the model's sample_period_s); the controller takes one step
+  per control period, so s = period / sample_period_s scales it to a tick: the policy's velocity is
+  kept, and a demonstration's 5 s take about 5 s (500 ticks at 100 Hz) to imitate. The |dq|^2 term
+  is the controller's own; unconstrained, dpl_joint's step is DPL_WEIGHT / (DPL_WEIGHT + 1) s pi(y).
 """
 
 import math
 
 import numpy as np
 
+from tric_control.motion_rate import Objective, ValueObjective
 from tric_learning import dpl
 from tric_learning.features import FeatureMap
 from tric_learning.model_file import ModelFile, value_function
 from tric_sim.robot_model import RobotModel
-
-from tric_control.motion_rate import Objective, ValueObjective
 
 #: Model kinds make_objective can build an objective for.
 RUNNABLE_KINDS = ("tric", "dpl_joint", "dpl_finger")
@@ -35,30 +34,39 @@ CONTROL_PERIOD = 0.01
 
 
 def make_objective(model_file: ModelFile, robot: RobotModel, period: float = CONTROL_PERIOD):
-    """The controller objective of model_file on robot for a control period (s), or ValueError saying
-    why it cannot be run."""
+    """The controller objective of model_file on robot for a control period (s), or ValueError
+    saying why it cannot be run."""
     if model_file.kind == "tric":
         return _tric_objective(model_file, robot)
     if model_file.kind in dpl.DPL_KINDS:
         return _dpl_objective(model_file, robot, period)
-    raise ValueError(f"model kind '{model_file.kind}' cannot be run by this controller "
-                     f"(runnable kinds: {', '.join(RUNNABLE_KINDS)})")
+    raise ValueError(
+        f"model kind '{model_file.kind}' cannot be run by this controller "
+        f"(runnable kinds: {', '.join(RUNNABLE_KINDS)})"
+    )
 
 
 def _tric_objective(model_file: ModelFile, robot: RobotModel) -> ValueObjective:
-    """TRIC (Eq. 8-10): rho (g^T dq + delta)^2 with the model's value function f and its delta, rho."""
+    """TRIC (Eq. 8-10): rho (g^T dq + delta)^2 with the model's value function f and its delta,
+    rho."""
     numbers = {}
     for name in ("delta", "rho"):
         value = model_file.info.get(name)
         try:
             value = float(value)
         except (TypeError, ValueError):
-            raise ValueError(f"the TRIC model has no usable '{name}' in its info ({value!r})") from None
+            raise ValueError(
+                f"the TRIC model has no usable '{name}' in its info ({value!r})"
+            ) from None
         if not (math.isfinite(value) and value > 0):
             raise ValueError(f"the TRIC model's {name} must be finite and positive, got {value!r}")
         numbers[name] = value
-    return ValueObjective(FeatureMap(model_file.definition, robot), value_function(model_file),
-                         numbers["delta"], numbers["rho"])
+    return ValueObjective(
+        FeatureMap(model_file.definition, robot),
+        value_function(model_file),
+        numbers["delta"],
+        numbers["rho"],
+    )
 
 
 def _dpl_objective(model_file: ModelFile, robot: RobotModel, period: float) -> "DplObjective":
@@ -71,25 +79,40 @@ def _dpl_objective(model_file: ModelFile, robot: RobotModel, period: float) -> "
         try:
             sample_period = float(sample_period)
         except (TypeError, ValueError):
-            raise ValueError(f"it has no usable 'sample_period_s' in its info ({sample_period!r})") from None
+            raise ValueError(
+                f"it has no usable 'sample_period_s' in its info ({sample_period!r})"
+            ) from None
         if not (math.isfinite(sample_period) and sample_period > 0):
-            raise ValueError(f"its sample_period_s must be finite and positive, got {sample_period!r}")
+            raise ValueError(
+                f"its sample_period_s must be finite and positive, got {sample_period!r}"
+            )
         rows = dpl.finger_rows(model_file.definition) if model_file.kind == "dpl_finger" else None
-        return DplObjective(FeatureMap(model_file.definition, robot), dpl.load_policy(model_file),
-                            period / sample_period, rows)
+        return DplObjective(
+            FeatureMap(model_file.definition, robot),
+            dpl.load_policy(model_file),
+            period / sample_period,
+            rows,
+        )
     except ValueError as error:
         raise ValueError(f"the {model_file.kind} model cannot be run: {error}") from None
 
 
 class DplObjective:
-    """C_DPL (see the module docstring) without the controller's |dq|^2: DPL_WEIGHT |A dq - s pi(y)|^2,
-    A = I (rows None: the policy predicts joint steps) or the feature Jacobian's rows (the policy
-    predicts those features' steps). Its value is NaN: a policy has no cost to report."""
+    """C_DPL (see the module docstring) without the controller's |dq|^2: DPL_WEIGHT |A dq - s
+    pi(y)|^2, A = I (rows None: the policy predicts joint steps) or the feature Jacobian's rows (the
+    policy predicts those features' steps). Its value is NaN: a policy has no cost to report."""
 
-    def __init__(self, feature_map: FeatureMap, policy: dpl.DplPolicy, step_scale: float, rows=None):
+    def __init__(
+        self, feature_map: FeatureMap, policy: dpl.DplPolicy, step_scale: float, rows=None
+    ):
         if not step_scale > 0:
             raise ValueError("step_scale must be positive")
-        self.features, self.policy, self.step_scale, self.rows = feature_map, policy, step_scale, rows
+        self.features, self.policy, self.step_scale, self.rows = (
+            feature_map,
+            policy,
+            step_scale,
+            rows,
+        )
 
     def __call__(self, q, object_poses) -> Objective:
         if self.rows is None:
@@ -102,4 +125,9 @@ class DplObjective:
             rows = jacobian[self.rows]
             hessian = 2.0 * DPL_WEIGHT * rows.T @ rows
             linear = -2.0 * DPL_WEIGHT * rows.T @ target
-        return Objective(hessian=hessian, linear=linear, value=math.nan, gradient_norm=float(np.linalg.norm(linear)))
+        return Objective(
+            hessian=hessian,
+            linear=linear,
+            value=math.nan,
+            gradient_norm=float(np.linalg.norm(linear)),
+        )

@@ -4,11 +4,12 @@ The same episodes as through the nodes (tric_control.evaluate_cli), without the 
 reset to the situation, the model's controller is run by the same EpisodeRunner as the controller
 node's, each command goes to the physics as the simulator would apply it, and the final state is
 judged by the same hidden metrics (with the lift test for grasps). The teacher runs its core
-(tric_sim.teachers.demonstrate) the same way. Sweeps and method studies use this; the README's tables
-come from the nodes.
+(tric_sim.teachers.demonstrate) the same way. Sweeps and method studies use this; the README's
+tables come from the nodes.
 
-An episode through the nodes and offline differ only in the lockstep protocol's timing (the simulator
-steps on its own when a command is late), so the two agree to within the physics' run-to-run spread.
+An episode through the nodes and offline differ only in the lockstep protocol's timing (the
+simulator steps on its own when a command is late), so the two agree to within the physics'
+run-to-run spread.
 """
 
 import concurrent.futures
@@ -36,14 +37,20 @@ class OfflineEvaluator:
     Args:
         task: "grasp" or "open_box".
         model: a model file path, or None for the teacher.
-        max_steps: control ticks per episode at most (0: the task's DEFAULT_MAX_STEPS, as the controller
-            node's).
+        max_steps: control ticks per episode at most (0: the task's DEFAULT_MAX_STEPS, as the
+            controller node's).
         period: the control period, s.
         controller_options: keyword arguments of MotionRateController (e.g. max_lead), for studies.
     """
 
-    def __init__(self, task: str, model=None, max_steps: int = 0, period: float = CONTROL_PERIOD,
-                 controller_options: dict = None):
+    def __init__(
+        self,
+        task: str,
+        model=None,
+        max_steps: int = 0,
+        period: float = CONTROL_PERIOD,
+        controller_options: dict = None,
+    ):
         self.task, self.model, self.period = task, model, period
         self.controller_options = dict(controller_options or {})
         self.max_steps = max_steps or DEFAULT_MAX_STEPS[task]
@@ -54,8 +61,11 @@ class OfflineEvaluator:
             model_file = ModelFile.load(model, FeatureDefinition.for_task(task, self.robot))
             self.objective = make_objective(model_file, self.robot, period)
             self.kind = model_file.kind
-            self.objects = tuple(source.partition("/")[2] for source in model_file.definition.landmark_sources
-                                 if source.startswith("object/"))
+            self.objects = tuple(
+                source.partition("/")[2]
+                for source in model_file.definition.landmark_sources
+                if source.startswith("object/")
+            )
         self.world = PhysicsWorld(self.robot, control_rate_hz=1.0 / period)
 
     @property
@@ -68,10 +78,17 @@ class OfflineEvaluator:
     def run(self, situation, snapshot: pathlib.Path = None) -> EpisodeRecord:
         """One episode of the agent on situation, judged by the hidden metrics."""
         if situation.task != self.task:
-            raise ValueError(f"situation '{situation.name}' is a '{situation.task}' task, not '{self.task}'")
+            raise ValueError(
+                f"situation '{situation.name}' is a '{situation.task}' task, not '{self.task}'"
+            )
         started = time.monotonic()
         world, grasp = self.world, situation.task == "grasp"
-        record = dict(situation=situation.name, task=situation.task, agent=self.agent, min_joint_margin=float("nan"))
+        record = dict(
+            situation=situation.name,
+            task=situation.task,
+            agent=self.agent,
+            min_joint_margin=float("nan"),
+        )
         if self.model is None:
             duration = teachers.DEFAULT_DURATION[situation.task]
             teachers.demonstrate(world, self.robot, situation, duration)
@@ -80,9 +97,16 @@ class OfflineEvaluator:
                 self._snapshot(snapshot, situation)
         else:
             world.reset(situation)
-            controller = MotionRateController(self.robot, Proximity(self.robot, situation), self.objective, self.period,
-                                              **self.controller_options)
-            runner = EpisodeRunner(self.robot, controller, self.max_steps, self.period, self.objects)
+            controller = MotionRateController(
+                self.robot,
+                Proximity(self.robot, situation),
+                self.objective,
+                self.period,
+                **self.controller_options,
+            )
+            runner = EpisodeRunner(
+                self.robot, controller, self.max_steps, self.period, self.objects
+            )
             outcome = None
             try:
                 while outcome is None:
@@ -92,21 +116,38 @@ class OfflineEvaluator:
                     world.step()
                     outcome = decided.outcome
             except RuntimeError as error:
-                return EpisodeRecord(**record, success=False, grasp_cost=float("nan"), lift_passed=None,
-                                     lid_angle=float("nan"), min_distance=float("nan"), collided=False,
-                                     steps=runner.stats.steps, wall_time_s=time.monotonic() - started,
-                                     outcome="failed", message=str(error))
+                return EpisodeRecord(
+                    **record,
+                    success=False,
+                    grasp_cost=float("nan"),
+                    lift_passed=None,
+                    lid_angle=float("nan"),
+                    min_distance=float("nan"),
+                    collided=False,
+                    steps=runner.stats.steps,
+                    wall_time_s=time.monotonic() - started,
+                    outcome="failed",
+                    message=str(error),
+                )
             steps, outcome = runner.stats.steps, outcome[0]
             record["min_joint_margin"] = runner.stats.min_joint_margin
             if snapshot is not None:
                 self._snapshot(snapshot, situation)
         judged = metrics.evaluate(world, self.robot, run_lift_test=grasp)
         return EpisodeRecord(
-            **record, success=bool(judged.success), grasp_cost=judged.grasp_cost if grasp else float("nan"),
+            **record,
+            success=bool(judged.success),
+            grasp_cost=judged.grasp_cost if grasp else float("nan"),
             lift_passed=bool(judged.lift_passed) if grasp else None,
-            lid_angle=float("nan") if grasp else judged.lid_angle, min_distance=judged.min_distance,
-            collided=bool(judged.collided), steps=int(steps), wall_time_s=time.monotonic() - started,
-            outcome=outcome, max_joint_overshoot=judged.max_joint_overshoot, failure=judged.failure)
+            lid_angle=float("nan") if grasp else judged.lid_angle,
+            min_distance=judged.min_distance,
+            collided=bool(judged.collided),
+            steps=int(steps),
+            wall_time_s=time.monotonic() - started,
+            outcome=outcome,
+            max_joint_overshoot=judged.max_joint_overshoot,
+            failure=judged.failure,
+        )
 
     def _snapshot(self, folder: pathlib.Path, situation) -> None:
         import matplotlib.pyplot as plt
@@ -115,14 +156,24 @@ class OfflineEvaluator:
         plt.imsave(folder / f"{situation.name}.png", self.world.render(480, 360))
 
 
-def evaluate_offline(situations, model=None, max_steps: int = 0, snapshots=None, progress=True,
-                     desc="evaluating offline", jobs: int = 1, controller_options: dict = None) -> list:
-    """Run the agent (a model file, or the teacher if None) on every situation offline; [EpisodeRecord]
-    in the situations' order. jobs > 1: that many spawned worker processes, each with its own world.
-    controller_options: see OfflineEvaluator."""
+def evaluate_offline(
+    situations,
+    model=None,
+    max_steps: int = 0,
+    snapshots=None,
+    progress=True,
+    desc="evaluating offline",
+    jobs: int = 1,
+    controller_options: dict = None,
+) -> list:
+    """Run the agent (a model file, or the teacher if None) on every situation offline;
+    [EpisodeRecord] in the situations' order. jobs > 1: that many spawned worker processes, each
+    with its own world. controller_options: see OfflineEvaluator."""
     tasks = {s.task for s in situations}
     if len(tasks) != 1:
-        raise ValueError(f"the situations mix tasks ({', '.join(sorted(tasks))}): evaluate one task at a time")
+        raise ValueError(
+            f"the situations mix tasks ({', '.join(sorted(tasks))}): evaluate one task at a time"
+        )
     if jobs < 1:
         raise ValueError(f"jobs must be at least 1, not {jobs}")
     task = tasks.pop()
@@ -131,7 +182,9 @@ def evaluate_offline(situations, model=None, max_steps: int = 0, snapshots=None,
     records = [None] * len(situations)
     with tqdm(total=len(situations), desc=desc, unit="episode", disable=not progress) as bar:
         if jobs <= 1:
-            evaluator = OfflineEvaluator(task, model, max_steps, controller_options=controller_options)
+            evaluator = OfflineEvaluator(
+                task, model, max_steps, controller_options=controller_options
+            )
             try:
                 for k, situation in enumerate(situations):
                     bar.set_postfix_str(situation.name)
@@ -141,9 +194,16 @@ def evaluate_offline(situations, model=None, max_steps: int = 0, snapshots=None,
                 evaluator.close()
             return records
         spawn = multiprocessing.get_context("spawn")
-        with concurrent.futures.ProcessPoolExecutor(jobs, mp_context=spawn, initializer=_start_worker,
-                                                    initargs=(task, model, max_steps, controller_options)) as pool:
-            futures = {pool.submit(_run_in_worker, situation, snapshot): k for k, situation in enumerate(situations)}
+        with concurrent.futures.ProcessPoolExecutor(
+            jobs,
+            mp_context=spawn,
+            initializer=_start_worker,
+            initargs=(task, model, max_steps, controller_options),
+        ) as pool:
+            futures = {
+                pool.submit(_run_in_worker, situation, snapshot): k
+                for k, situation in enumerate(situations)
+            }
             try:
                 for future in concurrent.futures.as_completed(futures):
                     records[futures[future]] = future.result()
@@ -155,14 +215,18 @@ def evaluate_offline(situations, model=None, max_steps: int = 0, snapshots=None,
     return records
 
 
-#: A worker process's OfflineEvaluator, or the error that building it raised (re-raised by each run).
+#: A worker process's OfflineEvaluator, or the error that building it raised (re-raised by each
+#: run).
 _worker = {}
 
 
 def _start_worker(task, model, max_steps, controller_options):
     try:
-        _worker["evaluator"] = OfflineEvaluator(task, model, max_steps, controller_options=controller_options)
-    except Exception as error:  # an initializer's exception would only break the pool, without its message
+        _worker["evaluator"] = OfflineEvaluator(
+            task, model, max_steps, controller_options=controller_options
+        )
+    # an initializer's exception would only break the pool, without its message
+    except Exception as error:
         _worker["error"] = error
 
 

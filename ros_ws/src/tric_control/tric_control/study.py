@@ -1,6 +1,7 @@
 """tric-study: compare training variants of TRIC on the training and validation sets, over seeds.
 
-    tric-study [--variant NAME=OPTIONS ...] [--seeds S ...] [--tasks TASK ...] [--out DIR] [--jobs N]
+    tric-study [--variant NAME=OPTIONS ...] [--seeds S ...] [--tasks TASK ...] [--out DIR] [--jobs
+    N]
 
 A variant is a name and TrainingConfig fields to change from the defaults, e.g.
 `--variant balanced=per_step_weights=true,optimizer=lbfgsb,alpha_g=3` (no options: the defaults),
@@ -20,8 +21,8 @@ draws the noisy samples and the initial weights) and measured:
 
 Test sets are never used here: choices are made on training and validation sets; test sets are only
 reported (tric-experiments). Models are kept in DIR/models and re-used; every result is merged into
-DIR/study.json, so a study can be extended run by run. Prints one row per variant, seed and task, and
-per variant the mean, min and max over the seeds.
+DIR/study.json, so a study can be extended run by run. Prints one row per variant, seed and task,
+and per variant the mean, min and max over the seeds.
 """
 
 import argparse
@@ -48,8 +49,8 @@ from tric_sim.robot_model import RobotModel
 from tric_sim.situations import dataset
 
 BAGS = pathlib.Path("bags")
-#: Each task: the bags its model is trained on, the sets it is measured on, its episodes' step budget
-#: (the controller's default for the task, tric_control.episode.DEFAULT_MAX_STEPS).
+#: Each task: the bags its model is trained on, the sets it is measured on, its episodes' step
+#: budget (the controller's default for the task, tric_control.episode.DEFAULT_MAX_STEPS).
 TASKS = {
     "sphere": ("sphere", ("sphere_val",), DEFAULT_MAX_STEPS["grasp"]),
     "cylinder": ("cylinder", ("cylinder_train", "cylinder_val"), DEFAULT_MAX_STEPS["grasp"]),
@@ -60,7 +61,8 @@ TASKS = {
 
 #: Controller settings a variant may change, with their types.
 CONTROLLER_OPTIONS = {"hand_lead": float, "grasp_steps": int, "box_steps": int}
-#: Training procedures beyond TrainingConfig: rounds of hard negatives (tric_control.hard_negatives).
+#: Training procedures beyond TrainingConfig: rounds of hard negatives
+#: (tric_control.hard_negatives).
 PROCEDURE_OPTIONS = {"hard_negative_rounds": int}
 
 
@@ -76,8 +78,10 @@ def parse_variant(text: str):
         key, _, value = option.partition("=")
         extras = {**CONTROLLER_OPTIONS, **PROCEDURE_OPTIONS}
         if (key not in fields and key not in extras) or key == "seed":
-            raise ValueError(f"variant '{name}': unknown option '{key}' (known: "
-                             f"{', '.join([k for k in fields if k != 'seed'] + list(extras))})")
+            raise ValueError(
+                f"variant '{name}': unknown option '{key}' (known: "
+                f"{', '.join([k for k in fields if k != 'seed'] + list(extras))})"
+            )
         kind = extras.get(key) or type(getattr(TrainingConfig(), key))
         if kind is bool:
             if value.lower() not in ("true", "false"):
@@ -87,10 +91,18 @@ def parse_variant(text: str):
             try:
                 changes[key] = kind(value)
             except ValueError:
-                raise ValueError(f"variant '{name}': {key} must be a {kind.__name__}, got '{value}'") from None
+                raise ValueError(
+                    f"variant '{name}': {key} must be a {kind.__name__}, got '{value}'"
+                ) from None
     TrainingConfig(**training_part(changes)).validate()
-    if changes.get("hand_lead", 0.0) < 0 or changes.get("grasp_steps", 1) < 1 or changes.get("box_steps", 1) < 1:
-        raise ValueError(f"variant '{name}': hand_lead must be >= 0 rad and the step budgets >= 1 tick")
+    if (
+        changes.get("hand_lead", 0.0) < 0
+        or changes.get("grasp_steps", 1) < 1
+        or changes.get("box_steps", 1) < 1
+    ):
+        raise ValueError(
+            f"variant '{name}': hand_lead must be >= 0 rad and the step budgets >= 1 tick"
+        )
     if changes.get("hard_negative_rounds", 0) < 0:
         raise ValueError(f"variant '{name}': hard_negative_rounds must be >= 0")
     return name, changes
@@ -107,15 +119,21 @@ def measure_set(records) -> dict:
     grasps = [r for r in records if r.task == "grasp"]
     if grasps:
         costs = [r.grasp_cost for r in grasps if math.isfinite(r.grasp_cost)]
-        return {"episodes": len(records), "cost_mean": float(np.mean(costs)) if costs else math.nan,
-                "good": sum(r.grasp_cost < GOOD_GRASP for r in grasps),
-                "lifted": sum(r.lift_passed is True for r in grasps),
-                "collisions": sum(bool(r.collided) for r in records),
-                "overshoot": max(r.max_joint_overshoot for r in records)}
-    return {"episodes": len(records), "opened": sum(r.lid_angle > OPEN_LID for r in records),
-            "lid_mean": float(np.mean([r.lid_angle for r in records])),
+        return {
+            "episodes": len(records),
+            "cost_mean": float(np.mean(costs)) if costs else math.nan,
+            "good": sum(r.grasp_cost < GOOD_GRASP for r in grasps),
+            "lifted": sum(r.lift_passed is True for r in grasps),
             "collisions": sum(bool(r.collided) for r in records),
-            "overshoot": max(r.max_joint_overshoot for r in records)}
+            "overshoot": max(r.max_joint_overshoot for r in records),
+        }
+    return {
+        "episodes": len(records),
+        "opened": sum(r.lid_angle > OPEN_LID for r in records),
+        "lid_mean": float(np.mean([r.lid_angle for r in records])),
+        "collisions": sum(bool(r.collided) for r in records),
+        "overshoot": max(r.max_joint_overshoot for r in records),
+    }
 
 
 class Study:
@@ -139,8 +157,12 @@ class Study:
         seed, trained unless a model of the same options was (by any variant). Hard negatives roll
         the controller out for max_steps ticks."""
         rounds = changes.get("hard_negative_rounds", 0)
-        config = {**training_part(changes), "seed": seed, **({"hard_negative_rounds": rounds} if rounds else {}),
-                  "bags_digest": self.bags_digest(bags)}
+        config = {
+            **training_part(changes),
+            "seed": seed,
+            **({"hard_negative_rounds": rounds} if rounds else {}),
+            "bags_digest": self.bags_digest(bags),
+        }
         for key, record in self.results.get("models", {}).items():
             path = self._model_path(key)
             if key.split("/")[1] == bags and record["config"] == config and path.is_file():
@@ -151,24 +173,35 @@ class Study:
         print(f"training {variant} on {BAGS / bags}, seed {seed}", flush=True)
         started = time.perf_counter()
         if rounds:
-            result = train_with_hard_negatives(demos, self.robot, TrainingConfig(**training_part(config), seed=seed),
-                                               rounds, max_steps)
+            result = train_with_hard_negatives(
+                demos,
+                self.robot,
+                TrainingConfig(**training_part(config), seed=seed),
+                rounds,
+                max_steps,
+            )
         else:
             result = train(demos, self.robot, TrainingConfig(**training_part(config), seed=seed))
         model_file.from_training(result, demos).save(path)
         numbers = analysis.key_numbers(result.model, demos, 20)
-        record = {"config": config, "train_s": time.perf_counter() - started,
-                  "iterations": result.iterations, "losses": result.losses,
-                  "falls_moving": numbers["decreasing_share_moving_steps"],
-                  "cosine_moving": numbers["mean_cosine_moving_steps"],
-                  "selected_features": numbers["selected_features"], "kept_features": numbers["kept_features"]}
+        record = {
+            "config": config,
+            "train_s": time.perf_counter() - started,
+            "iterations": result.iterations,
+            "losses": result.losses,
+            "falls_moving": numbers["decreasing_share_moving_steps"],
+            "cosine_moving": numbers["mean_cosine_moving_steps"],
+            "selected_features": numbers["selected_features"],
+            "kept_features": numbers["kept_features"],
+        }
         self.results.setdefault("models", {})[key] = record
         self.save()
         return path, record
 
     @staticmethod
     def bags_digest(bags: str) -> str:
-        """A digest of the bags' contents: a model trained on other bags of the same name is not re-used."""
+        """A digest of the bags' contents: a model trained on other bags of the same name is not
+        re-used."""
         digest = hashlib.sha1()
         for path in bag_paths([BAGS / bags]):
             digest.update(path.name.encode())
@@ -188,10 +221,23 @@ class Study:
             lead[self.robot.hand_indices] = changes["hand_lead"]
             options["max_lead"] = lead
         path, record = self.model(variant, changes, bags, seed, max_steps)
-        row = {"variant": variant, "task": task, "seed": seed, "changes": changes, "model": record, "sets": {}}
+        row = {
+            "variant": variant,
+            "task": task,
+            "seed": seed,
+            "changes": changes,
+            "model": record,
+            "sets": {},
+        }
         for name in sets:
-            records = evaluate_offline(dataset(name), str(path), max_steps, jobs=self.jobs,
-                                       desc=f"{variant} s{seed} {name}", controller_options=options)
+            records = evaluate_offline(
+                dataset(name),
+                str(path),
+                max_steps,
+                jobs=self.jobs,
+                desc=f"{variant} s{seed} {name}",
+                controller_options=options,
+            )
             row["sets"][name] = measure_set(records)
         row["date"] = time.strftime("%Y-%m-%d %H:%M")
         self.results.setdefault("rows", {})[f"{variant}/{task}/{seed}"] = row
@@ -199,7 +245,8 @@ class Study:
         return row
 
     def save(self):
-        """Merge this study's models and rows into the file (another study may have written it since)."""
+        """Merge this study's models and rows into the file (another study may have written it
+        since)."""
         merged = json.loads(self.path.read_text()) if self.path.is_file() else {}
         for part in ("models", "rows"):
             merged.setdefault(part, {}).update(self.results.get(part, {}))
@@ -209,13 +256,17 @@ class Study:
 
 def format_row(row: dict) -> str:
     m = row["model"]
-    cells = [f"{row['variant']:16s} {row['task']:8s} s{row['seed']:<2d} cos {m['cosine_moving']:6.3f} "
-             f"falls {m['falls_moving']:5.3f} sel {m['selected_features']:3d} train {m['train_s']:5.1f}s"]
+    cells = [
+        f"{row['variant']:16s} {row['task']:8s} s{row['seed']:<2d} cos {m['cosine_moving']:6.3f} "
+        f"falls {m['falls_moving']:5.3f} sel {m['selected_features']:3d} train {m['train_s']:5.1f}s"
+    ]
     for name, s in row["sets"].items():
         if "opened" in s:
             cells.append(f"{name} {s['opened']}/{s['episodes']}")
         else:
-            cells.append(f"{name} {s['cost_mean']:.3f} good {s['good']}/{s['episodes']} lift {s['lifted']}")
+            cells.append(
+                f"{name} {s['cost_mean']:.3f} good {s['good']}/{s['episodes']} lift {s['lifted']}"
+            )
         if s["collisions"]:
             cells.append(f"({s['collisions']} coll.)")
     return "  ".join(cells)
@@ -228,8 +279,10 @@ def seed_summary(rows: list) -> str:
     for row in rows:
         groups.setdefault((row["variant"], row["task"]), []).append(row)
     for (variant, task), group in groups.items():
-        measures = {"cos": [r["model"]["cosine_moving"] for r in group],
-                    "falls": [r["model"]["falls_moving"] for r in group]}
+        measures = {
+            "cos": [r["model"]["cosine_moving"] for r in group],
+            "falls": [r["model"]["falls_moving"] for r in group],
+        }
         for name in group[0]["sets"]:
             sets = [r["sets"][name] for r in group]
             if "opened" in sets[0]:
@@ -238,21 +291,40 @@ def seed_summary(rows: list) -> str:
                 measures[f"{name} cost"] = [s["cost_mean"] for s in sets]
                 measures[f"{name} good"] = [s["good"] for s in sets]
                 measures[f"{name} lifted"] = [s["lifted"] for s in sets]
-        parts = [f"{k} {'/'.join(format(v, '.3g') for v in values)} (mean {np.mean(values):.3g}, "
-                 f"min {np.min(values):.3g}, max {np.max(values):.3g})" for k, values in measures.items()]
+        parts = [
+            f"{k} {'/'.join(format(v, '.3g') for v in values)} (mean {np.mean(values):.3g}, "
+            f"min {np.min(values):.3g}, max {np.max(values):.3g})"
+            for k, values in measures.items()
+        ]
         lines.append(f"{variant} / {task} over {len(group)} seeds: " + "; ".join(parts))
     return "\n".join(lines)
 
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(prog="tric-study", description=__doc__.splitlines()[0])
-    parser.add_argument("--variant", action="append", default=[], metavar="NAME=OPTIONS",
-                        help="a training variant (repeatable; default: 'default=' the paper's settings)")
-    parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2], help="training seeds (default 0 1 2)")
-    parser.add_argument("--tasks", nargs="+", default=list(TASKS), choices=list(TASKS),
-                        help="tasks to measure (default: all)")
-    parser.add_argument("--out", default="results/study", help="folder of the models and study.json")
-    parser.add_argument("--jobs", type=int, default=os.cpu_count() or 1, help="offline episodes run at once")
+    parser.add_argument(
+        "--variant",
+        action="append",
+        default=[],
+        metavar="NAME=OPTIONS",
+        help="a training variant (repeatable; default: 'default=' the paper's settings)",
+    )
+    parser.add_argument(
+        "--seeds", type=int, nargs="+", default=[0, 1, 2], help="training seeds (default 0 1 2)"
+    )
+    parser.add_argument(
+        "--tasks",
+        nargs="+",
+        default=list(TASKS),
+        choices=list(TASKS),
+        help="tasks to measure (default: all)",
+    )
+    parser.add_argument(
+        "--out", default="results/study", help="folder of the models and study.json"
+    )
+    parser.add_argument(
+        "--jobs", type=int, default=os.cpu_count() or 1, help="offline episodes run at once"
+    )
     args = parser.parse_args(argv)
     try:
         variants = [parse_variant(text) for text in args.variant or ["default="]]

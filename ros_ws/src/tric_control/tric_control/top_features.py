@@ -32,5 +32,8 @@ class TopFeatures:
         before the first call and for objectives without a value function."""
         if self.objective is None or self.objective.scaled_features is None:
             return [], [], []
-        return (list(self.names), self.objective.scaled_features[self.indices].tolist(),
-                self.objective.value_gradient[self.indices].tolist())
+        return (
+            list(self.names),
+            self.objective.scaled_features[self.indices].tolist(),
+            self.objective.value_gradient[self.indices].tolist(),
+        )

@@ -1,5 +1,5 @@
-"""MCAP bags (tric_learning.bags): round trips checked by this module, by `mcap`, by `rosbags` and by
-ROS 2's own serializer; the rosbag2 conventions of the file; crash safety and damaged files; the
+"""MCAP bags (tric_learning.bags): round trips checked by this module, by `mcap`, by `rosbags` and
+by ROS 2's own serializer; the rosbag2 conventions of the file; crash safety and damaged files; the
 reference datasets under bags/ read by our reader and by `rosbags`."""
 
 import array
@@ -12,9 +12,12 @@ import signal
 import subprocess
 import sys
 
+import geometry_msgs.msg
 import numpy as np
 import pytest
 import yaml
+from builtin_interfaces.msg import Time
+from geometry_msgs.msg import Point, Point32, Polygon, Pose, Quaternion
 from mcap.reader import make_reader
 from mcap.records import Schema
 from mcap.writer import Writer as McapWriter
@@ -22,14 +25,19 @@ from mcap_ros2.decoder import DecoderFactory
 from rclpy.serialization import deserialize_message, serialize_message
 from rosbags.highlevel import AnyReader
 from rosbags.typesys import get_types_from_msg
-
-import geometry_msgs.msg
-from builtin_interfaces.msg import Time
-from geometry_msgs.msg import Point, Point32, Polygon, Pose, Quaternion
 from sensor_msgs.msg import Image, Imu, JointState
 from shape_msgs.msg import SolidPrimitive
-from std_msgs.msg import (Byte, ByteMultiArray, Char, Empty, Header, MultiArrayDimension, MultiArrayLayout,
-                          UInt16MultiArray)
+from std_msgs.msg import (
+    Byte,
+    ByteMultiArray,
+    Char,
+    Empty,
+    Header,
+    MultiArrayDimension,
+    MultiArrayLayout,
+    UInt16MultiArray,
+)
+
 from tric_learning import bags
 from tric_learning.recording import SAMPLES_TOPIC, bag_paths, load_dataset
 from tric_msgs.msg import EpisodeEvent, FeatureSample, ObjectPoses, Situation, TaskMetrics
@@ -46,13 +54,26 @@ def _pose(x, y, z, qw=1.0):
 def _situation():
     box = SolidPrimitive(type=SolidPrimitive.BOX, dimensions=[0.1, 0.2, 0.3])
     cylinder = SolidPrimitive(type=SolidPrimitive.CYLINDER, dimensions=[0.5, 0.05])
-    prism = SolidPrimitive(type=SolidPrimitive.PRISM, dimensions=[0.25],
-                           polygon=Polygon(points=[Point32(x=0.5, y=-0.25, z=0.0), Point32(x=1.5)]))
-    return Situation(name="sphere_grid_07", task="grasp", object_kind="sphere", object_dimensions=[0.04],
-                     object_pose=_pose(0.5, 0.1, 0.8), obstacles=[box, cylinder, prism],
-                     obstacle_poses=[_pose(0.3, -0.2, 0.9), _pose(0.6, 0.3, 0.85, qw=-1.0),
-                                     _pose(0.0, 0.0, 0.0)],
-                     initial_joint_positions=[], seed=7)
+    prism = SolidPrimitive(
+        type=SolidPrimitive.PRISM,
+        dimensions=[0.25],
+        polygon=Polygon(points=[Point32(x=0.5, y=-0.25, z=0.0), Point32(x=1.5)]),
+    )
+    return Situation(
+        name="sphere_grid_07",
+        task="grasp",
+        object_kind="sphere",
+        object_dimensions=[0.04],
+        object_pose=_pose(0.5, 0.1, 0.8),
+        obstacles=[box, cylinder, prism],
+        obstacle_poses=[
+            _pose(0.3, -0.2, 0.9),
+            _pose(0.6, 0.3, 0.85, qw=-1.0),
+            _pose(0.0, 0.0, 0.0),
+        ],
+        initial_joint_positions=[],
+        seed=7,
+    )
 
 
 def _feature_sample(step, n_joints=7, n_features=12):
@@ -61,41 +82,87 @@ def _feature_sample(step, n_joints=7, n_features=12):
     jacobian[3] = NAN
     return FeatureSample(
         header=Header(stamp=Time(sec=12, nanosec=500_000_000 + step), frame_id="world"),
-        step=step, fingerprint="f" * 64, q=rng.uniform(-1, 1, n_joints).tolist(),
+        step=step,
+        fingerprint="f" * 64,
+        q=rng.uniform(-1, 1, n_joints).tolist(),
         y=[NAN, math.inf, -0.0] + rng.normal(size=n_features - 3).tolist(),
-        jacobian_rows=n_features, jacobian_cols=n_joints, jacobian=jacobian.tolist(),
-        objects=ObjectPoses(header=Header(frame_id="world"), names=["object", "lid"],
-                            poses=[_pose(0.5, 0.0, 0.8), _pose(0.5, 0.1, 0.9, qw=0.5)]))
+        jacobian_rows=n_features,
+        jacobian_cols=n_joints,
+        jacobian=jacobian.tolist(),
+        objects=ObjectPoses(
+            header=Header(frame_id="world"),
+            names=["object", "lid"],
+            poses=[_pose(0.5, 0.0, 0.8), _pose(0.5, 0.1, 0.9, qw=0.5)],
+        ),
+    )
 
 
 def _sample_messages():
     """(topic, message, stamp in ns) of every kind the module must round-trip, in write order."""
-    pairs = UInt16MultiArray(layout=MultiArrayLayout(dim=[MultiArrayDimension(label="pairs", size=2)]),
-                             data=[0, 1, 65535, 7])
-    metrics = TaskMetrics(task="grasp", grasp_cost=NAN, cost_term_names=["x"], cost_term_values=[0.25],
-                          lift_tested=True, lift_passed=False, lift_height=0.0, lid_angle=NAN,
-                          success=False, min_distance=-0.001, collided=True)
+    pairs = UInt16MultiArray(
+        layout=MultiArrayLayout(dim=[MultiArrayDimension(label="pairs", size=2)]),
+        data=[0, 1, 65535, 7],
+    )
+    metrics = TaskMetrics(
+        task="grasp",
+        grasp_cost=NAN,
+        cost_term_names=["x"],
+        cost_term_values=[0.25],
+        lift_tested=True,
+        lift_passed=False,
+        lift_height=0.0,
+        lid_angle=NAN,
+        success=False,
+        min_distance=-0.001,
+        collided=True,
+    )
     empty_sample = _feature_sample(9)
     empty_sample.q, empty_sample.y, empty_sample.jacobian = [], [], []
     empty_sample.objects = ObjectPoses()
     imu = Imu()
     imu.orientation_covariance[:] = np.arange(9.0)
     imu.orientation_covariance[4] = NAN
-    layout = MultiArrayLayout(dim=[MultiArrayDimension(label="rows", size=2, stride=4),
-                                   MultiArrayDimension(label="cols", size=2, stride=2)], data_offset=1)
+    layout = MultiArrayLayout(
+        dim=[
+            MultiArrayDimension(label="rows", size=2, stride=4),
+            MultiArrayDimension(label="cols", size=2, stride=2),
+        ],
+        data_offset=1,
+    )
     return [
         ("/pairs", pairs, 1_000),
-        ("/joint_states", JointState(header=Header(stamp=Time(sec=1, nanosec=2), frame_id="base"),
-                                     name=["arm_1", "arm_2", "finger_1"], position=[0.5, -1.25, NAN],
-                                     velocity=[], effort=[1e-300, -1e300, 0.0]), 2_000),
+        (
+            "/joint_states",
+            JointState(
+                header=Header(stamp=Time(sec=1, nanosec=2), frame_id="base"),
+                name=["arm_1", "arm_2", "finger_1"],
+                position=[0.5, -1.25, NAN],
+                velocity=[],
+                effort=[1e-300, -1e300, 0.0],
+            ),
+            2_000,
+        ),
         ("/samples", _feature_sample(0), 3_000),
         ("/samples", _feature_sample(1), 4_000),
         ("/situation", _situation(), 5_000),
-        ("/episode", EpisodeEvent(header=Header(frame_id="world"), event=EpisodeEvent.OUTCOME,
-                                  episode_id="sphere_grid_07", source="teacher", situation=_situation(),
-                                  metrics=metrics), 6_000),
+        (
+            "/episode",
+            EpisodeEvent(
+                header=Header(frame_id="world"),
+                event=EpisodeEvent.OUTCOME,
+                episode_id="sphere_grid_07",
+                source="teacher",
+                situation=_situation(),
+                metrics=metrics,
+            ),
+            6_000,
+        ),
         ("/samples", empty_sample, 7_000),
-        ("/image", Image(height=1, width=5, encoding="mono8", step=5, data=bytes([0, 1, 2, 255, 0])), 8_000),
+        (
+            "/image",
+            Image(height=1, width=5, encoding="mono8", step=5, data=bytes([0, 1, 2, 255, 0])),
+            8_000,
+        ),
         ("/bytes", ByteMultiArray(layout=layout, data=[b"\x00", b"\x7f", b"\x07"]), 9_000),
         ("/imu", imu, 10_000),
         ("/empty", Empty(), 11_000),
@@ -137,12 +204,15 @@ def _items(value):
 
 
 def assert_same(expected, actual, where="message"):
-    """actual (decoded by any reader) holds the same fields and values as the rclpy message expected."""
+    """actual (decoded by any reader) holds the same fields and values as the rclpy message
+    expected."""
     if hasattr(type(expected), "get_fields_and_field_types"):
         for name in type(expected).get_fields_and_field_types():
             assert_same(getattr(expected, name), getattr(actual, name), f"{where}.{name}")
     elif isinstance(expected, (list, tuple, array.array, np.ndarray)) or (
-            isinstance(expected, bytes) and not isinstance(actual, (int, np.integer))):  # rclpy: byte = b'x'
+        # rclpy: byte = b'x'
+        isinstance(expected, bytes) and not isinstance(actual, (int, np.integer))
+    ):
         expected_items, actual_items = _items(expected), _items(actual)
         assert len(expected_items) == len(actual_items), where
         for i, (e, a) in enumerate(zip(expected_items, actual_items)):
@@ -158,8 +228,11 @@ def assert_same(expected, actual, where="message"):
 
 def test_the_module_does_not_import_rclpy():
     check = "import sys, tric_learning.bags; assert 'rclpy' not in sys.modules, sorted(sys.modules)"
-    subprocess.run([sys.executable, "-c", check], check=True,
-                   env={**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)})
+    subprocess.run(
+        [sys.executable, "-c", check],
+        check=True,
+        env={**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)},
+    )
 
 
 # --- message definitions ---------------------------------------------------------------------
@@ -171,8 +244,14 @@ def test_message_definition_concatenates_dependencies_once_like_rosbag2():
     parts = text.split(separator)
     assert parts[0] == bags._interface_file("tric_msgs/msg/FeatureSample", ".msg").read_text()
     names = [p.split("\n", 1)[0] for p in parts[1:]]
-    assert names == ["MSG: std_msgs/Header", "MSG: builtin_interfaces/Time", "MSG: tric_msgs/ObjectPoses",
-                     "MSG: geometry_msgs/Pose", "MSG: geometry_msgs/Point", "MSG: geometry_msgs/Quaternion"]
+    assert names == [
+        "MSG: std_msgs/Header",
+        "MSG: builtin_interfaces/Time",
+        "MSG: tric_msgs/ObjectPoses",
+        "MSG: geometry_msgs/Pose",
+        "MSG: geometry_msgs/Point",
+        "MSG: geometry_msgs/Quaternion",
+    ]
     # Constants, default values, bounded arrays and trailing comments come through as installed.
     solid = bags.message_definition("shape_msgs/SolidPrimitive")
     assert "uint8 BOX=1" in solid and "float64[<=3] dimensions  # At no point" in solid
@@ -180,12 +259,19 @@ def test_message_definition_concatenates_dependencies_once_like_rosbag2():
     assert "float64 w 1" in text
     # An independent parser reads every type out of it.
     types = get_types_from_msg(text, "tric_msgs/msg/FeatureSample")
-    assert {"tric_msgs/msg/FeatureSample", "tric_msgs/msg/ObjectPoses", "std_msgs/msg/Header",
-            "builtin_interfaces/msg/Time", "geometry_msgs/msg/Quaternion"} <= set(types)
+    assert {
+        "tric_msgs/msg/FeatureSample",
+        "tric_msgs/msg/ObjectPoses",
+        "std_msgs/msg/Header",
+        "builtin_interfaces/msg/Time",
+        "geometry_msgs/msg/Quaternion",
+    } <= set(types)
 
 
 def test_message_definition_of_an_unknown_type_is_a_clear_error():
-    with pytest.raises(ValueError, match="no share/tric_msgs/msg/NoSuchType.msg under AMENT_PREFIX_PATH"):
+    with pytest.raises(
+        ValueError, match="no share/tric_msgs/msg/NoSuchType.msg under AMENT_PREFIX_PATH"
+    ):
         bags.message_definition("tric_msgs/msg/NoSuchType")
     with pytest.raises(ValueError, match="not a message type name"):
         bags.message_definition("JointState")
@@ -201,17 +287,23 @@ def test_read_bag_returns_what_was_written(bag, messages):
         assert got.type_name == bags.ros_type_name(type(expected))
         assert_same(expected, got.message, topic)
     sample = read[2].message
-    assert math.isnan(sample.jacobian[3]) and sample.y[1] == math.inf and math.copysign(1, sample.y[2]) < 0
+    assert (
+        math.isnan(sample.jacobian[3])
+        and sample.y[1] == math.inf
+        and math.copysign(1, sample.y[2]) < 0
+    )
     assert read[7].message.data == bytes([0, 1, 2, 255, 0])
 
 
 def _rosbag2_folder(bag, folder):
     """folder, made what rosbags reads: a rosbag2 directory with the bag file and the metadata.yaml
-    that rosbag2 would write, which is the bag's own last "rosbag2" metadata record (written at close)."""
+    that rosbag2 would write, which is the bag's own last "rosbag2" metadata record (written at
+    close)."""
     folder.mkdir(parents=True, exist_ok=True)
     shutil.copy(bag, folder / bag.name)
-    (folder / "metadata.yaml").write_text(yaml.safe_dump(
-        {"rosbag2_bagfile_information": _rosbag2_metadata(bag)[-1]}))
+    (folder / "metadata.yaml").write_text(
+        yaml.safe_dump({"rosbag2_bagfile_information": _rosbag2_metadata(bag)[-1]})
+    )
     return folder
 
 
@@ -226,8 +318,11 @@ def test_rosbags_reads_the_same_messages(bag, messages, tmp_path):
 
 def test_mcap_indexed_reader_reads_the_same_messages(bag, messages):
     with open(bag, "rb") as file:
-        read = list(make_reader(file, decoder_factories=[DecoderFactory()]).iter_decoded_messages(
-            log_time_order=True))
+        read = list(
+            make_reader(file, decoder_factories=[DecoderFactory()]).iter_decoded_messages(
+                log_time_order=True
+            )
+        )
     assert [(c.topic, m.log_time) for _, c, m, _ in read] == [(t, s) for t, _, s in messages]
     for (topic, expected, _), (_, _, _, got) in zip(messages, read):
         assert_same(expected, got, topic)
@@ -239,15 +334,21 @@ def test_cdr_is_what_ros2_serializes(messages):
         assert_same(message, deserialize_message(data, type(message)), f"rclpy reads ours: {topic}")
         # and the reader decodes ROS 2's own bytes (which end with padding)
         type_name = bags.ros_type_name(type(message))
-        schema = Schema(id=len(type_name), name=type_name, encoding="ros2msg",
-                        data=bags.message_definition(type_name).encode())
+        schema = Schema(
+            id=len(type_name),
+            name=type_name,
+            encoding="ros2msg",
+            data=bags.message_definition(type_name).encode(),
+        )
         decode = DecoderFactory().decoder_for("cdr", schema)
         assert_same(message, decode(serialize_message(message)), f"ours reads rclpy's: {topic}")
     # Values rosbags reads differently (as int8: byte values above 127; char: a wrong type hash), so
     # not in the bag above; mcap_ros2 reads char as int8 too.
     for message in (Char(data=200), Byte(data=b"\x80"), ByteMultiArray(data=[b"\xff", b"\x80"])):
         assert_same(message, deserialize_message(bags.serialize_cdr(message), type(message)))
-    assert bags.serialize_cdr(ByteMultiArray(data=[b"\xff", b"\x80"])).endswith(b"\x02\x00\x00\x00\xff\x80")
+    assert bags.serialize_cdr(ByteMultiArray(data=[b"\xff", b"\x80"])).endswith(
+        b"\x02\x00\x00\x00\xff\x80"
+    )
 
 
 # --- rosbag2 conventions ---------------------------------------------------------------------
@@ -255,8 +356,11 @@ def test_cdr_is_what_ros2_serializes(messages):
 
 def _rosbag2_metadata(path):
     with open(path, "rb") as file:
-        return [yaml.safe_load(m.metadata["serialized_metadata"])
-                for m in make_reader(file).iter_metadata() if m.name == "rosbag2"]
+        return [
+            yaml.safe_load(m.metadata["serialized_metadata"])
+            for m in make_reader(file).iter_metadata()
+            if m.name == "rosbag2"
+        ]
 
 
 def test_file_follows_rosbag2_mcap_conventions(bag, messages):
@@ -275,11 +379,17 @@ def test_file_follows_rosbag2_mcap_conventions(bag, messages):
     for topic, channel in channels.items():
         assert channel.message_encoding == "cdr"
         (qos,) = yaml.safe_load(channel.metadata["offered_qos_profiles"])
-        assert qos == {"history": "keep_last", "depth": 10, "reliability": "reliable",
-                       "durability": "transient_local" if topic in LATCHED else "volatile",
-                       "deadline": {"sec": 0, "nsec": 0}, "lifespan": {"sec": 0, "nsec": 0},
-                       "liveliness": "automatic", "liveliness_lease_duration": {"sec": 0, "nsec": 0},
-                       "avoid_ros_namespace_conventions": False}
+        assert qos == {
+            "history": "keep_last",
+            "depth": 10,
+            "reliability": "reliable",
+            "durability": "transient_local" if topic in LATCHED else "volatile",
+            "deadline": {"sec": 0, "nsec": 0},
+            "lifespan": {"sec": 0, "nsec": 0},
+            "liveliness": "automatic",
+            "liveliness_lease_duration": {"sec": 0, "nsec": 0},
+            "avoid_ros_namespace_conventions": False,
+        }
         assert channel.metadata["topic_type_hash"].startswith("RIHS01_")
 
 
@@ -294,13 +404,22 @@ def test_rosbag2_metadata_record_is_version_9_with_counts(bag, messages):
     stamps = [s for _, _, s in messages]
     assert final["starting_time"] == {"nanoseconds_since_epoch": min(stamps)}
     assert final["duration"] == {"nanoseconds": max(stamps) - min(stamps)}
-    assert final["files"] == [{"path": bag.name, "starting_time": final["starting_time"],
-                               "duration": final["duration"], "message_count": len(messages)}]
+    assert final["files"] == [
+        {
+            "path": bag.name,
+            "starting_time": final["starting_time"],
+            "duration": final["duration"],
+            "message_count": len(messages),
+        }
+    ]
     counts = {t: sum(1 for topic, _, _ in messages if topic == t) for t, _, _ in messages}
     topics = {t["topic_metadata"]["name"]: t for t in final["topics_with_message_count"]}
     assert {name: t["message_count"] for name, t in topics.items()} == counts
     samples = topics["/samples"]["topic_metadata"]
-    assert samples["type"] == "tric_msgs/msg/FeatureSample" and samples["serialization_format"] == "cdr"
+    assert (
+        samples["type"] == "tric_msgs/msg/FeatureSample"
+        and samples["serialization_format"] == "cdr"
+    )
     assert samples["type_description_hash"].startswith("RIHS01_")
     assert samples["offered_qos_profiles"][0]["durability"] == "volatile"
     (situation_qos,) = topics["/situation"]["topic_metadata"]["offered_qos_profiles"]
@@ -313,19 +432,30 @@ def test_bag_info_reads_the_summary(bag, messages):
     assert info.message_count == len(messages)
     assert (info.start_ns, info.end_ns) == (1_000, 13_000)
     assert info.custom_data == CUSTOM_DATA
-    assert info.topics["/samples"] == bags.TopicInfo("/samples", "tric_msgs/msg/FeatureSample", 3, False)
+    assert info.topics["/samples"] == bags.TopicInfo(
+        "/samples", "tric_msgs/msg/FeatureSample", 3, False
+    )
     assert info.topics["/situation"].latched and not info.topics["/joint_states"].latched
 
 
 def test_topic_selection_and_expected_types(bag):
     read = list(bags.read_bag(bag, topics=["/joint_states", "/nothing"]))
     assert [m.topic for m in read] == ["/joint_states", "/joint_states"]
-    ok = bags.read_bag(bag, ["/samples"], expected_types={"/samples": FeatureSample,
-                                                          "/joint_states": "sensor_msgs/msg/JointState",
-                                                          "/missing": JointState})
+    ok = bags.read_bag(
+        bag,
+        ["/samples"],
+        expected_types={
+            "/samples": FeatureSample,
+            "/joint_states": "sensor_msgs/msg/JointState",
+            "/missing": JointState,
+        },
+    )
     assert len(list(ok)) == 3
-    with pytest.raises(ValueError, match=r"demo.mcap: topic /samples has type tric_msgs/msg/FeatureSample, "
-                                         r"expected sensor_msgs/msg/JointState"):
+    with pytest.raises(
+        ValueError,
+        match=r"demo.mcap: topic /samples has type tric_msgs/msg/FeatureSample, "
+        r"expected sensor_msgs/msg/JointState",
+    ):
         bags.read_bag(bag, expected_types={"/samples": JointState})
     # tolerant reading checks when it meets the topic, before any of its messages
     read = bags.read_bag(bag, expected_types={"/samples": "sensor_msgs/JointState"}, tolerant=True)
@@ -341,11 +471,17 @@ def test_writer_refuses_a_message_class_generated_from_another_definition(tmp_pa
     # JointState class posing as tric_msgs/FeatureSample), possibly only in a nested type.
     stale = type("FeatureSample", (JointState,), {"__module__": "tric_msgs.msg._feature_sample"})
     with bags.BagWriter(tmp_path / "demo.mcap") as writer:
-        with pytest.raises(ValueError, match=r"has the fields \['header', 'name', .*declares \['header', "
-                                             r"'step', .*rebuild tric_msgs"):
+        with pytest.raises(
+            ValueError,
+            match=r"has the fields \['header', 'name', .*declares \['header', "
+            r"'step', .*rebuild tric_msgs",
+        ):
             writer.add_topic("/samples", stale)
-        monkeypatch.setattr(geometry_msgs.msg, "Pose",
-                            type("Pose", (JointState,), {"__module__": "geometry_msgs.msg._pose"}))
+        monkeypatch.setattr(
+            geometry_msgs.msg,
+            "Pose",
+            type("Pose", (JointState,), {"__module__": "geometry_msgs.msg._pose"}),
+        )
         with pytest.raises(ValueError, match="Pose has the fields .* rebuild geometry_msgs"):
             writer.add_topic("/situation", Situation)
 
@@ -413,14 +549,19 @@ def test_empty_bag(tmp_path):
 
 
 def test_truncated_bag_is_refused_strictly_and_read_up_to_the_damage_tolerantly(messages, tmp_path):
-    messages = messages + [("/samples", _feature_sample(step, n_joints=20, n_features=224), 20_000 + step)
-                           for step in range(2, 12)]
+    messages = messages + [
+        ("/samples", _feature_sample(step, n_joints=20, n_features=224), 20_000 + step)
+        for step in range(2, 12)
+    ]
     data = _write_bag(tmp_path / "demo.mcap", messages).read_bytes()
     truncated = tmp_path / "truncated.mcap"
-    truncated.write_bytes(data[:len(data) // 2])
-    with pytest.raises(ValueError, match=r"truncated.mcap is truncated or corrupt at byte \d+ of \d+ .*"
-                                         r"; \d+ messages before the damage are readable"
-                                         r".*tric-train --tolerant reads those"):
+    truncated.write_bytes(data[: len(data) // 2])
+    with pytest.raises(
+        ValueError,
+        match=r"truncated.mcap is truncated or corrupt at byte \d+ of \d+ .*"
+        r"; \d+ messages before the damage are readable"
+        r".*tric-train --tolerant reads those",
+    ):
         bags.read_bag(truncated)
     with pytest.raises(ValueError, match="truncated or corrupt"):
         bags.bag_info(truncated)
@@ -457,21 +598,28 @@ def test_every_truncation_yields_a_prefix_or_a_clear_error(tmp_path):
 
 def test_corrupt_bytes_give_the_right_messages_or_a_clear_error(tmp_path):
     """100 single-bit flips, each read strictly and tolerantly: every read is refused with a
-    ValueError or gives the right messages (strictly: all of them). The outcomes are counted, so that
-    the test fails if the flips never reach a message (every read refused) or are never detected."""
+    ValueError or gives the right messages (strictly: all of them). The outcomes are counted, so
+    that the test fails if the flips never reach a message (every read refused) or are never
+    detected."""
     messages = [("/joint_states", JointState(name=["a"], position=[float(i)]), i) for i in range(5)]
     data = _write_bag(tmp_path / "small.mcap", messages).read_bytes()
     corrupt_file = tmp_path / "corrupt.mcap"
     rng = random.Random(0)
-    outcomes = {(tolerant, outcome): 0 for tolerant in (False, True) for outcome in ("refused", "some", "all")}
+    outcomes = {
+        (tolerant, outcome): 0
+        for tolerant in (False, True)
+        for outcome in ("refused", "some", "all")
+    }
     for position in sorted(rng.sample(range(len(data)), 100)):
         corrupt = bytearray(data)
         corrupt[position] ^= 1 << rng.randrange(8)
         corrupt_file.write_bytes(corrupt)
         for tolerant in (False, True):
             try:
-                read = [(m.stamp_ns, m.message.position[0])
-                        for m in bags.read_bag(corrupt_file, tolerant=tolerant)]
+                read = [
+                    (m.stamp_ns, m.message.position[0])
+                    for m in bags.read_bag(corrupt_file, tolerant=tolerant)
+                ]
                 bags.bag_info(corrupt_file, tolerant=tolerant)
             except ValueError:
                 outcomes[tolerant, "refused"] += 1
@@ -480,27 +628,28 @@ def test_corrupt_bytes_give_the_right_messages_or_a_clear_error(tmp_path):
             assert tolerant or len(read) == 5, position
             outcomes[tolerant, "all" if len(read) == 5 else "some"] += 1
     assert sum(outcomes.values()) == 200 and outcomes[False, "some"] == 0
-    assert outcomes[False, "refused"] and outcomes[False, "all"], outcomes      # flips found and flips harmless
-    assert outcomes[True, "some"] and outcomes[True, "all"], outcomes           # tolerant: up to the damage
+    # flips found and flips harmless
+    assert outcomes[False, "refused"] and outcomes[False, "all"], outcomes
+    # tolerant: up to the damage
+    assert outcomes[True, "some"] and outcomes[True, "all"], outcomes
 
 
 def test_a_writer_killed_with_sigkill_leaves_its_flushed_messages(tmp_path):
     child = (
-        "import sys, time\n"
-        "from sensor_msgs.msg import JointState\n"
-        "from tric_learning.bags import BagWriter\n"
-        "writer = BagWriter(sys.argv[1], custom_data={'episode_id': 'killed'})\n"
-        "writer.add_topic('/joint_states', JointState)\n"
-        "for i in range(5):\n"
-        "    writer.write('/joint_states', JointState(name=['j'], position=[float(i)]), 1000 + i)\n"
-        "    writer.flush()\n"
-        "writer.write('/joint_states', JointState(name=['j'], position=[5.0]), 1005)  # not flushed\n"
-        "print('flushed', flush=True)\n"
-        "time.sleep(60)\n")
+        "import sys, time\nfrom sensor_msgs.msg import JointState\nfrom tric_learning.bags import "
+        "BagWriter\nwriter = BagWriter(sys.argv[1], custom_data={'episode_id': "
+        "'killed'})\nwriter.add_topic('/joint_states', JointState)\nfor i in range(5):\n    "
+        "writer.write('/joint_states', JointState(name=['j'], position=[float(i)]), 1000 + i)\n   "
+        " writer.flush()\nwriter.write('/joint_states', JointState(name=['j'], position=[5.0]), "
+        "1005)  # not flushed\nprint('flushed', flush=True)\ntime.sleep(60)\n"
+    )
     path = tmp_path / "killed.mcap"
-    process = subprocess.Popen([sys.executable, "-c", child, str(path)], stdout=subprocess.PIPE,
-                               stderr=subprocess.PIPE,
-                               env={**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)})
+    process = subprocess.Popen(
+        [sys.executable, "-c", child, str(path)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        env={**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)},
+    )
     try:
         line = process.stdout.readline()
         if line.strip() != b"flushed":
@@ -514,9 +663,15 @@ def test_a_writer_killed_with_sigkill_leaves_its_flushed_messages(tmp_path):
     with pytest.raises(ValueError, match="5 messages before the damage"):
         bags.read_bag(part)
     read = list(bags.read_bag(part, tolerant=True))
-    assert [(m.stamp_ns, m.message.position[0]) for m in read] == [(1000 + i, float(i)) for i in range(5)]
+    assert [(m.stamp_ns, m.message.position[0]) for m in read] == [
+        (1000 + i, float(i)) for i in range(5)
+    ]
     info = bags.bag_info(part, tolerant=True)
-    assert not info.complete and info.message_count == 5 and info.custom_data == {"episode_id": "killed"}
+    assert (
+        not info.complete
+        and info.message_count == 5
+        and info.custom_data == {"episode_id": "killed"}
+    )
 
 
 def test_foreign_and_missing_files_are_refused_clearly(tmp_path):
@@ -526,7 +681,9 @@ def test_foreign_and_missing_files_are_refused_clearly(tmp_path):
         bags.bag_info(tmp_path)
     text = tmp_path / "notes.mcap"
     text.write_text("these are not the bytes you are looking for\n")
-    with pytest.raises(ValueError, match="notes.mcap is not an MCAP bag: it does not start with the MCAP "):
+    with pytest.raises(
+        ValueError, match="notes.mcap is not an MCAP bag: it does not start with the MCAP "
+    ):
         bags.read_bag(text, tolerant=True)
     with pytest.raises(ValueError, match="not an MCAP bag"):
         bags.bag_info(text)
@@ -538,15 +695,21 @@ def test_foreign_and_missing_files_are_refused_clearly(tmp_path):
         writer = McapWriter(file)
         writer.start(profile="ros1")
         writer.finish()
-    with pytest.raises(ValueError, match="other.mcap is an MCAP file but not a ROS 2 bag .profile 'ros1'"):
+    with pytest.raises(
+        ValueError, match="other.mcap is an MCAP file but not a ROS 2 bag .profile 'ros1'"
+    ):
         bags.read_bag(other)
     with pytest.raises(ValueError, match="not a ROS 2 bag"):
         bags.bag_info(other, tolerant=True)
 
 
-@pytest.mark.parametrize("folder, task, demos, samples", [
-    ("sphere", "grasp", 27, 40), ("cylinder", "grasp", 10, 40), ("box", "open_box", 10, 64)])
-def test_reference_dataset_loads_and_rosbags_reads_the_same_samples(folder, task, demos, samples, tmp_path):
+@pytest.mark.parametrize(
+    "folder, task, demos, samples",
+    [("sphere", "grasp", 27, 40), ("cylinder", "grasp", 10, 40), ("box", "open_box", 10, 64)],
+)
+def test_reference_dataset_loads_and_rosbags_reads_the_same_samples(
+    folder, task, demos, samples, tmp_path
+):
     """The reference datasets committed under bags/ load with our reader, and rosbags reads the same
     samples from every bag."""
     files = bag_paths([REFERENCE_BAGS / folder])
@@ -557,6 +720,9 @@ def test_reference_dataset_loads_and_rosbags_reads_the_same_samples(folder, task
     for bag, demo in zip(files, dataset.demos):
         with AnyReader([_rosbag2_folder(bag, tmp_path / bag.stem)]) as reader:
             connections = [c for c in reader.connections if c.topic == SAMPLES_TOPIC]
-            read = [reader.deserialize(raw, c.msgtype) for c, _, raw in reader.messages(connections=connections)]
+            read = [
+                reader.deserialize(raw, c.msgtype)
+                for c, _, raw in reader.messages(connections=connections)
+            ]
         assert np.array_equal([message.q for message in read], demo.q), bag.name
         assert np.array_equal([message.y for message in read], demo.y), bag.name

@@ -13,10 +13,10 @@ import tempfile
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, event, given, settings, strategies as st
+from hypothesis import HealthCheck, event, given, settings
+from hypothesis import strategies as st
 from safetensors import safe_open
 from safetensors.numpy import save_file
-from tric_msgs.msg import EpisodeEvent, TaskMetrics
 
 from tric_learning import samples, train_cli
 from tric_learning.dataset import Dataset
@@ -24,6 +24,7 @@ from tric_learning.features import FeatureDefinition
 from tric_learning.model_file import ModelFile, value_function, value_function_arrays
 from tric_learning.recording import BagRecorder, load_dataset
 from tric_learning.value_function import Scaling, ValueFunction
+from tric_msgs.msg import EpisodeEvent, TaskMetrics
 from tric_sim import messages, situations
 from tric_sim.robot_model import RobotModel
 
@@ -37,23 +38,32 @@ def robot():
     return RobotModel()
 
 
-def write_demo_bag(path: pathlib.Path, robot: RobotModel, situation, outcome="success", episode_id=None):
+def write_demo_bag(
+    path: pathlib.Path, robot: RobotModel, situation, outcome="success", episode_id=None
+):
     """A short TRIC demonstration bag (5 samples of a moving arm) written by the recorder's
     BagRecorder. outcome: "success", "failure", None (closed without an outcome) or "unfinished"
     (left as a .part file, as by a killed recorder)."""
     episode_id = episode_id or situation.name
-    start = EpisodeEvent(event=EpisodeEvent.START, episode_id=episode_id, source="teacher",
-                         situation=messages.situation_to_msg(situation))
+    start = EpisodeEvent(
+        event=EpisodeEvent.START,
+        episode_id=episode_id,
+        source="teacher",
+        situation=messages.situation_to_msg(situation),
+    )
     start.header.stamp = messages.time_msg(START_NS)
     recorder = BagRecorder(path, robot, situation, episode_id, "teacher", start, period=0.02)
     poses = {"object": (situation.object_position, situation.object_orientation)}
     q = robot.home.copy()
     stamp = START_NS
-    for k in range(11):  # a state every 10 ms, a sample every 20 ms: the last state ends the episode
+    # a state every 10 ms, a sample every 20 ms: the last state ends the episode
+    for k in range(11):
         stamp = START_NS + k * 10_000_000
         q[:3] += 0.01
         recorder.object_poses(messages.object_poses_msg(poses, stamp))
-        recorder.joint_state(messages.joint_state_msg(robot.joint_names, q, np.zeros(len(q)), stamp))
+        recorder.joint_state(
+            messages.joint_state_msg(robot.joint_names, q, np.zeros(len(q)), stamp)
+        )
     end = EpisodeEvent(event=EpisodeEvent.END, episode_id=episode_id, source="teacher")
     end.header.stamp = messages.time_msg(stamp)
     recorder.end(end)
@@ -63,9 +73,20 @@ def write_demo_bag(path: pathlib.Path, robot: RobotModel, situation, outcome="su
     report = None
     if outcome is not None:
         success = outcome == "success"
-        report = EpisodeEvent(event=EpisodeEvent.OUTCOME, episode_id=episode_id, source="teacher", metrics=TaskMetrics(
-            task="grasp", grasp_cost=0.05 if success else 0.6, lift_tested=True, lift_passed=success,
-            lid_angle=math.nan, success=success, min_distance=0.02))
+        report = EpisodeEvent(
+            event=EpisodeEvent.OUTCOME,
+            episode_id=episode_id,
+            source="teacher",
+            metrics=TaskMetrics(
+                task="grasp",
+                grasp_cost=0.05 if success else 0.6,
+                lift_tested=True,
+                lift_passed=success,
+                lid_angle=math.nan,
+                success=success,
+                min_distance=0.02,
+            ),
+        )
         report.header.stamp = messages.time_msg(stamp)
     return recorder.finish(report)
 
@@ -80,19 +101,27 @@ def good_bag(robot, tmp_path_factory):
 
 
 def test_failed_demonstrations_and_missing_outcomes_are_refused_by_name(robot, tmp_path):
-    for name, outcome in (("ok_1", "success"), ("ok_2", "success"), ("failed", "failure"), ("silent", None)):
+    for name, outcome in (
+        ("ok_1", "success"),
+        ("ok_2", "success"),
+        ("failed", "failure"),
+        ("silent", None),
+    ):
         write_demo_bag(tmp_path / f"{name}.mcap", robot, sphere(name), outcome)
     with pytest.raises(ValueError) as refusal:
         load_dataset([tmp_path], robot)
     assert str(refusal.value) == (
-        f"2 of 4 bags are not successful demonstrations: {tmp_path / 'failed.mcap'} (failed: grasp cost 0.6); "
-        f"{tmp_path / 'silent.mcap'} (no recorded outcome). Leave them out, or include them on purpose "
-        "(tric-train --include-failed)")
+        f"2 of 4 bags are not successful demonstrations: {tmp_path / 'failed.mcap'} (failed: "
+        f"grasp cost 0.6); {tmp_path / 'silent.mcap'} (no recorded outcome). Leave them out, or "
+        "include them on purpose (tric-train --include-failed)"
+    )
     notes = []
     dataset = load_dataset([tmp_path], robot, include_failed=True, notice=notes.append)
     assert [demo.name for demo in dataset.demos] == ["failed", "ok_1", "ok_2", "silent"]
-    assert notes == [f"included {tmp_path / 'failed.mcap'} (failed: grasp cost 0.6), as include_failed asks",
-                     f"included {tmp_path / 'silent.mcap'} (no recorded outcome), as include_failed asks"]
+    assert notes == [
+        f"included {tmp_path / 'failed.mcap'} (failed: grasp cost 0.6), as include_failed asks",
+        f"included {tmp_path / 'silent.mcap'} (no recorded outcome), as include_failed asks",
+    ]
 
 
 def test_unfinished_recordings_are_named_when_skipped_and_read_with_tolerant(robot, tmp_path):
@@ -101,48 +130,75 @@ def test_unfinished_recordings_are_named_when_skipped_and_read_with_tolerant(rob
     notes = []
     assert [d.name for d in load_dataset([tmp_path], robot, notice=notes.append).demos] == ["ok_1"]
     assert notes == [f"skipped {part}: an unfinished recording (tric-train --tolerant reads it)"]
-    with pytest.raises(ValueError, match=f"bag {part} is truncated or corrupt .*tric-train --tolerant reads those"):
+    with pytest.raises(
+        ValueError, match=f"bag {part} is truncated or corrupt .*tric-train --tolerant reads those"
+    ):
         load_dataset([part], robot)
     notes.clear()
-    dataset = load_dataset([tmp_path], robot, tolerant=True, include_failed=True, notice=notes.append)
+    dataset = load_dataset(
+        [tmp_path], robot, tolerant=True, include_failed=True, notice=notes.append
+    )
     assert [(d.name, d.length) for d in dataset.demos] == [("killed", 5), ("ok_1", 5)]
-    assert notes == [f"reading {part} up to its end or damage: it is not a finished bag",
-                     f"included {part} (no recorded outcome), as include_failed asks"]
+    assert notes == [
+        f"reading {part} up to its end or damage: it is not a finished bag",
+        f"included {part} (no recorded outcome), as include_failed asks",
+    ]
 
 
 def test_a_demonstration_recorded_twice_names_both_bags(robot, tmp_path):
     write_demo_bag(tmp_path / "sphere_grid_00.mcap", robot, sphere("sphere_grid_00"))
     write_demo_bag(tmp_path / "sphere_grid_00_1.mcap", robot, sphere("sphere_grid_00"))
-    with pytest.raises(ValueError, match=f"bags {tmp_path / 'sphere_grid_00.mcap'} and "
-                                         f"{tmp_path / 'sphere_grid_00_1.mcap'} both hold the demonstration "
-                                         "'sphere_grid_00' \\(recorded twice into one folder\\?\\)"):
+    with pytest.raises(
+        ValueError,
+        match=f"bags {tmp_path / 'sphere_grid_00.mcap'} and "
+        f"{tmp_path / 'sphere_grid_00_1.mcap'} both hold the demonstration "
+        "'sphere_grid_00' \\(recorded twice into one folder\\?\\)",
+    ):
         load_dataset([tmp_path], robot)
 
 
-def test_a_demonstration_without_collision_free_samples_is_named_with_its_bag(robot, tmp_path, capsys):
-    blocked = situations.Situation(name="blocked", task="grasp", object_kind="sphere", object_dimensions=(0.04,),
-                                   object_position=(0.6, 0.1, 0.3), obstacles=(BLOCKING_OBSTACLE,))
+def test_a_demonstration_without_collision_free_samples_is_named_with_its_bag(
+    robot, tmp_path, capsys
+):
+    blocked = situations.Situation(
+        name="blocked",
+        task="grasp",
+        object_kind="sphere",
+        object_dimensions=(0.04,),
+        object_position=(0.6, 0.1, 0.3),
+        obstacles=(BLOCKING_OBSTACLE,),
+    )
     bag = write_demo_bag(tmp_path / "bags" / "blocked.mcap", robot, blocked)
     dataset = load_dataset([bag], robot)
-    with pytest.raises(ValueError, match=f"demo 'blocked' \\(bag {bag}\\): none of its noisy samples"):
+    with pytest.raises(
+        ValueError, match=f"demo 'blocked' \\(bag {bag}\\): none of its noisy samples"
+    ):
         samples.generate(dataset, robot, 5, 0.05, 0)
-    status = train_cli.main([str(bag), "--out", str(tmp_path / "m.safetensors"), "--noisy-samples", "5", "--quiet"])
+    status = train_cli.main(
+        [str(bag), "--out", str(tmp_path / "m.safetensors"), "--noisy-samples", "5", "--quiet"]
+    )
     assert status == 2
-    assert capsys.readouterr().err.startswith(f"tric-train: demo 'blocked' (bag {bag}): none of its noisy samples")
+    assert capsys.readouterr().err.startswith(
+        f"tric-train: demo 'blocked' (bag {bag}): none of its noisy samples"
+    )
     assert not (tmp_path / "m.safetensors").exists()
 
 
 def test_tric_train_checks_its_output_before_training(robot, good_bag, tmp_path, capsys):
     (tmp_path / "folder.safetensors").mkdir()
-    for out, reason in (("/proc/x.safetensors", "/proc refuses new files"),
-                        (str(tmp_path / "folder.safetensors"), "is a folder")):
+    for out, reason in (
+        ("/proc/x.safetensors", "/proc refuses new files"),
+        (str(tmp_path / "folder.safetensors"), "is a folder"),
+    ):
         assert train_cli.main([str(good_bag), "--out", out, "--quiet"]) == 2
         error = capsys.readouterr().err
         assert error.startswith(f"tric-train: the model path {out} ") and reason in error
         assert error.count("\n") == 1
 
 
-def test_tric_train_names_what_it_includes_with_include_failed_and_tolerant(robot, tmp_path, capsys):
+def test_tric_train_names_what_it_includes_with_include_failed_and_tolerant(
+    robot, tmp_path, capsys
+):
     bags = tmp_path / "bags"
     for name, outcome in (("ok_1", "success"), ("ok_2", "success"), ("failed", "failure")):
         write_demo_bag(bags / f"{name}.mcap", robot, sphere(name, 0.55 + 0.05 * len(name)), outcome)
@@ -150,12 +206,22 @@ def test_tric_train_names_what_it_includes_with_include_failed_and_tolerant(robo
     tiny = ["--hidden-units", "2", "--noisy-samples", "5", "--iterations", "3", "--quiet"]
     assert train_cli.main([str(bags), "--out", str(tmp_path / "a.safetensors")] + tiny) == 2
     assert "failed.mcap (failed: grasp cost 0.6)" in capsys.readouterr().err
-    assert train_cli.main([str(bags), "--out", str(tmp_path / "b.safetensors"), "--include-failed",
-                           "--tolerant"] + tiny) == 0
+    assert (
+        train_cli.main(
+            [str(bags), "--out", str(tmp_path / "b.safetensors"), "--include-failed", "--tolerant"]
+            + tiny
+        )
+        == 0
+    )
     error = capsys.readouterr().err
     assert f"tric-train: reading {part} up to its end or damage" in error
     assert f"tric-train: included {bags / 'failed.mcap'} (failed: grasp cost 0.6)" in error
-    assert ModelFile.load(tmp_path / "b.safetensors").info["demos"] == ["failed", "killed", "ok_1", "ok_2"]
+    assert ModelFile.load(tmp_path / "b.safetensors").info["demos"] == [
+        "failed",
+        "killed",
+        "ok_1",
+        "ok_2",
+    ]
     assert not (tmp_path / "a.safetensors").exists()
 
 
@@ -165,7 +231,8 @@ def test_a_folder_is_not_called_a_missing_model_file(tmp_path):
 
 
 def _rewrite_metadata(path: pathlib.Path, change) -> None:
-    """Write path again with its arrays and its "tric" metadata as change(metadata dict) leaves it."""
+    """Write path again with its arrays and its "tric" metadata as change(metadata dict) leaves
+    it."""
     with safe_open(str(path), framework="numpy") as handle:
         meta = json.loads(handle.metadata()["tric"])
         arrays = {name: handle.get_tensor(name) for name in handle.keys()}
@@ -182,23 +249,30 @@ def test_model_files_of_another_version_or_a_changed_definition_are_refused(robo
     assert str(refused.value) == f"{path} has model format version 2; this reads 1"
 
     path = _tiny_model_file(robot).save(tmp_path / "edited.safetensors")
-    _rewrite_metadata(path, lambda meta: meta["definition"]["pairs"].reverse())  # the same pairs, reordered
+    # the same pairs, reordered
+    _rewrite_metadata(path, lambda meta: meta["definition"]["pairs"].reverse())
     with pytest.raises(ValueError) as refused:
         ModelFile.load(path)
-    assert str(refused.value) == f"{path}: its feature definition does not match its recorded fingerprint"
+    assert (
+        str(refused.value)
+        == f"{path}: its feature definition does not match its recorded fingerprint"
+    )
 
     path = _tiny_model_file(robot).save(tmp_path / "box.safetensors")
     with pytest.raises(ValueError, match=f"model {path}.*another feature definition"):
         ModelFile.load(path, FeatureDefinition.for_task("open_box", robot))
 
 
-@pytest.mark.parametrize("name, bad", [("w1", math.nan), ("w2", math.inf), ("w3", -math.inf),
-                                       ("low", -math.inf), ("high", math.inf)])
+@pytest.mark.parametrize(
+    "name, bad",
+    [("w1", math.nan), ("w2", math.inf), ("w3", -math.inf), ("low", -math.inf), ("high", math.inf)],
+)
 def test_model_files_with_non_finite_arrays_are_refused(robot, tmp_path, name, bad):
     model = _tiny_model_file(robot)
     model.arrays[name] = model.arrays[name].astype(float)
     model.arrays[name].flat[-1] = bad
-    loaded = ModelFile.load(model.save(tmp_path / "model.safetensors"))   # the file itself is readable
+    # the file itself is readable
+    loaded = ModelFile.load(model.save(tmp_path / "model.safetensors"))
     with pytest.raises(ValueError) as refused:
         value_function(loaded)
     assert str(refused.value) == f"the model file's {name} has non-finite values"
@@ -206,14 +280,19 @@ def test_model_files_with_non_finite_arrays_are_refused(robot, tmp_path, name, b
 
 # --- fuzzed inputs ------------------------------------------------------------------------------
 
-FUZZ = settings(max_examples=60, deadline=None,
-                suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
+FUZZ = settings(
+    max_examples=60,
+    deadline=None,
+    suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture],
+)
 
 
 def _load(path, robot, tolerant):
     """load_dataset's Dataset or its ValueError; anything else fails the test."""
     try:
-        dataset = load_dataset([path], robot, tolerant=tolerant, include_failed=True, notice=lambda _: None)
+        dataset = load_dataset(
+            [path], robot, tolerant=tolerant, include_failed=True, notice=lambda _: None
+        )
     except ValueError as error:
         assert str(path) in str(error), str(error)
         return error
@@ -230,12 +309,13 @@ def test_bags_cut_at_any_byte_are_refused_or_read_up_to_the_cut(robot, good_bag,
     with tempfile.TemporaryDirectory() as folder:
         path = pathlib.Path(folder) / "cut.mcap"
         path.write_bytes(original[:cut])
-        assert isinstance(_load(path, robot, tolerant=False), ValueError)  # never taken for a finished bag
+        # never taken for a finished bag
+        assert isinstance(_load(path, robot, tolerant=False), ValueError)
         loaded = _load(path, robot, tolerant=True)
     if isinstance(loaded, Dataset):
         event("read up to the cut")
         demo = loaded.demos[0]
-        assert np.array_equal(demo.q, reference.q[:demo.length])  # a prefix of the demonstration
+        assert np.array_equal(demo.q, reference.q[: demo.length])  # a prefix of the demonstration
     else:
         event("refused")
 
@@ -256,15 +336,19 @@ def test_bags_with_flipped_bytes_are_refused_or_read_correctly(robot, good_bag, 
             event(f"tolerant={tolerant}: {type(loaded).__name__}")
             if isinstance(loaded, Dataset):  # read: the recorded samples, or a prefix of them
                 demo = loaded.demos[0]
-                assert np.array_equal(demo.q, reference.q[:demo.length])
-                assert np.array_equal(demo.y, reference.y[:demo.length])
+                assert np.array_equal(demo.q, reference.q[: demo.length])
+                assert np.array_equal(demo.y, reference.y[: demo.length])
 
 
 def _tiny_model_file(robot) -> ModelFile:
     definition = FeatureDefinition.for_task("grasp", robot)
     kept = np.arange(4)
-    model = ValueFunction(Scaling(kept, np.zeros(4), np.ones(4), definition.size), np.ones((2, 4)), np.ones(2),
-                          np.ones(4))
+    model = ValueFunction(
+        Scaling(kept, np.zeros(4), np.ones(4), definition.size),
+        np.ones((2, 4)),
+        np.ones(2),
+        np.ones(4),
+    )
     return ModelFile("tric", definition, value_function_arrays(model), {"delta": 0.1, "rho": 1.0})
 
 
@@ -277,9 +361,13 @@ def _open_model(path):
         return error
 
 
-JSON = st.recursive(st.none() | st.booleans() | st.integers() | st.floats() | st.text(max_size=6),
-                    lambda inner: st.lists(inner, max_size=3) | st.dictionaries(st.text(max_size=6), inner, max_size=3),
-                    max_leaves=10)
+JSON = st.recursive(
+    st.none() | st.booleans() | st.integers() | st.floats() | st.text(max_size=6),
+    lambda inner: (
+        st.lists(inner, max_size=3) | st.dictionaries(st.text(max_size=6), inner, max_size=3)
+    ),
+    max_leaves=10,
+)
 
 
 @FUZZ
@@ -290,31 +378,64 @@ def test_random_model_files_are_refused_clearly(robot, data):
         kind = data.draw(st.sampled_from(["bytes", "metadata", "arrays", "flipped"]), label="kind")
         if kind == "bytes":
             path.write_bytes(data.draw(st.binary(max_size=300), label="bytes"))
-        elif kind == "metadata":  # a valid safetensors file with generated arrays and "tric" metadata
-            meta = data.draw(st.fixed_dictionaries({}, optional={
-                "format": st.just("tric-model") | JSON, "version": st.just(1) | JSON,
-                "kind": st.sampled_from(["tric", "dpl_joint", "x"]) | JSON, "definition": JSON,
-                "fingerprint": JSON, "info": JSON}), label="meta")
-            arrays = {name: np.asarray(data.draw(st.lists(st.floats(width=32), min_size=1, max_size=4), label=name),
-                                       dtype=np.float32)
-                      for name in data.draw(st.lists(st.sampled_from(["w1", "w2", "w3", "kept", "low", "high"]),
-                                                     unique=True), label="arrays")}
+        # a valid safetensors file with generated arrays and "tric" metadata
+        elif kind == "metadata":
+            meta = data.draw(
+                st.fixed_dictionaries(
+                    {},
+                    optional={
+                        "format": st.just("tric-model") | JSON,
+                        "version": st.just(1) | JSON,
+                        "kind": st.sampled_from(["tric", "dpl_joint", "x"]) | JSON,
+                        "definition": JSON,
+                        "fingerprint": JSON,
+                        "info": JSON,
+                    },
+                ),
+                label="meta",
+            )
+            arrays = {
+                name: np.asarray(
+                    data.draw(st.lists(st.floats(width=32), min_size=1, max_size=4), label=name),
+                    dtype=np.float32,
+                )
+                for name in data.draw(
+                    st.lists(
+                        st.sampled_from(["w1", "w2", "w3", "kept", "low", "high"]), unique=True
+                    ),
+                    label="arrays",
+                )
+            }
             save_file(arrays or {"x": np.zeros(1)}, str(path), metadata={"tric": json.dumps(meta)})
         elif kind == "arrays":  # a TRIC model file of the right definition with generated arrays
             model = _tiny_model_file(robot)
             for name in model.arrays:
-                shape = data.draw(st.lists(st.integers(0, 5), min_size=0, max_size=2), label=f"{name} shape")
-                dtype = data.draw(st.sampled_from([np.float64, np.float32, np.int64]), label=f"{name} dtype")
-                values = data.draw(st.lists(st.floats(allow_nan=True, allow_infinity=True, width=32)
-                                            | st.integers(-10, 300), min_size=int(np.prod(shape)),
-                                            max_size=int(np.prod(shape))), label=name)
+                shape = data.draw(
+                    st.lists(st.integers(0, 5), min_size=0, max_size=2), label=f"{name} shape"
+                )
+                dtype = data.draw(
+                    st.sampled_from([np.float64, np.float32, np.int64]), label=f"{name} dtype"
+                )
+                values = data.draw(
+                    st.lists(
+                        st.floats(allow_nan=True, allow_infinity=True, width=32)
+                        | st.integers(-10, 300),
+                        min_size=int(np.prod(shape)),
+                        max_size=int(np.prod(shape)),
+                    ),
+                    label=name,
+                )
                 with np.errstate(invalid="ignore"):
-                    model.arrays[name] = np.array(values, dtype=np.float64).astype(dtype).reshape(shape)
+                    model.arrays[name] = (
+                        np.array(values, dtype=np.float64).astype(dtype).reshape(shape)
+                    )
             model.save(path)
         else:
             _tiny_model_file(robot).save(path)
             damaged = bytearray(path.read_bytes())
-            damaged[data.draw(st.integers(0, len(damaged) - 1), label="position")] ^= data.draw(st.integers(1, 255))
+            damaged[data.draw(st.integers(0, len(damaged) - 1), label="position")] ^= data.draw(
+                st.integers(1, 255)
+            )
             path.write_bytes(bytes(damaged))
         event(f"{kind}: {type(_open_model(path)).__name__}")
 
@@ -326,7 +447,11 @@ def test_the_tiny_model_file_of_the_fuzz_test_loads(robot, tmp_path):
 
 def test_the_sampling_pool_ends_in_a_process_with_rclpy_signal_handlers():
     # every node executable calls rclpy.init(), whose SIGTERM handler a forked worker inherits
-    script = ("import rclpy\nfrom tric_learning import samples\nrclpy.init()\npool = samples.worker_pool(2)\n"
-              "pool.terminate()\nprint('ended')\n")
-    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=120)
+    script = (
+        "import rclpy\nfrom tric_learning import samples\nrclpy.init()\npool = "
+        "samples.worker_pool(2)\npool.terminate()\nprint('ended')\n"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", script], capture_output=True, text=True, timeout=120
+    )
     assert done.returncode == 0 and done.stdout == "ended\n", done.stderr

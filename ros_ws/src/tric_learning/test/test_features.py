@@ -3,7 +3,6 @@
 import math
 
 import numpy as np
-import pinocchio as pin
 import pytest
 
 from tric_learning.features import FeatureDefinition, FeatureMap
@@ -20,8 +19,12 @@ def test_sizes_and_names(robot):
     box = FeatureDefinition.for_task("open_box", robot)
     assert grasp.size == 224 and len(grasp.landmark_names) == 8 and len(grasp.pairs) == 56
     assert box.size == 80 and len(box.landmark_names) == 5
-    assert grasp.feature_names[:4] == ("p[object->fingertip_1].x", "p[object->fingertip_1].y",
-                                       "p[object->fingertip_1].z", "d[object,fingertip_1]")
+    assert grasp.feature_names[:4] == (
+        "p[object->fingertip_1].x",
+        "p[object->fingertip_1].y",
+        "p[object->fingertip_1].z",
+        "d[object,fingertip_1]",
+    )
     assert len(set(grasp.feature_names)) == 224
     assert grasp.fingerprint != box.fingerprint
     assert FeatureDefinition.from_dict(grasp.to_dict()) == grasp
@@ -42,17 +45,29 @@ def test_values_on_a_hand_made_configuration(robot):
     yaw = (0.0, 0.0, math.sin(math.pi / 4), math.cos(math.pi / 4))
     y = dict(zip(definition.feature_names, features(q, {"object": (tuple(object_position), yaw)})))
     # the object seen from the palm (palm frame = world frame here)
-    assert np.allclose([y["p[palm->object].x"], y["p[palm->object].y"], y["p[palm->object].z"]], [0.3, 0, 0])
+    assert np.allclose(
+        [y["p[palm->object].x"], y["p[palm->object].y"], y["p[palm->object].z"]], [0.3, 0, 0]
+    )
     # the palm seen from the object, whose x axis points along world y
-    assert np.allclose([y["p[object->palm].x"], y["p[object->palm].y"], y["p[object->palm].z"]], [0, 0.3, 0])
+    assert np.allclose(
+        [y["p[object->palm].x"], y["p[object->palm].y"], y["p[object->palm].z"]], [0, 0.3, 0]
+    )
     assert math.isclose(y["d[palm,object]"], 0.3) and math.isclose(y["d[object,palm]"], 0.3)
 
 
-@pytest.mark.parametrize("task, poses", [
-    ("grasp", {"object": ((0.6, 0.1, 0.3), (0.0, 0.2, 0.0, 0.98))}),
-    ("open_box", {"object": ((0.6, 0.0, 0.1), (0.0, 0.0, 0.2, 0.98)),
-                  "lid_edge": ((0.5, 0.0, 0.2), (0.0, 0.3, 0.95, 0.1))}),
-])
+@pytest.mark.parametrize(
+    "task, poses",
+    [
+        ("grasp", {"object": ((0.6, 0.1, 0.3), (0.0, 0.2, 0.0, 0.98))}),
+        (
+            "open_box",
+            {
+                "object": ((0.6, 0.0, 0.1), (0.0, 0.0, 0.2, 0.98)),
+                "lid_edge": ((0.5, 0.0, 0.2), (0.0, 0.3, 0.95, 0.1)),
+            },
+        ),
+    ],
+)
 def test_jacobian_matches_finite_differences(robot, task, poses):
     features = FeatureMap(FeatureDefinition.for_task(task, robot), robot)
     rng = np.random.default_rng(0)
@@ -77,12 +92,20 @@ def test_features_that_no_joint_moves_are_known(robot):
     still = np.repeat([i in fixed and j in fixed for i, j in definition.pairs], 4)
     assert np.array_equal(features.moves_with_q, ~still)
     assert still.sum() == 4 * 6  # the 6 ordered pairs of the 3 fixed landmarks
-    poses = {"object": ((0.6, 0.0, 0.1), (0.0, 0.0, 0.2, 0.98)), "lid_edge": ((0.5, 0.0, 0.2), (0.0, 0.3, 0.95, 0.1))}
+    poses = {
+        "object": ((0.6, 0.0, 0.1), (0.0, 0.0, 0.2, 0.98)),
+        "lid_edge": ((0.5, 0.0, 0.2), (0.0, 0.3, 0.95, 0.1)),
+    }
     rng = np.random.default_rng(1)
     configurations = rng.uniform(robot.lower, robot.upper, (5, robot.n_joints))
     jacobians = [features.with_jacobian(q, poses)[1] for q in configurations]
     assert all(np.all(jacobian[~features.moves_with_q] == 0.0) for jacobian in jacobians)
-    assert np.all(np.any([np.abs(jacobian[features.moves_with_q]).max(axis=1) > 0 for jacobian in jacobians], axis=0))
+    assert np.all(
+        np.any(
+            [np.abs(jacobian[features.moves_with_q]).max(axis=1) > 0 for jacobian in jacobians],
+            axis=0,
+        )
+    )
 
 
 def test_batch_matches_single_evaluations(robot):
@@ -91,7 +114,9 @@ def test_batch_matches_single_evaluations(robot):
     qs = np.random.default_rng(1).uniform(robot.lower, robot.upper, (20, robot.n_joints))
     assert np.allclose(features.batch(qs, poses), [features(q, poses) for q in qs], atol=1e-12)
     per_sample = [{"object": ((0.5 + 0.01 * k, 0.0, 0.3), (0.0, 0.0, 0.0, 1.0))} for k in range(20)]
-    assert np.allclose(features.batch(qs, per_sample), [features(q, p) for q, p in zip(qs, per_sample)], atol=1e-12)
+    assert np.allclose(
+        features.batch(qs, per_sample), [features(q, p) for q, p in zip(qs, per_sample)], atol=1e-12
+    )
 
 
 def test_missing_object_and_other_robot_are_refused(robot):
@@ -99,7 +124,13 @@ def test_missing_object_and_other_robot_are_refused(robot):
     features = FeatureMap(definition, robot)
     with pytest.raises(ValueError, match="'lid_edge' is missing"):
         features(robot.home, {"object": ((0.6, 0.0, 0.1), (0.0, 0.0, 0.0, 1.0))})
-    other = FeatureDefinition(definition.task, definition.landmark_names, definition.landmark_sources,
-                              definition.pairs, definition.joint_names, "another_robot:0000")
+    other = FeatureDefinition(
+        definition.task,
+        definition.landmark_names,
+        definition.landmark_sources,
+        definition.pairs,
+        definition.joint_names,
+        "another_robot:0000",
+    )
     with pytest.raises(ValueError, match="another robot"):
         FeatureMap(other, robot)

@@ -1,8 +1,8 @@
 """The noisy samples of L_n (tric_learning.samples.generate, Eq. 12-15) on two recorded sphere
 demonstrations: at most M per step t >= 1, inside the joint limits and collision-free; drawn around
-q_{t-1} with standard deviation sigma (checked with the collision check accepting everything, so that
-no draw is refused); their features at the poses of step t - 1; their weights d_curve to the path
-ahead; the same samples from a seed whatever the number of workers. Units: rad."""
+q_{t-1} with standard deviation sigma (checked with the collision check accepting everything, so
+that no draw is refused); their features at the poses of step t - 1; their weights d_curve to the
+path ahead; the same samples from a seed whatever the number of workers. Units: rad."""
 
 import numpy as np
 import pytest
@@ -71,13 +71,20 @@ def demo_of_each_sample(dataset, noisy):
     return demo, noisy.step - offsets[demo]
 
 
-def test_each_later_step_gets_at_most_m_collision_free_samples_inside_the_limits(robot, dataset, drawn):
+def test_each_later_step_gets_at_most_m_collision_free_samples_inside_the_limits(
+    robot, dataset, drawn
+):
     noisy, qs = drawn
     offsets = samples.step_offsets(dataset)
-    assert np.all(noisy.kept_per_step[offsets[:-1]] == 0)        # step 0 has no step before it
-    assert np.all(noisy.kept_per_step <= COUNT) and noisy.kept_per_step[offsets[:-1] + 1].tolist() == [COUNT] * 2
+    assert np.all(noisy.kept_per_step[offsets[:-1]] == 0)  # step 0 has no step before it
+    assert (
+        np.all(noisy.kept_per_step <= COUNT)
+        and noisy.kept_per_step[offsets[:-1] + 1].tolist() == [COUNT] * 2
+    )
     assert np.array_equal(np.bincount(noisy.step, minlength=offsets[-1]), noisy.kept_per_step)
-    assert np.all(np.diff(noisy.step) >= 0) and len(qs) == len(noisy.y) == len(noisy.weight) == len(noisy.step)
+    assert np.all(np.diff(noisy.step) >= 0) and len(qs) == len(noisy.y) == len(noisy.weight) == len(
+        noisy.step
+    )
     assert np.all((qs >= robot.lower) & (qs <= robot.upper))
     demo, step = demo_of_each_sample(dataset, noisy)
     for i, recorded in enumerate(dataset.demos):
@@ -87,9 +94,13 @@ def test_each_later_step_gets_at_most_m_collision_free_samples_inside_the_limits
         for t in np.unique(step[demo == i]):
             mine = qs[(demo == i) & (step == t)]
             for q in mine[~collision.collision_free(mine, poses[t - 1])]:
-                # steps whose objects moved by less than POSE_TOLERANCE share the check of the first one
-                assert any(samples._surface_shift(poses[s], poses[t - 1], extents) < samples.POSE_TOLERANCE
-                           and collision.collision_free(q[None], poses[s])[0] for s in range(t - 1)), (i, t)
+                # steps whose objects moved by less than POSE_TOLERANCE share the check of the first
+                # one
+                assert any(
+                    samples._surface_shift(poses[s], poses[t - 1], extents) < samples.POSE_TOLERANCE
+                    and collision.collision_free(q[None], poses[s])[0]
+                    for s in range(t - 1)
+                ), (i, t)
 
 
 def test_samples_are_gaussian_around_the_previous_step(robot, dataset):
@@ -99,30 +110,40 @@ def test_samples_are_gaussian_around_the_previous_step(robot, dataset):
     (near a limit the draws are cut; a cut of another joint does not bias this one's)."""
     noisy, qs = draw(robot, dataset, NothingCollides)
     offsets = samples.step_offsets(dataset)
-    previous_of_step = np.concatenate([np.vstack([demo.q[:1], demo.q[:-1]]) for demo in dataset.demos])
-    far = np.all((previous_of_step - robot.lower > 4 * SIGMA) & (robot.upper - previous_of_step > 4 * SIGMA), axis=1)
+    previous_of_step = np.concatenate(
+        [np.vstack([demo.q[:1], demo.q[:-1]]) for demo in dataset.demos]
+    )
+    far = np.all(
+        (previous_of_step - robot.lower > 4 * SIGMA) & (robot.upper - previous_of_step > 4 * SIGMA),
+        axis=1,
+    )
     far[offsets[:-1]] = False
     assert far.any() and np.all(noisy.kept_per_step[far] == COUNT)
     demo, step = demo_of_each_sample(dataset, noisy)
     previous = previous_of_step[noisy.step]
-    offsets = (qs - previous)[(previous - robot.lower > 4 * SIGMA) & (robot.upper - previous > 4 * SIGMA)]
+    offsets = (qs - previous)[
+        (previous - robot.lower > 4 * SIGMA) & (robot.upper - previous > 4 * SIGMA)
+    ]
     count = len(offsets)
-    assert count > 10 * COUNT * len(noisy.kept_per_step)         # most joints are far from their limits
+    # most joints are far from their limits
+    assert count > 10 * COUNT * len(noisy.kept_per_step)
     assert abs(offsets.mean()) < 4 * SIGMA / np.sqrt(count)
     assert abs(offsets.std() / SIGMA - 1) < 4 / np.sqrt(2 * (count - 1))
 
 
 def test_features_and_weights_of_each_sample(robot, dataset, drawn):
-    """y~ = phi(q~) with the objects where they were at step t - 1; the weight is d_curve, q~'s distance
-    to the demonstration's path from q_t on (Eq. 14-15)."""
+    """y~ = phi(q~) with the objects where they were at step t - 1; the weight is d_curve, q~'s
+    distance to the demonstration's path from q_t on (Eq. 14-15)."""
     noisy, qs = drawn
     demo, step = demo_of_each_sample(dataset, noisy)
     features = FeatureMap(dataset.definition, robot)
     poses = [dataset.demos[i].object_poses[t - 1] for i, t in zip(demo, step)]
     np.testing.assert_allclose(noisy.y, features.batch(qs, poses), rtol=0, atol=1e-12)
     for k in range(len(qs)):
-        path = dataset.demos[demo[k]].q[step[k]:]
-        assert noisy.weight[k] == pytest.approx(float(samples.d_curve(qs[k:k + 1], path)[0]), abs=1e-12)
+        path = dataset.demos[demo[k]].q[step[k] :]
+        assert noisy.weight[k] == pytest.approx(
+            float(samples.d_curve(qs[k : k + 1], path)[0]), abs=1e-12
+        )
     assert np.all(noisy.weight > 0)
 
 

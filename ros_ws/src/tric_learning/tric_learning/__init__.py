@@ -1,1 +1,2 @@
-"""TRIC learning: task-space features and their Jacobians, MCAP datasets and the recorder node, the value function, its losses and training, the trainer node, the DPL baseline."""
+"""TRIC learning: task-space features and their Jacobians, MCAP datasets and the recorder node, the
+value function, its losses and training, the trainer node, the DPL baseline."""

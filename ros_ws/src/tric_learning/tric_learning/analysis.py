@@ -27,8 +27,8 @@ median distance between the samples) of every demonstration sample's kept featur
 [0, 1], and of the hidden layer z = sigmoid(W1 u) (Sec. 5.4.2), in 2-D, coloured by f, the last
 samples ringed; a linear model (K = 0) has no z, and only the first panel is drawn.
 Fig. 17b/c (DIR/feature_over_time.png): the raw value (m) and df/du of the feature ranked
---feature-rank (8, as the paper's) by score, over the steps: each demonstration light, the mean bold.
-Prints the share of demonstration steps along which f decreases, the mean cosine and the top
+--feature-rank (8, as the paper's) by score, over the steps: each demonstration light, the mean
+bold. Prints the share of demonstration steps along which f decreases, the mean cosine and the top
 features. Exit status 0, or 2 with one line on stderr when the model or a bag is refused.
 """
 
@@ -70,7 +70,8 @@ GRADIENT_LINES = 6
 FIG12_DEMOS = 5
 FIG12_FINGER, FIG12_OBJECT = "fingertip_2", "box"
 #: The controller's influence distance, m: the collision pairs nearer than this enter its QP
-#: (tric_control.motion_rate.INFLUENCE, which tric_learning may not import; a test keeps them equal).
+#: (tric_control.motion_rate.INFLUENCE, which tric_learning may not import; a test keeps them
+#: equal).
 CONTROLLER_INFLUENCE = 0.05
 #: The scene bodies the hand may touch (tric_sim.scene roles): Fig. 14b's distances are to these.
 TOUCHED_ROLES = ("target", "lid")
@@ -94,10 +95,14 @@ def decreasing_shares(model: ValueFunction, dataset: Dataset):
         decreasing.append(np.diff(values) < 0)
         moving.append(np.linalg.norm(np.diff(demo.q, axis=0), axis=1) >= MIN_STEP)
     decreasing, moving = np.concatenate(decreasing), np.concatenate(moving)
-    return float(decreasing.mean()), float(decreasing[moving].mean()) if moving.any() else float("nan")
+    return float(decreasing.mean()), float(decreasing[moving].mean()) if moving.any() else float(
+        "nan"
+    )
 
 
-def cosines_along_demos(model: ValueFunction, dataset: Dataset, min_step: float = 0.0) -> np.ndarray:
+def cosines_along_demos(
+    model: ValueFunction, dataset: Dataset, min_step: float = 0.0
+) -> np.ndarray:
     """L_g's cosine (Eq. 17) between grad_q (f o phi)(q_t) = (df/dy)(y_t) dphi/dq(q_t) and the step
     q_{t+1} - q_t, (N, T_max - 1) for N demos of at most T_max samples: NaN past a demo's end, where
     the step is shorter than min_step rad or is zero, and where the gradient is zero."""
@@ -105,11 +110,15 @@ def cosines_along_demos(model: ValueFunction, dataset: Dataset, min_step: float 
     cosines = np.full((len(dataset.demos), longest - 1), np.nan)
     for i, demo in enumerate(dataset.demos):
         steps = np.diff(demo.q, axis=0)
-        gradients = np.array([model.gradient(y)[1] @ jacobian for y, jacobian in zip(demo.y[:-1], demo.jacobians)])
+        gradients = np.array(
+            [model.gradient(y)[1] @ jacobian for y, jacobian in zip(demo.y[:-1], demo.jacobians)]
+        )
         step_norms = np.linalg.norm(steps, axis=1)
         norms = step_norms * np.linalg.norm(gradients, axis=1)
         defined = np.flatnonzero((step_norms >= min_step) & (norms > 0))
-        cosines[i, defined] = np.einsum("tn,tn->t", gradients[defined], steps[defined]) / norms[defined]
+        cosines[i, defined] = (
+            np.einsum("tn,tn->t", gradients[defined], steps[defined]) / norms[defined]
+        )
     return cosines
 
 
@@ -118,7 +127,7 @@ def moving_only(cosines: np.ndarray, dataset: Dataset) -> np.ndarray:
     MIN_STEP rad: the same as cosines_along_demos(..., MIN_STEP), without computing them again."""
     lengths = np.full(cosines.shape, np.nan)
     for i, demo in enumerate(dataset.demos):
-        lengths[i, :demo.length - 1] = np.linalg.norm(np.diff(demo.q, axis=0), axis=1)
+        lengths[i, : demo.length - 1] = np.linalg.norm(np.diff(demo.q, axis=0), axis=1)
     return np.where(lengths >= MIN_STEP, cosines, np.nan)
 
 
@@ -160,12 +169,21 @@ def plot_values(curves: list, names: list, path: pathlib.Path) -> pathlib.Path:
     axes = figure.add_subplot()
     colours = matplotlib.colormaps["viridis"].resampled(max(len(curves), 2))
     for k, values in enumerate(curves):
-        axes.plot(np.linspace(0.0, 1.0, len(values)), values, color=colours(k), linewidth=1.2, marker=".",
-                  markersize=3)
+        axes.plot(
+            np.linspace(0.0, 1.0, len(values)),
+            values,
+            color=colours(k),
+            linewidth=1.2,
+            marker=".",
+            markersize=3,
+        )
     axes.set_xlabel("normalized time t / (T - 1)")
     axes.set_ylabel("value f(y_t)")
-    axes.set_title(f"f along {len(curves)} demonstrations ({names[0]} ... {names[-1]})" if len(names) > 1
-                   else f"f along {names[0]}")
+    axes.set_title(
+        f"f along {len(curves)} demonstrations ({names[0]} ... {names[-1]})"
+        if len(names) > 1
+        else f"f along {names[0]}"
+    )
     axes.grid(alpha=0.3)
     mappable = ScalarMappable(cmap=colours, norm=Normalize(0, max(len(curves) - 1, 1)))
     figure.colorbar(mappable, ax=axes, label="demonstration")
@@ -181,8 +199,15 @@ def plot_cosines(cosines: np.ndarray, moving: np.ndarray, path: pathlib.Path) ->
     figure = Figure(figsize=(8.0, 6.5), layout="constrained")
     FigureCanvasAgg(figure)
     heat_axes, mean_axes = figure.subplots(2, 1, height_ratios=(2.0, 1.0), sharex=True)
-    image = heat_axes.imshow(np.ma.masked_invalid(cosines), aspect="auto", cmap="RdBu_r", vmin=-1.0, vmax=1.0,
-                             interpolation="nearest", extent=(-0.5, cosines.shape[1] - 0.5, len(cosines) - 0.5, -0.5))
+    image = heat_axes.imshow(
+        np.ma.masked_invalid(cosines),
+        aspect="auto",
+        cmap="RdBu_r",
+        vmin=-1.0,
+        vmax=1.0,
+        interpolation="nearest",
+        extent=(-0.5, cosines.shape[1] - 0.5, len(cosines) - 0.5, -0.5),
+    )
     heat_axes.set_facecolor("0.85")
     heat_axes.set_ylabel("demonstration")
     heat_axes.set_title("cos(grad_q (f o phi)(q_t), q_{t+1} - q_t) (grey: no gradient or no step)")
@@ -201,22 +226,32 @@ def plot_cosines(cosines: np.ndarray, moving: np.ndarray, path: pathlib.Path) ->
     return path
 
 
-def plot_gradients(mean_gradient: np.ndarray, model: ValueFunction, feature_names, path: pathlib.Path,
-                   top: int) -> pathlib.Path:
+def plot_gradients(
+    mean_gradient: np.ndarray, model: ValueFunction, feature_names, path: pathlib.Path, top: int
+) -> pathlib.Path:
     """Fig. 17a: the mean gradient df/du (T, s) of the top features by score over the steps, as a
     heatmap (red: f grows with the feature, so the controller lowers it), and the top GRADIENT_LINES
     of them as lines."""
     chosen = score_order(model)[:top]
-    names = [f"{rank + 1}. {name}" for rank, name in enumerate(np.asarray(feature_names)[model.scaling.kept][chosen])]
+    names = [
+        f"{rank + 1}. {name}"
+        for rank, name in enumerate(np.asarray(feature_names)[model.scaling.kept][chosen])
+    ]
     shown = mean_gradient[:, chosen]
     bound = float(np.nanmax(np.abs(shown)))
     figure = Figure(figsize=(9.0, 5.0 + 0.25 * len(chosen)), layout="constrained")
     FigureCanvasAgg(figure)
-    heat_axes, line_axes = figure.subplots(2, 1, height_ratios=(0.25 * len(chosen) + 1.0, 3.0), sharex=True)
-    image = heat_axes.imshow(shown.T, aspect="auto", cmap="RdBu_r", vmin=-bound, vmax=bound, interpolation="nearest")
+    heat_axes, line_axes = figure.subplots(
+        2, 1, height_ratios=(0.25 * len(chosen) + 1.0, 3.0), sharex=True
+    )
+    image = heat_axes.imshow(
+        shown.T, aspect="auto", cmap="RdBu_r", vmin=-bound, vmax=bound, interpolation="nearest"
+    )
     heat_axes.set_yticks(np.arange(len(chosen)), names, fontsize=8)
-    heat_axes.set_title(f"mean df/dy over the demonstrations, top {len(chosen)} features by score "
-                        "(y rescaled to [0, 1])")
+    heat_axes.set_title(
+        f"mean df/dy over the demonstrations, top {len(chosen)} features by score "
+        "(y rescaled to [0, 1])"
+    )
     figure.colorbar(image, ax=heat_axes, label="df/dy")
     for k in range(min(GRADIENT_LINES, len(chosen))):
         line_axes.plot(shown[:, k], marker=".", label=names[k])
@@ -231,7 +266,8 @@ def plot_gradients(mean_gradient: np.ndarray, model: ValueFunction, feature_name
 
 
 def plot_scores(ranked: list, path: pathlib.Path, top: int) -> pathlib.Path:
-    """Fig. 16: all kept features' scores sorted (with the selection threshold) and the top ones named."""
+    """Fig. 16: all kept features' scores sorted (with the selection threshold) and the top ones
+    named."""
     scores = np.array([score for _, score in ranked])
     threshold = SELECTED_FRACTION * scores.max()
     selected = int(np.sum(scores > threshold))
@@ -239,8 +275,13 @@ def plot_scores(ranked: list, path: pathlib.Path, top: int) -> pathlib.Path:
     FigureCanvasAgg(figure)
     sorted_axes, top_axes = figure.subplots(1, 2, width_ratios=(1.2, 1.0))
     sorted_axes.bar(np.arange(1, len(scores) + 1), scores, width=1.0, color="tab:blue")
-    sorted_axes.axhline(threshold, color="tab:red", linestyle="--", linewidth=1,
-                        label=f"{SELECTED_FRACTION:.0%} of the largest: {selected} selected")
+    sorted_axes.axhline(
+        threshold,
+        color="tab:red",
+        linestyle="--",
+        linewidth=1,
+        label=f"{SELECTED_FRACTION:.0%} of the largest: {selected} selected",
+    )
     sorted_axes.set_xlabel("feature rank")
     sorted_axes.set_ylabel("score s(y)")
     sorted_axes.set_title(f"{len(scores)} kept features by score")
@@ -261,7 +302,7 @@ def padded(arrays: list) -> np.ndarray:
     longest = max(len(a) for a in arrays)
     out = np.full((len(arrays), longest) + np.shape(arrays[0])[1:], np.nan)
     for i, values in enumerate(arrays):
-        out[i, :len(values)] = values
+        out[i, : len(values)] = values
     return out
 
 
@@ -284,21 +325,26 @@ def joint_principal_paths(dataset: Dataset, count: int = FIG12_DEMOS):
     stacked = np.concatenate([demo.q for demo in demos])
     mean = stacked.mean(axis=0)
     _, singular, axes = np.linalg.svd(stacked - mean, full_matrices=False)
-    variance = singular ** 2
+    variance = singular**2
     share = variance[:3] / variance.sum() if variance.sum() > 0 else np.zeros(3)
     components = np.zeros((3, stacked.shape[1]))
-    components[:len(axes[:3])] = axes[:3]
+    components[: len(axes[:3])] = axes[:3]
     return [(demo.q - mean) @ components.T for demo in demos], np.pad(share, (0, 3 - len(share)))
 
 
 def hand_geometries(robot: RobotModel) -> list:
     """Indices of the robot's collision geometries on the hand (palm and finger links)."""
     frames = robot.model.frames
-    return [k for k, geometry in enumerate(robot.collision_model.geometryObjects)
-            if frames[geometry.parentFrame].name.startswith(("finger_", "palm"))]
+    return [
+        k
+        for k, geometry in enumerate(robot.collision_model.geometryObjects)
+        if frames[geometry.parentFrame].name.startswith(("finger_", "palm"))
+    ]
 
 
-def hand_body_distances(robot: RobotModel, dataset: Dataset, influence: float = CONTROLLER_INFLUENCE):
+def hand_body_distances(
+    robot: RobotModel, dataset: Dataset, influence: float = CONTROLLER_INFLUENCE
+):
     """The controller's collision prior along the demos (paper Fig. 14b): at every sample, the
     smallest signed distance (m) between a hand geometry (hand_geometries) and the scene body the
     hand may touch (role in TOUCHED_ROLES: the grasp target, or the box's lid, where the sample's
@@ -325,8 +371,13 @@ def hand_body_distances(robot: RobotModel, dataset: Dataset, influence: float = 
                 result.clear()
                 world = geometry_data.oMg[k]
                 demo_distances[t, column] = coal.distance(
-                    geometry_model.geometryObjects[k].geometry, coal.Transform3s(world.rotation, world.translation),
-                    shape, other, request, result)
+                    geometry_model.geometryObjects[k].geometry,
+                    coal.Transform3s(world.rotation, world.translation),
+                    shape,
+                    other,
+                    request,
+                    result,
+                )
         distances.append(demo_distances.min(axis=1))
         counts.append(np.sum(demo_distances < influence, axis=1).astype(float))
     return padded(distances), padded(counts), "/".join(sorted(roles))
@@ -338,13 +389,13 @@ def kernel_pca(points: np.ndarray, components: int = 2):
     (the projections on the leading components (S, components), each sign fixed so that its
     largest entry is positive; h)."""
     points = np.asarray(points, dtype=float)
-    squares = np.sum(points ** 2, axis=1)
+    squares = np.sum(points**2, axis=1)
     squared = np.maximum(squares[:, None] + squares[None, :] - 2.0 * points @ points.T, 0.0)
     between = np.sqrt(squared[np.triu_indices(len(points), 1)])
     bandwidth = float(np.median(between)) if len(between) else 0.0
     if not bandwidth > 0:
         bandwidth = 1.0
-    kernel = np.exp(-squared / (2.0 * bandwidth ** 2))
+    kernel = np.exp(-squared / (2.0 * bandwidth**2))
     row_means = kernel.mean(axis=0)
     centred = kernel - row_means[:, None] - row_means[None, :] + row_means.mean()
     eigenvalues, eigenvectors = np.linalg.eigh(centred)
@@ -359,7 +410,9 @@ def hidden_layer(model: ValueFunction, u: np.ndarray) -> np.ndarray:
     return 0.5 * (1.0 + np.tanh(0.5 * (np.asarray(u) @ model.w1.T)))
 
 
-def kernel_pca_inputs(model: ValueFunction, dataset: Dataset, limit: int = KPCA_MAX_SAMPLES) -> dict:
+def kernel_pca_inputs(
+    model: ValueFunction, dataset: Dataset, limit: int = KPCA_MAX_SAMPLES
+) -> dict:
     """Fig. 15's data on the demos' samples (at most limit of them evenly spaced, and every demo's
     last): the scaled kept features u (S, s), the hidden layer z (S, K) (None when K = 0), f (S,)
     and whether each sample is its demo's last (S,)."""
@@ -380,6 +433,7 @@ def kernel_pca_inputs(model: ValueFunction, dataset: Dataset, limit: int = KPCA_
 def relative_spread(points: np.ndarray, subset: np.ndarray) -> float:
     """The RMS distance of the points selected by subset (mask) to their mean, divided by the same
     for all points (S, k): how compact a subset is within the whole."""
+
     def rms(values):
         return float(np.sqrt(np.mean(np.sum((values - values.mean(axis=0)) ** 2, axis=1))))
 
@@ -398,7 +452,9 @@ def ranked_feature(model: ValueFunction, feature_names, rank: int):
     return k, raw, str(feature_names[raw])
 
 
-def feature_over_time(model: ValueFunction, dataset: Dataset, rank: int, gradients: np.ndarray = None):
+def feature_over_time(
+    model: ValueFunction, dataset: Dataset, rank: int, gradients: np.ndarray = None
+):
     """Fig. 17b/c: the raw value (N, T_max) and df/du (N, T_max) (u: the feature rescaled to
     [0, 1]) of the feature ranked rank by score along every demo, NaN past a demo's end, and its
     name. gradients: gradients_along_demos(model, dataset) if already computed."""
@@ -416,17 +472,27 @@ def _start_end(axes, path, colour, label):
 
 
 def plot_task_spaces(dataset: Dataset, path: pathlib.Path) -> pathlib.Path:
-    """Fig. 12: the first FIG12_DEMOS box openings in joint space (3 principal components), the box in
-    FIG12_FINGER's frame and FIG12_FINGER in the box's frame."""
+    """Fig. 12: the first FIG12_DEMOS box openings in joint space (3 principal components), the box
+    in FIG12_FINGER's frame and FIG12_FINGER in the box's frame."""
     joints, share = joint_principal_paths(dataset)
-    spaces = [(joints, f"(a) joint space: q on its first 3 principal components\n"
-                       f"({share.sum():.0%} of the variance)", [f"PC{k + 1} of q (rad)" for k in range(3)]),
-              (feature_paths(dataset, FIG12_FINGER, FIG12_OBJECT),
-               f"(b) the box in {FIG12_FINGER}'s frame\np[{FIG12_FINGER}->{FIG12_OBJECT}]",
-               [f"{axis} (m)" for axis in "xyz"]),
-              (feature_paths(dataset, FIG12_OBJECT, FIG12_FINGER),
-               f"(c) {FIG12_FINGER} in the box's frame\np[{FIG12_OBJECT}->{FIG12_FINGER}]",
-               [f"{axis} (m)" for axis in "xyz"])]
+    spaces = [
+        (
+            joints,
+            f"(a) joint space: q on its first 3 principal components\n"
+            f"({share.sum():.0%} of the variance)",
+            [f"PC{k + 1} of q (rad)" for k in range(3)],
+        ),
+        (
+            feature_paths(dataset, FIG12_FINGER, FIG12_OBJECT),
+            f"(b) the box in {FIG12_FINGER}'s frame\np[{FIG12_FINGER}->{FIG12_OBJECT}]",
+            [f"{axis} (m)" for axis in "xyz"],
+        ),
+        (
+            feature_paths(dataset, FIG12_OBJECT, FIG12_FINGER),
+            f"(c) {FIG12_FINGER} in the box's frame\np[{FIG12_OBJECT}->{FIG12_FINGER}]",
+            [f"{axis} (m)" for axis in "xyz"],
+        ),
+    ]
     figure = Figure(figsize=(16.0, 5.8), layout="constrained")
     FigureCanvasAgg(figure)
     colours = matplotlib.colormaps["tab10"]
@@ -439,11 +505,15 @@ def plot_task_spaces(dataset: Dataset, path: pathlib.Path) -> pathlib.Path:
         for setter, label in zip((axes.set_xlabel, axes.set_ylabel, axes.set_zlabel), labels):
             setter(label, fontsize=8)
         axes.tick_params(labelsize=7)
-        axes.set_box_aspect(None, zoom=0.88)   # room for the z label
+        axes.set_box_aspect(None, zoom=0.88)  # room for the z label
     handles, labels = figure.axes[0].get_legend_handles_labels()
-    handles += [Line2D([], [], color="tab:green", marker="o", linestyle=""),
-                Line2D([], [], color="tab:red", marker="o", linestyle="")]
-    figure.legend(handles, labels + ["start", "end"], loc="outside lower center", ncol=len(labels) + 2)
+    handles += [
+        Line2D([], [], color="tab:green", marker="o", linestyle=""),
+        Line2D([], [], color="tab:red", marker="o", linestyle=""),
+    ]
+    figure.legend(
+        handles, labels + ["start", "end"], loc="outside lower center", ncol=len(labels) + 2
+    )
     figure.suptitle(f"{len(names)} box openings in three task spaces (paper Fig. 12)")
     figure.savefig(path, dpi=120)
     return path
@@ -457,17 +527,33 @@ def _light_and_mean(axes, values: np.ndarray, colour: str, label: str):
     axes.plot(steps, mean_over_demos(values), color=colour, linewidth=2.2, label=label)
 
 
-def plot_collision_prior(distances: np.ndarray, counts: np.ndarray, role: str, geometries: int,
-                         path: pathlib.Path, influence: float = CONTROLLER_INFLUENCE) -> pathlib.Path:
+def plot_collision_prior(
+    distances: np.ndarray,
+    counts: np.ndarray,
+    role: str,
+    geometries: int,
+    path: pathlib.Path,
+    influence: float = CONTROLLER_INFLUENCE,
+) -> pathlib.Path:
     """Fig. 14b: the hand's smallest distance to the body it may touch (N, T) and the number of
     hand-body pairs within influence (N, T) by step, each demo light and their mean bold."""
     body = {"target": "the grasp target", "lid": "the lid"}.get(role, role)
     figure = Figure(figsize=(8.0, 6.5), layout="constrained")
     FigureCanvasAgg(figure)
     distance_axes, count_axes = figure.subplots(2, 1, sharex=True)
-    _light_and_mean(distance_axes, distances, "tab:blue", f"mean over {len(distances)} demonstrations (light: each)")
-    distance_axes.axhline(influence, color="tab:orange", linestyle="--", linewidth=1,
-                          label=f"controller's influence distance {influence * 100:.0f} cm")
+    _light_and_mean(
+        distance_axes,
+        distances,
+        "tab:blue",
+        f"mean over {len(distances)} demonstrations (light: each)",
+    )
+    distance_axes.axhline(
+        influence,
+        color="tab:orange",
+        linestyle="--",
+        linewidth=1,
+        label=f"controller's influence distance {influence * 100:.0f} cm",
+    )
     distance_axes.axhline(0.0, color="grey", linewidth=1)
     distance_axes.set_ylabel("smallest distance (m)")
     distance_axes.set_title(f"the hand (palm and finger links) and {body}")
@@ -489,7 +575,9 @@ def plot_kernel_pca(inputs: dict, path: pathlib.Path) -> pathlib.Path:
     by f, each demo's last sample ringed."""
     panels = [("(a) features u (kept, rescaled to [0, 1])", inputs["u"])]
     if inputs["z"] is not None:
-        panels.append((f"(b) hidden layer z = sigmoid(W1 u), K = {inputs['z'].shape[1]}", inputs["z"]))
+        panels.append(
+            (f"(b) hidden layer z = sigmoid(W1 u), K = {inputs['z'].shape[1]}", inputs["z"])
+        )
     figure = Figure(figsize=(6.0 * len(panels) + 1.5, 5.5), layout="constrained")
     FigureCanvasAgg(figure)
     norm = Normalize(float(np.min(inputs["value"])), float(np.max(inputs["value"])))
@@ -498,31 +586,48 @@ def plot_kernel_pca(inputs: dict, path: pathlib.Path) -> pathlib.Path:
         axes = figure.add_subplot(1, len(panels), column + 1)
         projected, bandwidth = kernel_pca(points)
         axes.scatter(*projected.T, c=inputs["value"], cmap="viridis", norm=norm, s=9)
-        axes.scatter(*projected[last].T, facecolors="none", edgecolors="tab:red", s=45, linewidths=1.2,
-                     label="last sample of a demonstration")
-        axes.set_title(f"{title}\nGaussian kernel, median-heuristic bandwidth {bandwidth:.3g}; "
-                       f"last samples' spread {relative_spread(projected, last):.2f} of all", fontsize=9)
+        axes.scatter(
+            *projected[last].T,
+            facecolors="none",
+            edgecolors="tab:red",
+            s=45,
+            linewidths=1.2,
+            label="last sample of a demonstration",
+        )
+        axes.set_title(
+            f"{title}\nGaussian kernel, median-heuristic bandwidth {bandwidth:.3g}; "
+            f"last samples' spread {relative_spread(projected, last):.2f} of all",
+            fontsize=9,
+        )
         axes.set_xlabel("kernel principal component 1")
         axes.set_ylabel("kernel principal component 2")
         axes.grid(alpha=0.3)
         axes.legend(fontsize=8)
     if inputs["z"] is None:
-        figure.axes[0].text(0.02, 0.02, "K = 0: a linear model has no hidden layer z", transform=figure.axes[0].transAxes,
-                            fontsize=8)
+        figure.axes[0].text(
+            0.02,
+            0.02,
+            "K = 0: a linear model has no hidden layer z",
+            transform=figure.axes[0].transAxes,
+            fontsize=8,
+        )
     figure.colorbar(ScalarMappable(cmap="viridis", norm=norm), ax=figure.axes, label="value f")
     figure.suptitle(f"kernel PCA of {len(last)} demonstration samples (paper Fig. 15)")
     figure.savefig(path, dpi=120)
     return path
 
 
-def plot_feature_over_time(values: np.ndarray, gradients: np.ndarray, name: str, rank: int,
-                           path: pathlib.Path) -> pathlib.Path:
+def plot_feature_over_time(
+    values: np.ndarray, gradients: np.ndarray, name: str, rank: int, path: pathlib.Path
+) -> pathlib.Path:
     """Fig. 17b/c: the raw value (N, T) and df/du (N, T) of one feature by step, each demo light and
     their mean over the demos bold."""
     figure = Figure(figsize=(8.0, 6.5), layout="constrained")
     FigureCanvasAgg(figure)
     value_axes, gradient_axes = figure.subplots(2, 1, sharex=True)
-    _light_and_mean(value_axes, values, "tab:blue", f"mean over {len(values)} demonstrations (light: each)")
+    _light_and_mean(
+        value_axes, values, "tab:blue", f"mean over {len(values)} demonstrations (light: each)"
+    )
     value_axes.set_ylabel("raw value (m)")
     value_axes.set_title(f"(b) the raw value of the feature ranked {rank}: {name}")
     value_axes.grid(alpha=0.3)
@@ -531,7 +636,9 @@ def plot_feature_over_time(values: np.ndarray, gradients: np.ndarray, name: str,
     gradient_axes.axhline(0.0, color="grey", linewidth=1)
     gradient_axes.set_xlabel("step t")
     gradient_axes.set_ylabel("df/du (u: the feature rescaled to [0, 1])")
-    gradient_axes.set_title("(c) the gradient of f along it (> 0: the controller lowers the feature)")
+    gradient_axes.set_title(
+        "(c) the gradient of f along it (> 0: the controller lowers the feature)"
+    )
     gradient_axes.grid(alpha=0.3)
     gradient_axes.legend()
     figure.suptitle("one feature along the demonstrations (paper Fig. 17b/c)")
@@ -539,26 +646,45 @@ def plot_feature_over_time(values: np.ndarray, gradients: np.ndarray, name: str,
     return path
 
 
-def write_figures(model: ValueFunction, dataset: Dataset, out: pathlib.Path, top: int,
-                  feature_rank: int = DEFAULT_FEATURE_RANK, robot: RobotModel = None) -> list:
+def write_figures(
+    model: ValueFunction,
+    dataset: Dataset,
+    out: pathlib.Path,
+    top: int,
+    feature_rank: int = DEFAULT_FEATURE_RANK,
+    robot: RobotModel = None,
+) -> list:
     """The figures of model on dataset in out (created): Fig. 13, 14a, 16, 17a, 15 and 17b/c, then
     Fig. 12 for box-opening demos and Fig. 14b when a robot model is given; their paths."""
     out.mkdir(parents=True, exist_ok=True)
     names = dataset.definition.feature_names
     cosines = cosines_along_demos(model, dataset)
     gradients = gradients_along_demos(model, dataset)
-    paths = [plot_values(values_along_demos(model, dataset), [demo.name for demo in dataset.demos], out / VALUE_FIGURE),
-             plot_cosines(cosines, moving_only(cosines, dataset), out / COSINES_FIGURE),
-             plot_scores(ranked_features(model, names), out / SCORES_FIGURE, top),
-             plot_gradients(mean_over_demos(gradients), model, names, out / GRADIENTS_FIGURE, top),
-             plot_kernel_pca(kernel_pca_inputs(model, dataset), out / KERNEL_PCA_FIGURE),
-             plot_feature_over_time(*feature_over_time(model, dataset, feature_rank, gradients), feature_rank,
-                                    out / FEATURE_FIGURE)]
+    paths = [
+        plot_values(
+            values_along_demos(model, dataset),
+            [demo.name for demo in dataset.demos],
+            out / VALUE_FIGURE,
+        ),
+        plot_cosines(cosines, moving_only(cosines, dataset), out / COSINES_FIGURE),
+        plot_scores(ranked_features(model, names), out / SCORES_FIGURE, top),
+        plot_gradients(mean_over_demos(gradients), model, names, out / GRADIENTS_FIGURE, top),
+        plot_kernel_pca(kernel_pca_inputs(model, dataset), out / KERNEL_PCA_FIGURE),
+        plot_feature_over_time(
+            *feature_over_time(model, dataset, feature_rank, gradients),
+            feature_rank,
+            out / FEATURE_FIGURE,
+        ),
+    ]
     if dataset.definition.task == "open_box":
         paths.append(plot_task_spaces(dataset, out / TASK_SPACES_FIGURE))
     if robot is not None:
         distances, counts, role = hand_body_distances(robot, dataset)
-        paths.append(plot_collision_prior(distances, counts, role, len(hand_geometries(robot)), out / COLLISION_FIGURE))
+        paths.append(
+            plot_collision_prior(
+                distances, counts, role, len(hand_geometries(robot)), out / COLLISION_FIGURE
+            )
+        )
     return paths
 
 
@@ -567,27 +693,39 @@ def key_numbers(model: ValueFunction, dataset: Dataset, top: int) -> dict:
     >= MIN_STEP rad; the shares of them along which f decreases; the demos that end lower than they
     start; the mean cosines of Fig. 14a (over the moving steps, over all steps, and over the moving
     steps before and from step late_from_step, 3/4 of the way); the kept and the selected features
-    (score above SELECTED_FRACTION of the largest); the top features [{name, score}]; and how many of
-    them have a mean gradient (Fig. 17a) that changes sign over time."""
+    (score above SELECTED_FRACTION of the largest); the top features [{name, score}]; and how many
+    of them have a mean gradient (Fig. 17a) that changes sign over time."""
     all_steps, moving_steps = decreasing_shares(model, dataset)
     cosines = cosines_along_demos(model, dataset)
     moving = moving_only(cosines, dataset)
     late = int(round(0.75 * moving.shape[1]))
     ranked = ranked_features(model, dataset.definition.feature_names)
     scores = np.array([score for _, score in ranked])
-    mean_gradient = mean_over_demos(gradients_along_demos(model, dataset))[:, score_order(model)[:top]]
+    mean_gradient = mean_over_demos(gradients_along_demos(model, dataset))[
+        :, score_order(model)[:top]
+    ]
 
     def finite_mean(values):
-        return float(np.mean(values[np.isfinite(values)])) if np.isfinite(values).any() else float("nan")
+        return (
+            float(np.mean(values[np.isfinite(values)]))
+            if np.isfinite(values).any()
+            else float("nan")
+        )
 
     return {
         "demos": len(dataset.demos),
         "steps": sum(demo.length - 1 for demo in dataset.demos),
-        "moving_steps": int(sum(np.sum(np.linalg.norm(np.diff(demo.q, axis=0), axis=1) >= MIN_STEP)
-                                for demo in dataset.demos)),
+        "moving_steps": int(
+            sum(
+                np.sum(np.linalg.norm(np.diff(demo.q, axis=0), axis=1) >= MIN_STEP)
+                for demo in dataset.demos
+            )
+        ),
         "decreasing_share_all_steps": all_steps,
         "decreasing_share_moving_steps": moving_steps,
-        "demos_ending_lower": int(sum(values[-1] < values[0] for values in values_along_demos(model, dataset))),
+        "demos_ending_lower": int(
+            sum(values[-1] < values[0] for values in values_along_demos(model, dataset))
+        ),
         "mean_cosine_moving_steps": finite_mean(moving),
         "mean_cosine_all_steps": finite_mean(cosines),
         "late_from_step": late,
@@ -596,8 +734,9 @@ def key_numbers(model: ValueFunction, dataset: Dataset, top: int) -> dict:
         "kept_features": len(scores),
         "selected_features": int(np.sum(scores > SELECTED_FRACTION * scores.max())),
         "top_features": [{"name": name, "score": score} for name, score in ranked[:top]],
-        "top_gradients_changing_sign": int(np.sum((np.nanmin(mean_gradient, axis=0) < 0)
-                                                  & (np.nanmax(mean_gradient, axis=0) > 0))),
+        "top_gradients_changing_sign": int(
+            np.sum((np.nanmin(mean_gradient, axis=0) < 0) & (np.nanmax(mean_gradient, axis=0) > 0))
+        ),
     }
 
 
@@ -605,11 +744,22 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(prog=PROG, description=__doc__.splitlines()[0])
     parser.add_argument("model", metavar="MODEL", help="a TRIC model file (.safetensors)")
     parser.add_argument("bags", nargs="+", metavar="BAGS", help="MCAP bags, or folders of them")
-    parser.add_argument("--out", default="analysis", metavar="DIR", help="folder for the PNGs (default: analysis)")
-    parser.add_argument("--top", type=int, default=20,
-                        help="features named in Fig. 16 and shown in Fig. 17a (default %(default)s)")
-    parser.add_argument("--feature-rank", type=int, default=DEFAULT_FEATURE_RANK, metavar="N",
-                        help="the feature of Fig. 17b/c: the N-th by score (default %(default)s, the paper's)")
+    parser.add_argument(
+        "--out", default="analysis", metavar="DIR", help="folder for the PNGs (default: analysis)"
+    )
+    parser.add_argument(
+        "--top",
+        type=int,
+        default=20,
+        help="features named in Fig. 16 and shown in Fig. 17a (default %(default)s)",
+    )
+    parser.add_argument(
+        "--feature-rank",
+        type=int,
+        default=DEFAULT_FEATURE_RANK,
+        metavar="N",
+        help="the feature of Fig. 17b/c: the N-th by score (default %(default)s, the paper's)",
+    )
     args = parser.parse_args(argv)
     try:
         if args.top < 1:
@@ -620,19 +770,29 @@ def main(argv=None) -> int:
         robot = RobotModel()
         dataset = load_dataset(args.bags, robot)
         model = value_function(ModelFile.load(args.model, expected=dataset.definition))
-        ranked_feature(model, dataset.definition.feature_names, args.feature_rank)  # refused before any figure
-        paths = write_figures(model, dataset, pathlib.Path(args.out), args.top, args.feature_rank, robot)
+        # refused before any figure
+        ranked_feature(model, dataset.definition.feature_names, args.feature_rank)
+        paths = write_figures(
+            model, dataset, pathlib.Path(args.out), args.top, args.feature_rank, robot
+        )
     except (ValueError, OSError) as error:
         print(f"{PROG}: {error}", file=sys.stderr)
         return 2
     numbers = key_numbers(model, dataset, args.top)
-    print(f"f decreases on {numbers['decreasing_share_all_steps']:.1%} of the steps of {numbers['demos']} "
-          f"demonstrations ({numbers['decreasing_share_moving_steps']:.1%} of the steps that move by >= "
-          f"{MIN_STEP} rad)")
-    print(f"mean cosine of grad_q (f o phi) and the step: {numbers['mean_cosine_moving_steps']:.3f} over the steps "
-          f"that move ({numbers['mean_cosine_all_steps']:.3f} over all)")
+    print(
+        f"f decreases on {numbers['decreasing_share_all_steps']:.1%} of the steps of "
+        f"{numbers['demos']} demonstrations ({numbers['decreasing_share_moving_steps']:.1%} of "
+        f"the steps that move by >= {MIN_STEP} rad)"
+    )
+    print(
+        f"mean cosine of grad_q (f o phi) and the step: {numbers['mean_cosine_moving_steps']:.3f} "
+        f"over the steps that move ({numbers['mean_cosine_all_steps']:.3f} over all)"
+    )
     print(f"selected features: {numbers['selected_features']} of {numbers['kept_features']} kept")
-    print("top features: " + ", ".join(f"{t['name']} {t['score']:.3g}" for t in numbers["top_features"][:5]))
+    print(
+        "top features: "
+        + ", ".join(f"{t['name']} {t['score']:.3g}" for t in numbers["top_features"][:5])
+    )
     print(f"wrote {', '.join(str(path) for path in paths)}")
     return 0
 

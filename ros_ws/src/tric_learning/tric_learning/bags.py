@@ -3,8 +3,8 @@
 The files follow the conventions of rosbag2's MCAP storage plugin (ROS 2 Jazzy), so `ros2 bag info`,
 `ros2 bag play` and Foxglove read them, and so does the independent reader `rosbags`:
 
-- MCAP profile "ros2". One schema per message type: encoding "ros2msg", name "pkg/msg/Type", data the
-  .msg text followed by the definitions it depends on, concatenated as rosbag2 does it (see
+- MCAP profile "ros2". One schema per message type: encoding "ros2msg", name "pkg/msg/Type", data
+  the .msg text followed by the definitions it depends on, concatenated as rosbag2 does it (see
   `message_definition`). One channel per topic: message encoding "cdr", metadata
   "offered_qos_profiles" (rosbag2's YAML) and "topic_type_hash". Messages are CDR, little endian.
 - Chunks are zstd-compressed. `BagWriter.flush` closes the current chunk, so a writer killed with
@@ -12,13 +12,13 @@ The files follow the conventions of rosbag2's MCAP storage plugin (ROS 2 Jazzy),
 - A "rosbag2" metadata record (key "serialized_metadata": rosbag2's bag information, version 9) is
   written when the bag opens and again, final, when it closes, as rosbag2's writer does.
 - The writer writes "<path>.part" and renames it to "<path>" on close(): a "*.mcap" file is always a
-  finished bag. `read_bag(..., tolerant=True)` reads a ".part" left by a killed writer up to its last
-  complete chunk.
+  finished bag. `read_bag(..., tolerant=True)` reads a ".part" left by a killed writer up to its
+  last complete chunk.
 
 Times are integer nanoseconds. Writing takes rclpy-generated message objects (e.g.
-sensor_msgs.msg.JointState(...)); reading gives mcap_ros2's decoded objects, with the message's field
-names as attributes: numbers and arrays of numbers as Python numbers and lists, uint8[]/byte[] as
-bytes, nested messages as objects of the same kind (mcap_ros2 reads char as int8, so char values
+sensor_msgs.msg.JointState(...)); reading gives mcap_ros2's decoded objects, with the message's
+field names as attributes: numbers and arrays of numbers as Python numbers and lists, uint8[]/byte[]
+as bytes, nested messages as objects of the same kind (mcap_ros2 reads char as int8, so char values
 above 127 come back negative). wstring fields are not supported.
 """
 
@@ -32,9 +32,10 @@ import operator
 import os
 import re
 import struct
+from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Iterable, Iterator, Mapping, NamedTuple
+from typing import Any, NamedTuple
 
 import yaml
 import zstandard
@@ -48,8 +49,13 @@ from mcap.writer import LIBRARY_IDENTIFIER, CompressionType
 from mcap.writer import Writer as McapWriter
 from mcap_ros2.decoder import DecoderFactory
 from rosidl_adapter.parser import parse_message_string
-from rosidl_parser.definition import (AbstractNestedType, AbstractString, Array, BasicType,
-                                      NamespacedType)
+from rosidl_parser.definition import (
+    AbstractNestedType,
+    AbstractString,
+    Array,
+    BasicType,
+    NamespacedType,
+)
 
 BAG_SUFFIX = ".mcap"
 #: Suffix of a bag while it is being written ("<name>.mcap.part").
@@ -74,15 +80,34 @@ _log = logging.getLogger(__name__)
 
 # rosbag2 (LocalMessageDefinitionSource) finds the types a .msg file uses with this expression.
 _FIELD_TYPE = re.compile(r"(?:^|\n)\s*([a-zA-Z0-9_/]+)(?:\[[^\]]*\])?\s+")
-_PRIMITIVE_TYPES = frozenset({"bool", "byte", "char", "float32", "float64", "int8", "uint8", "int16",
-                              "uint16", "int32", "uint32", "int64", "uint64", "string", "wstring"})
+_PRIMITIVE_TYPES = frozenset(
+    {
+        "bool",
+        "byte",
+        "char",
+        "float32",
+        "float64",
+        "int8",
+        "uint8",
+        "int16",
+        "uint16",
+        "int32",
+        "uint32",
+        "int64",
+        "uint64",
+        "string",
+        "wstring",
+    }
+)
 
 
 def ros_type_name(msg_class: type) -> str:
-    """"pkg/msg/Type" of an rclpy-generated message class, e.g. "sensor_msgs/msg/JointState"."""
+    """ "pkg/msg/Type" of an rclpy-generated message class, e.g. "sensor_msgs/msg/JointState"."""
     parts = getattr(msg_class, "__module__", "").split(".")
     if not hasattr(msg_class, "SLOT_TYPES") or len(parts) < 2 or parts[1] != "msg":
-        raise TypeError(f"{msg_class!r} is not a ROS 2 message class (such as sensor_msgs.msg.JointState)")
+        raise TypeError(
+            f"{msg_class!r} is not a ROS 2 message class (such as sensor_msgs.msg.JointState)"
+        )
     return f"{parts[0]}/msg/{msg_class.__name__}"
 
 
@@ -91,7 +116,9 @@ def _package_and_name(type_name: str) -> tuple[str, str]:
     parts = type_name.split("/")
     if len(parts) == 2 or (len(parts) == 3 and parts[1] == "msg"):
         return parts[0], parts[-1]
-    raise ValueError(f"'{type_name}' is not a message type name such as 'sensor_msgs/msg/JointState'")
+    raise ValueError(
+        f"'{type_name}' is not a message type name such as 'sensor_msgs/msg/JointState'"
+    )
 
 
 def _interface_file(type_name: str, extension: str) -> Path:
@@ -102,8 +129,10 @@ def _interface_file(type_name: str, extension: str) -> Path:
         candidate = Path(prefix, "share", package, "msg", name + extension)
         if candidate.is_file():
             return candidate
-    raise ValueError(f"no share/{package}/msg/{name}{extension} under AMENT_PREFIX_PATH "
-                     f"({os.pathsep.join(prefixes) or 'unset'}): is the package built and its setup sourced?")
+    raise ValueError(
+        f"no share/{package}/msg/{name}{extension} under AMENT_PREFIX_PATH "
+        f"({os.pathsep.join(prefixes) or 'unset'}): is the package built and its setup sourced?"
+    )
 
 
 def message_definition(type_name: str, text: str | None = None) -> str:
@@ -119,8 +148,11 @@ def message_definition(type_name: str, text: str | None = None) -> str:
         if text is None:
             text = _interface_file(name, ".msg").read_bytes().decode("utf-8")
         package = _package_and_name(name)[0]
-        used = {t if "/" in t else f"{package}/{t}"
-                for t in _FIELD_TYPE.findall(text) if t not in _PRIMITIVE_TYPES}
+        used = {
+            t if "/" in t else f"{package}/{t}"
+            for t in _FIELD_TYPE.findall(text)
+            if t not in _PRIMITIVE_TYPES
+        }
         for dependency in sorted(used):
             if dependency not in included:
                 included.add(dependency)
@@ -132,7 +164,8 @@ def message_definition(type_name: str, text: str | None = None) -> str:
 
 def _check_generated_class(msg_class: type, checked: set | None = None) -> None:
     """ValueError when an rclpy message class, or one nested in it, has other fields than its
-    installed .msg file declares (a stale build): its messages would not decode with that definition."""
+    installed .msg file declares (a stale build): its messages would not decode with that
+    definition."""
     checked = set() if checked is None else checked
     if msg_class in checked:
         return
@@ -140,11 +173,15 @@ def _check_generated_class(msg_class: type, checked: set | None = None) -> None:
     type_name = ros_type_name(msg_class)
     package, name = _package_and_name(type_name)
     msg_file = _interface_file(type_name, ".msg")
-    declared = [field.name for field in parse_message_string(package, name, msg_file.read_text()).fields]
+    declared = [
+        field.name for field in parse_message_string(package, name, msg_file.read_text()).fields
+    ]
     generated = list(msg_class.get_fields_and_field_types())
     if declared != generated:
-        raise ValueError(f"{msg_class.__module__}.{msg_class.__name__} has the fields {generated} but "
-                         f"{msg_file} declares {declared}: rebuild {package} so that they match")
+        raise ValueError(
+            f"{msg_class.__module__}.{msg_class.__name__} has the fields {generated} but "
+            f"{msg_file} declares {declared}: rebuild {package} so that they match"
+        )
     for field_type in msg_class.SLOT_TYPES:
         if isinstance(field_type, AbstractNestedType):
             field_type = field_type.value_type
@@ -154,19 +191,38 @@ def _check_generated_class(msg_class: type, checked: set | None = None) -> None:
 
 
 def _type_hash(type_name: str) -> str:
-    """The RIHS01 hash of a message type from its installed type description, "" when there is none."""
+    """The RIHS01 hash of a message type from its installed type description, "" when there is
+    none."""
     try:
         description = json.loads(_interface_file(type_name, ".json").read_text())
     except ValueError:
         return ""
-    return next((h["hash_string"] for h in description.get("type_hashes", [])
-                 if h.get("type_name") == type_name), "")
+    return next(
+        (
+            h["hash_string"]
+            for h in description.get("type_hashes", [])
+            if h.get("type_name") == type_name
+        ),
+        "",
+    )
 
 
 # --- CDR serialization of rclpy messages ------------------------------------------------------
 
-_BASIC_FORMATS = {"boolean": "?", "octet": "B", "uint8": "B", "int8": "b", "uint16": "H", "int16": "h",
-                  "uint32": "I", "int32": "i", "uint64": "Q", "int64": "q", "float": "f", "double": "d"}
+_BASIC_FORMATS = {
+    "boolean": "?",
+    "octet": "B",
+    "uint8": "B",
+    "int8": "b",
+    "uint16": "H",
+    "int16": "h",
+    "uint32": "I",
+    "int32": "i",
+    "uint64": "Q",
+    "int64": "q",
+    "float": "f",
+    "double": "d",
+}
 _PACKERS = {fmt: struct.Struct("<" + fmt) for fmt in set(_BASIC_FORMATS.values())}
 
 
@@ -178,7 +234,7 @@ def serialize_cdr(message: Any) -> bytes:
     return _CDR_LITTLE_ENDIAN_HEADER + bytes(buffer)
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _fields(msg_class: type) -> tuple:
     """(field name, rosidl type) of every field of an rclpy message class, in order."""
     return tuple(zip(msg_class.get_fields_and_field_types(), msg_class.SLOT_TYPES))
@@ -191,7 +247,8 @@ def _align(buffer: bytearray, size: int) -> None:
 def _write_message(buffer: bytearray, message: Any) -> None:
     fields = _fields(type(message))
     if not fields:
-        buffer.append(0)  # an empty message is sent as one uint8 (structure_needs_at_least_one_member)
+        # an empty message is sent as one uint8 (structure_needs_at_least_one_member)
+        buffer.append(0)
     for name, field_type in fields:
         _write_value(buffer, field_type, getattr(message, name))
 
@@ -213,10 +270,16 @@ def _write_value(buffer: bytearray, field_type: Any, value: Any) -> None:
         _write_scalar(buffer, "I", len(encoded) + 1)
         buffer += encoded + b"\0"
     elif isinstance(field_type, BasicType) and field_type.typename in _BASIC_FORMATS:
-        _write_scalar(buffer, _BASIC_FORMATS[field_type.typename],
-                      value[0] if field_type.typename == "octet" else value)  # rclpy: byte = bytes([v])
+        _write_scalar(
+            buffer,
+            _BASIC_FORMATS[field_type.typename],
+            # rclpy: byte = bytes([v])
+            value[0] if field_type.typename == "octet" else value,
+        )
     else:
-        raise ValueError(f"cannot serialize a field of type {field_type} (wstring is not supported)")
+        raise ValueError(
+            f"cannot serialize a field of type {field_type} (wstring is not supported)"
+        )
 
 
 def _write_scalar(buffer: bytearray, fmt: str, value: Any) -> None:
@@ -243,11 +306,19 @@ def _write_basic_array(buffer: bytearray, typename: str, values: Any) -> None:
 def _offered_qos_profiles(latched: bool) -> list[dict]:
     """rosbag2's description (metadata version 9) of one publisher's QoS: reliable, keep last 10,
     volatile or (latched) transient local, deadline/lifespan/lease unspecified (0 = the default)."""
-    return [{"history": "keep_last", "depth": _QOS_DEPTH, "reliability": "reliable",
-             "durability": "transient_local" if latched else "volatile",
-             "deadline": {"sec": 0, "nsec": 0}, "lifespan": {"sec": 0, "nsec": 0},
-             "liveliness": "automatic", "liveliness_lease_duration": {"sec": 0, "nsec": 0},
-             "avoid_ros_namespace_conventions": False}]
+    return [
+        {
+            "history": "keep_last",
+            "depth": _QOS_DEPTH,
+            "reliability": "reliable",
+            "durability": "transient_local" if latched else "volatile",
+            "deadline": {"sec": 0, "nsec": 0},
+            "lifespan": {"sec": 0, "nsec": 0},
+            "liveliness": "automatic",
+            "liveliness_lease_duration": {"sec": 0, "nsec": 0},
+            "avoid_ros_namespace_conventions": False,
+        }
+    ]
 
 
 class _NoAliasDumper(yaml.SafeDumper):
@@ -258,7 +329,9 @@ class _NoAliasDumper(yaml.SafeDumper):
 
 
 def _to_yaml(data: Any) -> str:
-    return yaml.dump(data, Dumper=_NoAliasDumper, sort_keys=False, default_flow_style=False).rstrip("\n")
+    return yaml.dump(data, Dumper=_NoAliasDumper, sort_keys=False, default_flow_style=False).rstrip(
+        "\n"
+    )
 
 
 @dataclass
@@ -270,23 +343,31 @@ class _Topic:
 
 
 class BagWriter:
-    """Writes one bag: "<path>.part" while open, renamed to path (which must end in ".mcap") by close().
+    """Writes one bag: "<path>.part" while open, renamed to path (which must end in ".mcap") by
+    close().
 
-    Usage: add_topic() for each topic (add_topic_definition() for a type not installed here), write()
-    messages (write_cdr() their bytes), flush() after each sample that must survive
+    Usage: add_topic() for each topic (add_topic_definition() for a type not installed here),
+    write() messages (write_cdr() their bytes), flush() after each sample that must survive
     a crash, close() at the end (or discard() to drop the bag). As a context manager it closes on a
     normal exit and discards on an exception. Not thread-safe.
     """
 
-    def __init__(self, path: str | os.PathLike, custom_data: Mapping[str, str] | None = None,
-                 chunk_size: int = DEFAULT_CHUNK_SIZE, overwrite: bool = False):
+    def __init__(
+        self,
+        path: str | os.PathLike,
+        custom_data: Mapping[str, str] | None = None,
+        chunk_size: int = DEFAULT_CHUNK_SIZE,
+        overwrite: bool = False,
+    ):
         """path: the finished bag's file; custom_data: rosbag2 custom_data (str -> str), also
         settable later with set_custom_data(); chunk_size: uncompressed bytes per chunk at most;
         overwrite: replace a bag at path on close() (else a bag there is refused at once)."""
         self.path = Path(path)
         if self.path.suffix != BAG_SUFFIX:
-            raise ValueError(f"bag path {self.path} must end in '{BAG_SUFFIX}' "
-                             "(ros2 bag tells the storage plugin by it)")
+            raise ValueError(
+                f"bag path {self.path} must end in '{BAG_SUFFIX}' "
+                "(ros2 bag tells the storage plugin by it)"
+            )
         if self.path.exists() and not (overwrite and self.path.is_file()):
             raise FileExistsError(f"bag {self.path} exists already; refusing to overwrite it")
         self.part_path = self.path.with_name(self.path.name + PART_SUFFIX)
@@ -321,7 +402,9 @@ class BagWriter:
         _check_generated_class(msg_type)
         self._add_channel(topic, msg_type, type_name, None, latched, _type_hash(type_name))
 
-    def add_topic_definition(self, topic: str, type_name: str, definition: str, latched: bool = False) -> None:
+    def add_topic_definition(
+        self, topic: str, type_name: str, definition: str, latched: bool = False
+    ) -> None:
         """Adds a topic of a message type that is not installed here (e.g. tf2_msgs/msg/TFMessage in
         the pip environment): type_name "pkg/msg/Type", definition its .msg text (the types it uses
         must be installed). Its messages are written as CDR bytes with write_cdr()."""
@@ -339,26 +422,43 @@ class BagWriter:
     def _add_channel(self, topic, msg_type, type_name, definition, latched, type_hash) -> None:
         if type_name not in self._schema_ids:
             self._schema_ids[type_name] = self._mcap.register_schema(
-                type_name, "ros2msg", message_definition(type_name, definition).encode("utf-8"))
+                type_name, "ros2msg", message_definition(type_name, definition).encode("utf-8")
+            )
         qos = _offered_qos_profiles(latched)
         channel_id = self._mcap.register_channel(
-            topic, "cdr", self._schema_ids[type_name],
-            metadata={"offered_qos_profiles": _to_yaml(qos), "topic_type_hash": type_hash})
-        self._topics[topic] = _Topic(msg_type, channel_id, {
-            "name": topic, "type": type_name, "serialization_format": "cdr",
-            "offered_qos_profiles": qos, "type_description_hash": type_hash})
+            topic,
+            "cdr",
+            self._schema_ids[type_name],
+            metadata={"offered_qos_profiles": _to_yaml(qos), "topic_type_hash": type_hash},
+        )
+        self._topics[topic] = _Topic(
+            msg_type,
+            channel_id,
+            {
+                "name": topic,
+                "type": type_name,
+                "serialization_format": "cdr",
+                "offered_qos_profiles": qos,
+                "type_description_hash": type_hash,
+            },
+        )
 
     def write(self, topic: str, message: Any, stamp_ns: int) -> None:
-        """Writes message (an object of the topic's class) with log/publish time stamp_ns (ns, >= 0)."""
+        """Writes message (an object of the topic's class) with log/publish time stamp_ns (ns, >=
+        0)."""
         self._check_open()
         if topic not in self._topics:
-            raise ValueError(f"topic {topic} was not added to {self.part_path} "
-                             f"(added: {', '.join(self._topics) or 'none'})")
+            raise ValueError(
+                f"topic {topic} was not added to {self.part_path} "
+                f"(added: {', '.join(self._topics) or 'none'})"
+            )
         entry = self._topics[topic]
         if entry.msg_class is None or not isinstance(message, entry.msg_class):
-            raise TypeError(f"topic {topic} takes {entry.metadata['type']}"
-                            + (" as CDR bytes (write_cdr)" if entry.msg_class is None else "")
-                            + f", got {type(message).__name__}")
+            raise TypeError(
+                f"topic {topic} takes {entry.metadata['type']}"
+                + (" as CDR bytes (write_cdr)" if entry.msg_class is None else "")
+                + f", got {type(message).__name__}"
+            )
         self._write_bytes(entry, serialize_cdr(message), stamp_ns)
 
     def write_cdr(self, topic: str, data: bytes, stamp_ns: int) -> None:
@@ -367,14 +467,18 @@ class BagWriter:
         self._check_open()
         entry = self._topics.get(topic)
         if entry is None or entry.msg_class is not None:
-            raise ValueError(f"topic {topic} was not added with add_topic_definition() to {self.part_path}")
+            raise ValueError(
+                f"topic {topic} was not added with add_topic_definition() to {self.part_path}"
+            )
         self._write_bytes(entry, bytes(data), stamp_ns)
 
     def _write_bytes(self, entry: _Topic, data: bytes, stamp_ns: int) -> None:
         stamp_ns = operator.index(stamp_ns)
-        if not 0 <= stamp_ns < 2 ** 64:
+        if not 0 <= stamp_ns < 2**64:
             raise ValueError(f"stamp_ns must be a time in ns in [0, 2^64), got {stamp_ns}")
-        self._mcap.add_message(entry.channel_id, log_time=stamp_ns, data=data, publish_time=stamp_ns)
+        self._mcap.add_message(
+            entry.channel_id, log_time=stamp_ns, data=data, publish_time=stamp_ns
+        )
         entry.message_count += 1
         self._start_ns = stamp_ns if self._start_ns is None else min(self._start_ns, stamp_ns)
         self._end_ns = stamp_ns if self._end_ns is None else max(self._end_ns, stamp_ns)
@@ -386,8 +490,8 @@ class BagWriter:
         self._mcap.flush()
 
     def close(self) -> Path:
-        """Writes the final rosbag2 metadata and the MCAP summary, syncs the file to disk and renames
-        it to path, which it returns. Closing again returns path."""
+        """Writes the final rosbag2 metadata and the MCAP summary, syncs the file to disk and
+        renames it to path, which it returns. Closing again returns path."""
         if self._state == "closed":
             return self.path
         self._check_open()
@@ -426,7 +530,8 @@ class BagWriter:
             raise ValueError(f"bag writer for {self.path} is {self._state}")
 
     def _write_rosbag2_metadata(self) -> None:
-        """Writes rosbag2's bag information (the metadata.yaml content, version 9) for the bag so far."""
+        """Writes rosbag2's bag information (the metadata.yaml content, version 9) for the bag so
+        far."""
         count = sum(t.message_count for t in self._topics.values())
         start_ns = self._start_ns or 0
         duration_ns = (self._end_ns - start_ns) if count else 0
@@ -436,13 +541,21 @@ class BagWriter:
             "duration": {"nanoseconds": duration_ns},
             "starting_time": {"nanoseconds_since_epoch": start_ns},
             "message_count": count,
-            "topics_with_message_count": [{"topic_metadata": t.metadata, "message_count": t.message_count}
-                                          for t in self._topics.values()],
+            "topics_with_message_count": [
+                {"topic_metadata": t.metadata, "message_count": t.message_count}
+                for t in self._topics.values()
+            ],
             "compression_format": "",
             "compression_mode": "",
             "relative_file_paths": [self.path.name],
-            "files": [{"path": self.path.name, "starting_time": {"nanoseconds_since_epoch": start_ns},
-                       "duration": {"nanoseconds": duration_ns}, "message_count": count}],
+            "files": [
+                {
+                    "path": self.path.name,
+                    "starting_time": {"nanoseconds_since_epoch": start_ns},
+                    "duration": {"nanoseconds": duration_ns},
+                    "message_count": count,
+                }
+            ],
             "custom_data": dict(self._custom_data),
             "ros_distro": ROS_DISTRO,
         }
@@ -488,8 +601,10 @@ class _Damage(Exception):
     """A bag's bytes stop making sense: the file is truncated or corrupt."""
 
     def __init__(self, path: Path, offset: int, size: int, messages_before: int, reason: str):
-        super().__init__(f"bag {path} is truncated or corrupt at byte {offset} of {size} ({reason}); "
-                         f"{messages_before} messages before the damage are readable")
+        super().__init__(
+            f"bag {path} is truncated or corrupt at byte {offset} of {size} ({reason}); "
+            f"{messages_before} messages before the damage are readable"
+        )
 
 
 class _BagFile:
@@ -521,7 +636,8 @@ class _BagFile:
 
 
 def _open_bag(path: Path) -> _BagFile:
-    """The bag file open for reading; ValueError unless it is an existing MCAP file of profile ros2."""
+    """The bag file open for reading; ValueError unless it is an existing MCAP file of profile
+    ros2."""
     if not path.exists():
         raise ValueError(f"bag {path} does not exist")
     if not path.is_file():
@@ -529,15 +645,19 @@ def _open_bag(path: Path) -> _BagFile:
     file = _BagFile(path)
     try:
         if file.read(len(_MCAP_MAGIC)) != _MCAP_MAGIC:
-            raise ValueError(f"{path} is not an MCAP bag: "
-                             + ("it is empty" if file.size == 0 else "it does not start with the MCAP magic"))
+            raise ValueError(
+                f"{path} is not an MCAP bag: "
+                + ("it is empty" if file.size == 0 else "it does not start with the MCAP magic")
+            )
         try:
             header = next(StreamReader(file, skip_magic=True, record_size_limit=file.size).records)
         except (StopIteration, *_DAMAGE_ERRORS):
             header = None  # a damaged start, reported by whoever reads on
         if header is not None and (not isinstance(header, Header) or header.profile != "ros2"):
-            raise ValueError(f"{path} is an MCAP file but not a ROS 2 bag (profile "
-                             f"'{getattr(header, 'profile', '?')}', expected 'ros2')")
+            raise ValueError(
+                f"{path} is an MCAP file but not a ROS 2 bag (profile "
+                f"'{getattr(header, 'profile', '?')}', expected 'ros2')"
+            )
     except BaseException:
         file.close()
         raise
@@ -546,14 +666,18 @@ def _open_bag(path: Path) -> _BagFile:
 
 
 def _is_finished(file: _BagFile) -> bool:
-    """Whether an MCAP file ends with a footer record and the closing magic, as a finished bag does."""
+    """Whether an MCAP file ends with a footer record and the closing magic, as a finished bag
+    does."""
     if file.size < 2 * len(_MCAP_MAGIC) + _FOOTER_RECORD_SIZE:
         return False
     file.seek(file.size - _FOOTER_RECORD_SIZE - len(_MCAP_MAGIC))
     tail = file.read()
     file.seek(0)
-    return (tail.endswith(_MCAP_MAGIC) and tail[0] == Opcode.FOOTER
-            and struct.unpack_from("<Q", tail, 1)[0] == _FOOTER_RECORD_SIZE - 9)
+    return (
+        tail.endswith(_MCAP_MAGIC)
+        and tail[0] == Opcode.FOOTER
+        and struct.unpack_from("<Q", tail, 1)[0] == _FOOTER_RECORD_SIZE - 9
+    )
 
 
 def _summary(file: _BagFile) -> Summary | None:
@@ -600,23 +724,30 @@ def _strict_error(damage: _Damage) -> ValueError:
 
 def _check_type(path: Path, topic: str, type_name: str, expected: Mapping[str, Any]) -> None:
     if topic in expected:
-        want = expected[topic] if isinstance(expected[topic], str) else ros_type_name(expected[topic])
+        want = (
+            expected[topic] if isinstance(expected[topic], str) else ros_type_name(expected[topic])
+        )
         if _package_and_name(want) != _package_and_name(type_name):
             raise ValueError(f"bag {path}: topic {topic} has type {type_name}, expected {want}")
 
 
-def read_bag(path: str | os.PathLike, topics: Iterable[str] | None = None, *,
-             expected_types: Mapping[str, str | type] | None = None,
-             tolerant: bool = False) -> Iterator[BagMessage]:
+def read_bag(
+    path: str | os.PathLike,
+    topics: Iterable[str] | None = None,
+    *,
+    expected_types: Mapping[str, str | type] | None = None,
+    tolerant: bool = False,
+) -> Iterator[BagMessage]:
     """The messages of a bag in file order (the order they were written), decoded.
 
     topics: read only these (default: all). expected_types: topic -> type ("pkg/msg/Type" or message
     class); a topic of another type raises ValueError before any of its messages (before any message
     at all for a finished bag read strictly); topics missing from the bag are not an error.
     tolerant: False refuses (ValueError) a file that is not a finished bag, saying how many messages
-    precede the damage; True yields those messages and logs a warning where the damage starts (use it
-    for a ".part" left by a killed writer).
-    Also ValueError for a missing file, a file that is not a ROS 2 MCAP bag, or undecodable messages.
+    precede the damage; True yields those messages and logs a warning where the damage starts (use
+    it for a ".part" left by a killed writer).
+    Also ValueError for a missing file, a file that is not a ROS 2 MCAP bag, or undecodable
+    messages.
     """
     path = Path(path)
     selected = None if topics is None else frozenset(topics)
@@ -629,13 +760,18 @@ def read_bag(path: str | os.PathLike, topics: Iterable[str] | None = None, *,
             summary = _summary(file)
             for channel in summary.channels.values() if summary else ():
                 if channel.schema_id in summary.schemas:
-                    _check_type(path, channel.topic, summary.schemas[channel.schema_id].name, expected)
+                    _check_type(
+                        path, channel.topic, summary.schemas[channel.schema_id].name, expected
+                    )
     return _messages(path, selected, expected, tolerant)
 
 
-def _messages(path: Path, selected: frozenset | None, expected: dict, tolerant: bool) -> Iterator[BagMessage]:
+def _messages(
+    path: Path, selected: frozenset | None, expected: dict, tolerant: bool
+) -> Iterator[BagMessage]:
     schemas: dict[int, Schema] = {}
-    channels: dict[int, tuple[Channel, Any]] = {}  # id -> (channel, decoder or None when not selected)
+    # id -> (channel, decoder or None when not selected)
+    channels: dict[int, tuple[Channel, Any]] = {}
     decoders = DecoderFactory()
     try:
         for record in _records(path):
@@ -652,12 +788,18 @@ def _messages(path: Path, selected: frozenset | None, expected: dict, tolerant: 
                 channels[record.id] = (record, decoder)
             elif isinstance(record, Message):
                 if record.channel_id not in channels:
-                    raise ValueError(f"bag {path}: a message refers to channel {record.channel_id}, "
-                                     "which the file does not define before it")
+                    raise ValueError(
+                        f"bag {path}: a message refers to channel {record.channel_id}, "
+                        "which the file does not define before it"
+                    )
                 channel, decoder = channels[record.channel_id]
                 if decoder is not None:
-                    yield BagMessage(channel.topic, schemas[channel.schema_id].name, record.log_time,
-                                     _decode(path, decoder, channel, record))
+                    yield BagMessage(
+                        channel.topic,
+                        schemas[channel.schema_id].name,
+                        record.log_time,
+                        _decode(path, decoder, channel, record),
+                    )
     except _Damage as damage:
         if not tolerant:
             raise _strict_error(damage) from None
@@ -668,11 +810,15 @@ def _decoder(path: Path, decoders: DecoderFactory, channel: Channel, schema: Sch
     try:
         decoder = decoders.decoder_for(channel.message_encoding, schema)
     except Exception as error:  # mcap_ros2 raises what its .msg parser raises
-        raise ValueError(f"bag {path}: the schema of {schema.name} (topic {channel.topic}) "
-                         f"does not parse: {error}") from None
+        raise ValueError(
+            f"bag {path}: the schema of {schema.name} (topic {channel.topic}) "
+            f"does not parse: {error}"
+        ) from None
     if decoder is None:
-        raise ValueError(f"bag {path}: topic {channel.topic} is '{channel.message_encoding}' with a "
-                         f"'{schema.encoding}' schema; only 'cdr' with 'ros2msg' can be decoded")
+        raise ValueError(
+            f"bag {path}: topic {channel.topic} is '{channel.message_encoding}' with a "
+            f"'{schema.encoding}' schema; only 'cdr' with 'ros2msg' can be decoded"
+        )
     return decoder
 
 
@@ -680,12 +826,15 @@ def _decode(path: Path, decoder: Any, channel: Channel, record: Message) -> Any:
     try:
         return decoder(record.data)
     except Exception as error:  # CdrReader raises struct.error, IndexError, UnicodeDecodeError, ...
-        raise ValueError(f"bag {path}: a message on {channel.topic} at {record.log_time} ns does not "
-                         f"decode: {error!r}") from None
+        raise ValueError(
+            f"bag {path}: a message on {channel.topic} at {record.log_time} ns does not "
+            f"decode: {error!r}"
+        ) from None
 
 
 def _latched(channel: Channel) -> bool:
-    """Whether a channel's offered QoS profiles are transient local (rosbag2 v9 names or v8 numbers)."""
+    """Whether a channel's offered QoS profiles are transient local (rosbag2 v9 names or v8
+    numbers)."""
     try:
         profiles = yaml.safe_load(channel.metadata.get("offered_qos_profiles", "")) or []
         return any(p.get("durability") in ("transient_local", 1) for p in profiles)
@@ -702,7 +851,9 @@ def _custom_data(path: Path, metadata: list[Metadata]) -> dict[str, str]:
         information = yaml.safe_load(records[-1].metadata["serialized_metadata"])
         return {str(k): str(v) for k, v in (information.get("custom_data") or {}).items()}
     except (yaml.YAMLError, AttributeError) as error:
-        raise ValueError(f"bag {path}: its rosbag2 metadata record does not read: {error}") from None
+        raise ValueError(
+            f"bag {path}: its rosbag2 metadata record does not read: {error}"
+        ) from None
 
 
 def bag_info(path: str | os.PathLike, *, tolerant: bool = False) -> BagInfo:
@@ -721,10 +872,16 @@ def bag_info(path: str | os.PathLike, *, tolerant: bool = False) -> BagInfo:
         if summary is not None and summary.statistics is not None:
             statistics = summary.statistics
             try:
-                return _bag_info(path, True, summary.schemas, summary.channels.values(),
-                                 statistics.channel_message_counts,
-                                 list(SeekingReader(file, record_size_limit=file.size).iter_metadata()),
-                                 statistics.message_start_time, statistics.message_end_time)
+                return _bag_info(
+                    path,
+                    True,
+                    summary.schemas,
+                    summary.channels.values(),
+                    statistics.channel_message_counts,
+                    list(SeekingReader(file, record_size_limit=file.size).iter_metadata()),
+                    statistics.message_start_time,
+                    statistics.message_end_time,
+                )
             except _INDEX_ERRORS:
                 pass  # a damaged index or metadata record: read the records instead
     schemas, channels, counts, metadata = {}, {}, {}, []
@@ -745,13 +902,30 @@ def bag_info(path: str | os.PathLike, *, tolerant: bool = False) -> BagInfo:
         if not tolerant:
             raise _strict_error(damage) from None
         finished = False
-    return _bag_info(path, finished, schemas, channels.values(), counts, metadata, start_ns or 0, end_ns or 0)
+    return _bag_info(
+        path, finished, schemas, channels.values(), counts, metadata, start_ns or 0, end_ns or 0
+    )
 
 
-def _bag_info(path: Path, complete: bool, schemas: Mapping[int, Schema], channels: Iterable[Channel],
-              counts: Mapping[int, int], metadata: list[Metadata], start_ns: int, end_ns: int) -> BagInfo:
-    topics = {c.topic: TopicInfo(c.topic, schemas[c.schema_id].name if c.schema_id in schemas else "",
-                                 counts.get(c.id, 0), _latched(c))
-              for c in channels}
-    return BagInfo(path, complete, topics, sum(counts.values()), start_ns, end_ns,
-                   _custom_data(path, metadata))
+def _bag_info(
+    path: Path,
+    complete: bool,
+    schemas: Mapping[int, Schema],
+    channels: Iterable[Channel],
+    counts: Mapping[int, int],
+    metadata: list[Metadata],
+    start_ns: int,
+    end_ns: int,
+) -> BagInfo:
+    topics = {
+        c.topic: TopicInfo(
+            c.topic,
+            schemas[c.schema_id].name if c.schema_id in schemas else "",
+            counts.get(c.id, 0),
+            _latched(c),
+        )
+        for c in channels
+    }
+    return BagInfo(
+        path, complete, topics, sum(counts.values()), start_ns, end_ns, _custom_data(path, metadata)
+    )

@@ -56,15 +56,21 @@ class Dataset:
             where = f"demo '{demo.name}'" + (f" (bag {demo.bag})" if demo.bag else "")
             if demo.length < 3:
                 raise ValueError(f"{where} has {demo.length} samples; at least 3 are needed")
-            for key, shape in (("q", (demo.length, n)), ("y", (demo.length, d)),
-                               ("jacobians", (demo.length, d, n)), ("stamps_ns", (demo.length,))):
+            for key, shape in (
+                ("q", (demo.length, n)),
+                ("y", (demo.length, d)),
+                ("jacobians", (demo.length, d, n)),
+                ("stamps_ns", (demo.length,)),
+            ):
                 value = np.asarray(getattr(demo, key))
                 if value.shape != shape:
                     raise ValueError(f"{where}: {key} has shape {value.shape}, expected {shape}")
                 if not np.all(np.isfinite(value)):
                     raise ValueError(f"{where}: {key} has non-finite values")
             if len(demo.object_poses) != demo.length:
-                raise ValueError(f"{where}: {len(demo.object_poses)} object poses for {demo.length} samples")
+                raise ValueError(
+                    f"{where}: {len(demo.object_poses)} object poses for {demo.length} samples"
+                )
             if np.any(np.diff(demo.stamps_ns) <= 0):
                 raise ValueError(f"{where}: sample stamps are not increasing")
         names = [demo.name for demo in self.demos]

@@ -117,9 +117,11 @@ def finger_rows(definition: FeatureDefinition) -> np.ndarray:
     names = list(definition.landmark_names)
     fingertips = [k for k, name in enumerate(names) if name.startswith(FINGERTIP_PREFIX)]
     if FINGER_FRAME not in names or not fingertips:
-        raise ValueError(f"dpl_finger needs the '{FINGER_FRAME}' landmark and {FINGERTIP_PREFIX}* landmarks "
-                         f"(the open_box task); the feature definition of task '{definition.task}' has "
-                         f"{', '.join(names)}")
+        raise ValueError(
+            f"dpl_finger needs the '{FINGER_FRAME}' landmark and {FINGERTIP_PREFIX}* landmarks "
+            f"(the open_box task); the feature definition of task '{definition.task}' has "
+            f"{', '.join(names)}"
+        )
     frame = names.index(FINGER_FRAME)
     pairs = [definition.pairs.index((frame, k)) for k in fingertips]
     return np.array([4 * p + axis for p in pairs for axis in range(3)], dtype=np.int64)
@@ -146,7 +148,9 @@ def training_pairs(dataset: Dataset, kind: str):
     rows = finger_rows(dataset.definition) if kind == "dpl_finger" else None
     for demo in dataset.demos:
         inputs.append(demo.y[:-1])
-        targets.append(np.diff(demo.q, axis=0) if rows is None else np.diff(demo.y[:, rows], axis=0))
+        targets.append(
+            np.diff(demo.q, axis=0) if rows is None else np.diff(demo.y[:, rows], axis=0)
+        )
     return np.concatenate(inputs), np.concatenate(targets)
 
 
@@ -157,19 +161,29 @@ def sample_period(dataset: Dataset) -> float:
     return duration * 1e-9 / sum(demo.length - 1 for demo in dataset.demos)
 
 
-def train_dpl(dataset: Dataset, robot: RobotModel, config: DplConfig = DplConfig(), kind: str = "dpl_joint",
-              progress=None) -> DplResult:
+def train_dpl(
+    dataset: Dataset,
+    robot: RobotModel,
+    config: DplConfig | None = None,
+    kind: str = "dpl_joint",
+    progress=None,
+) -> DplResult:
     """Train a DPL policy of kind on dataset, whose feature definition must be robot's for its
     task (the recorded features are used). progress(stage, fraction, losses) after each optimizer
     evaluation, with stage "optimizing" and losses the current terms with the iteration."""
+    config = DplConfig() if config is None else config
     config.validate()
     dataset.check()
     check_kind(kind)
-    FeatureDefinition.for_task(dataset.definition.task, robot).check_same(dataset.definition, "the dataset")
+    FeatureDefinition.for_task(dataset.definition.task, robot).check_same(
+        dataset.definition, "the dataset"
+    )
     inputs, targets = training_pairs(dataset, kind)
     start = time.perf_counter()
-    scaling = Scaling.fit(np.concatenate([demo.y for demo in dataset.demos]), config.correlation_threshold)
-    target_rms = float(np.sqrt(np.mean(targets ** 2)))
+    scaling = Scaling.fit(
+        np.concatenate([demo.y for demo in dataset.demos]), config.correlation_threshold
+    )
+    target_rms = float(np.sqrt(np.mean(targets**2)))
     if not target_rms > 0:
         raise ValueError("the demonstrations do not move: every DPL target is zero")
     problem = _Regression(scaling.transform(inputs), targets / target_rms, config)
@@ -177,15 +191,31 @@ def train_dpl(dataset: Dataset, robot: RobotModel, config: DplConfig = DplConfig
         (w1, b1, w2, b2), losses, iterations = problem.solve(progress or (lambda *_: None))
     policy = DplPolicy(scaling, w1, b1, w2 * target_rms, b2 * target_rms)
     errors = policy.predict(inputs) - targets
-    losses.update(mse=float(np.mean(errors ** 2)), mean_abs_error=float(np.mean(np.abs(errors))))
-    return DplResult(policy=policy, kind=kind, config=config, losses=losses, iterations=iterations,
-                     target_rms=target_rms, sample_period_s=sample_period(dataset),
-                     optimization_time_s=time.perf_counter() - start)
+    losses.update(mse=float(np.mean(errors**2)), mean_abs_error=float(np.mean(np.abs(errors))))
+    return DplResult(
+        policy=policy,
+        kind=kind,
+        config=config,
+        losses=losses,
+        iterations=iterations,
+        target_rms=target_rms,
+        sample_period_s=sample_period(dataset),
+        optimization_time_s=time.perf_counter() - start,
+    )
 
 
-def train_dpl_from_bags(paths, output_path, config: DplConfig, robot: RobotModel, progress=None, *,
-                        kind: str, include_failed: bool = False, tolerant: bool = False,
-                        notice=None) -> BagTraining:
+def train_dpl_from_bags(
+    paths,
+    output_path,
+    config: DplConfig,
+    robot: RobotModel,
+    progress=None,
+    *,
+    kind: str,
+    include_failed: bool = False,
+    tolerant: bool = False,
+    notice=None,
+) -> BagTraining:
     """As training.train_from_bags (the same arguments, then the kind), for a DPL kind: every input
     is checked before anything is written (a bad bag, value, kind or path raises ValueError and
     leaves no file). progress(stage, fraction, losses) with the stages "loading", "optimizing" and
@@ -196,8 +226,14 @@ def train_dpl_from_bags(paths, output_path, config: DplConfig, robot: RobotModel
     path = model_output_path(output_path, files[0])
     report = progress or (lambda *_: None)
     report("loading", 0.0, None)
-    dataset = load_dataset(files, robot, lambda done, total: report("loading", done / total, None),
-                           include_failed=include_failed, tolerant=tolerant, notice=notice)
+    dataset = load_dataset(
+        files,
+        robot,
+        lambda done, total: report("loading", done / total, None),
+        include_failed=include_failed,
+        tolerant=tolerant,
+        notice=notice,
+    )
     result = train_dpl(dataset, robot, config, kind, report)
     report("saving", 0.0, result.losses)
     to_model_file(result, dataset).save(path)
@@ -207,26 +243,38 @@ def train_dpl_from_bags(paths, output_path, config: DplConfig, robot: RobotModel
 
 def policy_arrays(policy: DplPolicy) -> dict:
     """The arrays of a DPL policy for a ModelFile."""
-    return {"w1": policy.w1, "b1": policy.b1, "w2": policy.w2, "b2": policy.b2,
-            "kept": policy.scaling.kept.astype(np.int64), "low": policy.scaling.low, "high": policy.scaling.high}
+    return {
+        "w1": policy.w1,
+        "b1": policy.b1,
+        "w2": policy.w2,
+        "b2": policy.b2,
+        "kept": policy.scaling.kept.astype(np.int64),
+        "low": policy.scaling.low,
+        "high": policy.scaling.high,
+    }
 
 
 def to_model_file(result: DplResult, dataset: Dataset) -> ModelFile:
     """The ModelFile of a DPL training result on dataset."""
     names = np.array(dataset.definition.feature_names)[result.policy.scaling.kept]
-    return ModelFile(result.kind, dataset.definition, policy_arrays(result.policy), {
-        "hyperparameters": result.config.to_dict(),
-        "dataset_fingerprint": dataset.fingerprint,
-        "demos": [demo.name for demo in dataset.demos],
-        "losses": result.losses,
-        "iterations": result.iterations,
-        "optimization_time_s": result.optimization_time_s,
-        "train_time_s": result.train_time_s,
-        "target_rms": result.target_rms,
-        "sample_period_s": result.sample_period_s,
-        "targets": target_names(dataset.definition, result.kind),
-        "kept_features": names.tolist(),
-    })
+    return ModelFile(
+        result.kind,
+        dataset.definition,
+        policy_arrays(result.policy),
+        {
+            "hyperparameters": result.config.to_dict(),
+            "dataset_fingerprint": dataset.fingerprint,
+            "demos": [demo.name for demo in dataset.demos],
+            "losses": result.losses,
+            "iterations": result.iterations,
+            "optimization_time_s": result.optimization_time_s,
+            "train_time_s": result.train_time_s,
+            "target_rms": result.target_rms,
+            "sample_period_s": result.sample_period_s,
+            "targets": target_names(dataset.definition, result.kind),
+            "kept_features": names.tolist(),
+        },
+    )
 
 
 def load_policy(model: ModelFile) -> DplPolicy:
@@ -242,12 +290,21 @@ def load_policy(model: ModelFile) -> DplPolicy:
     except KeyError as missing:
         raise ValueError(f"the {model.kind} model file lacks the array {missing}") from None
     s = len(kept)
-    if not (w1.ndim == 2 and w1.shape[1] == s and b1.shape == (w1.shape[0],) and low.shape == (s,)
-            and high.shape == (s,) and np.all((kept >= 0) & (kept < size)) and np.all(high > low)):
+    if not (
+        w1.ndim == 2
+        and w1.shape[1] == s
+        and b1.shape == (w1.shape[0],)
+        and low.shape == (s,)
+        and high.shape == (s,)
+        and np.all((kept >= 0) & (kept < size))
+        and np.all(high > low)
+    ):
         raise ValueError(f"the {model.kind} model file's input arrays have inconsistent shapes")
     if w2.shape != (outputs, w1.shape[0]) or b2.shape != (outputs,):
-        raise ValueError(f"the {model.kind} model file's output arrays have shapes {w2.shape} and {b2.shape}; "
-                         f"its feature definition needs {outputs} outputs")
+        raise ValueError(
+            f"the {model.kind} model file's output arrays have shapes {w2.shape} and {b2.shape}; "
+            f"its feature definition needs {outputs} outputs"
+        )
     for name in ("w1", "b1", "w2", "b2", "low", "high"):
         if not np.all(np.isfinite(a[name])):
             raise ValueError(f"the {model.kind} model file's {name} has non-finite values")
@@ -269,13 +326,15 @@ class _Regression:
         w2 = rng.normal(0.0, 1.0 / np.sqrt(k), (m, k))
         b2 = targets.mean(axis=0) - w2 @ _sigmoid(b1 + w1 @ inputs.mean(axis=0))
         self.shapes = [(k, s), (k,), (m, k), (m,)]
-        self.theta = torch.tensor(np.concatenate([w1.ravel(), b1, w2.ravel(), b2]), requires_grad=True)
+        self.theta = torch.tensor(
+            np.concatenate([w1.ravel(), b1, w2.ravel(), b2]), requires_grad=True
+        )
 
     def _split(self, theta):
         parts, offset = [], 0
         for shape in self.shapes:
             size = int(np.prod(shape))
-            parts.append(theta[offset:offset + size].reshape(shape))
+            parts.append(theta[offset : offset + size].reshape(shape))
             offset += size
         return parts
 
@@ -283,14 +342,20 @@ class _Regression:
         """(mean squared error, |W1|^2 + |W2|^2) of the normalized targets."""
         w1, b1, w2, b2 = self._split(theta)
         prediction = torch.sigmoid(self.u @ w1.T + b1) @ w2.T + b2
-        return torch.mean((prediction - self.targets) ** 2), torch.sum(w1 ** 2) + torch.sum(w2 ** 2)
+        return torch.mean((prediction - self.targets) ** 2), torch.sum(w1**2) + torch.sum(w2**2)
 
     def solve(self, report):
         config = self.config
-        optimizer = torch.optim.LBFGS([self.theta], lr=1.0, max_iter=config.max_iterations,
-                                      max_eval=config.max_iterations * 2, history_size=20,
-                                      tolerance_grad=1e-10, tolerance_change=1e-14,
-                                      line_search_fn="strong_wolfe")
+        optimizer = torch.optim.LBFGS(
+            [self.theta],
+            lr=1.0,
+            max_iter=config.max_iterations,
+            max_eval=config.max_iterations * 2,
+            history_size=20,
+            tolerance_grad=1e-10,
+            tolerance_change=1e-14,
+            line_search_fn="strong_wolfe",
+        )
 
         def closure():
             optimizer.zero_grad()
@@ -298,8 +363,11 @@ class _Regression:
             total = error + config.l2 * penalty
             total.backward()
             iteration = optimizer.state[optimizer._params[0]].get("n_iter", 0)
-            report("optimizing", min(iteration / config.max_iterations, 1.0),
-                   {"total": float(total.detach()), "iteration": iteration})
+            report(
+                "optimizing",
+                min(iteration / config.max_iterations, 1.0),
+                {"total": float(total.detach()), "iteration": iteration},
+            )
             return total
 
         threads = torch.get_num_threads()

@@ -1,20 +1,21 @@
 """Task-space features y = phi(q) and their Jacobian dphi/dq (paper Sec. 5.2.1, Eq. 18).
 
 Landmarks are frames: robot frames of the shared Pinocchio model ("robot/<frame>") and objects of
-/object_poses ("object/<name>"). For every ordered pair (i, j) of distinct landmarks the features are
-the position of j in i's frame (3 numbers) and the distance between them (1 number), all in m:
+/object_poses ("object/<name>"). For every ordered pair (i, j) of distinct landmarks the features
+are the position of j in i's frame (3 numbers) and the distance between them (1 number), all in m:
 
     p_ij = R_i^T (x_j - x_i),    d_ij = |x_j - x_i|
 
 Grasping uses 8 landmarks (object centre, three fingertips, the middles of the three fingers' lower
-segments, palm centre): 56 pairs, 224 features. Box opening uses 5 (box, lid, fingertips of fingers 2
-and 3, robot base): 80 features. The lid's landmark is its lip (the middle of its free edge, where a
-finger lifts it), not its hinge: boxes of every size then put the demonstrations' fingers at the same
-place relative to it (measured offline on the first 12 test boxes, seed 0: 8 opened against 5 with
-the hinge landmark; seeds 1-3 with the lip: 4, 8, 4).
+segments, palm centre): 56 pairs, 224 features. Box opening uses 5 (box, lid, fingertips of fingers
+2 and 3, robot base): 80 features. The lid's landmark is its lip (the middle of its free edge, where
+a finger lifts it), not its hinge: boxes of every size then put the demonstrations' fingers at the
+same place relative to it (measured offline on the first 12 test boxes, seed 0: 8 opened against 5
+with the hinge landmark; seeds 1-3 with the lip: 4, 8, 4).
 The Jacobian is analytic, from the frames' Jacobians (objects do not move with q):
 
-    dp_ij/dq = R_i^T (Jv_j - Jv_i) + R_i^T [x_j - x_i]_x Jw_i,    dd_ij/dq = (x_j - x_i)^T (Jv_j - Jv_i) / d_ij
+    dp_ij/dq = R_i^T (Jv_j - Jv_i) + R_i^T [x_j - x_i]_x Jw_i,    dd_ij/dq = (x_j - x_i)^T (Jv_j -
+    Jv_i) / d_ij
 
 where Jv, Jw are the world-aligned linear and angular frame Jacobians.
 """
@@ -30,15 +31,23 @@ from tric_sim.robot_model import RobotModel
 
 #: Landmarks of each task: (name, source).
 TASK_LANDMARKS = {
-    "grasp": (("object", "object/object"),
-              ("fingertip_1", "robot/finger_1_tip"), ("fingertip_2", "robot/finger_2_tip"),
-              ("fingertip_3", "robot/finger_3_tip"),
-              ("finger_mid_1", "robot/finger_1_middle"), ("finger_mid_2", "robot/finger_2_middle"),
-              ("finger_mid_3", "robot/finger_3_middle"),
-              ("palm", "robot/palm_center")),
-    "open_box": (("box", "object/object"), ("lid", "object/lid_edge"),
-                 ("fingertip_2", "robot/finger_2_tip"), ("fingertip_3", "robot/finger_3_tip"),
-                 ("robot_base", "robot/base_link")),
+    "grasp": (
+        ("object", "object/object"),
+        ("fingertip_1", "robot/finger_1_tip"),
+        ("fingertip_2", "robot/finger_2_tip"),
+        ("fingertip_3", "robot/finger_3_tip"),
+        ("finger_mid_1", "robot/finger_1_middle"),
+        ("finger_mid_2", "robot/finger_2_middle"),
+        ("finger_mid_3", "robot/finger_3_middle"),
+        ("palm", "robot/palm_center"),
+    ),
+    "open_box": (
+        ("box", "object/object"),
+        ("lid", "object/lid_edge"),
+        ("fingertip_2", "robot/finger_2_tip"),
+        ("fingertip_3", "robot/finger_3_tip"),
+        ("robot_base", "robot/base_link"),
+    ),
 }
 AXES = ("x", "y", "z")
 
@@ -46,7 +55,8 @@ AXES = ("x", "y", "z")
 @dataclass(frozen=True)
 class FeatureDefinition:
     """What a feature vector means: the task, the landmarks and where they live, the ordered pairs,
-    the joints of the Jacobian's columns, and the robot description (see tric_msgs/FeatureDefinition)."""
+    the joints of the Jacobian's columns, and the robot description (see
+    tric_msgs/FeatureDefinition)."""
 
     task: str
     landmark_names: tuple
@@ -59,7 +69,9 @@ class FeatureDefinition:
     def for_task(cls, task: str, robot: RobotModel) -> "FeatureDefinition":
         """The paper's definition for task ("grasp" or "open_box"): all ordered landmark pairs."""
         if task not in TASK_LANDMARKS:
-            raise ValueError(f"no feature definition for task '{task}' (known: {', '.join(TASK_LANDMARKS)})")
+            raise ValueError(
+                f"no feature definition for task '{task}' (known: {', '.join(TASK_LANDMARKS)})"
+            )
         names, sources = zip(*TASK_LANDMARKS[task])
         pairs = tuple((i, j) for i in range(len(names)) for j in range(len(names)) if i != j)
         return cls(task, names, sources, pairs, tuple(robot.joint_names), robot_description(robot))
@@ -82,36 +94,55 @@ class FeatureDefinition:
         return hashlib.sha256(json.dumps(self.to_dict(), sort_keys=True).encode()).hexdigest()
 
     def to_dict(self) -> dict:
-        return {"task": self.task, "landmark_names": list(self.landmark_names),
-                "landmark_sources": list(self.landmark_sources),
-                "pairs": [list(p) for p in self.pairs], "joint_names": list(self.joint_names),
-                "robot_model": self.robot_model}
+        return {
+            "task": self.task,
+            "landmark_names": list(self.landmark_names),
+            "landmark_sources": list(self.landmark_sources),
+            "pairs": [list(p) for p in self.pairs],
+            "joint_names": list(self.joint_names),
+            "robot_model": self.robot_model,
+        }
 
     @classmethod
     def from_dict(cls, data: dict) -> "FeatureDefinition":
         """The definition from to_dict()'s data, or ValueError if it is malformed."""
         try:
-            definition = cls(str(data["task"]), tuple(data["landmark_names"]),
-                             tuple(data["landmark_sources"]),
-                             tuple((int(i), int(j)) for i, j in data["pairs"]),
-                             tuple(data["joint_names"]), str(data["robot_model"]))
+            definition = cls(
+                str(data["task"]),
+                tuple(data["landmark_names"]),
+                tuple(data["landmark_sources"]),
+                tuple((int(i), int(j)) for i, j in data["pairs"]),
+                tuple(data["joint_names"]),
+                str(data["robot_model"]),
+            )
         except (KeyError, TypeError, ValueError, OverflowError) as error:
             raise ValueError(f"malformed feature definition: {error!r}") from None
         count = len(definition.landmark_names)
         if len(definition.landmark_sources) != count:
             raise ValueError("malformed feature definition: one source per landmark needed")
         if any(not (0 <= i < count and 0 <= j < count and i != j) for i, j in definition.pairs):
-            raise ValueError("malformed feature definition: a pair refers to no landmark or twice to one")
+            raise ValueError(
+                "malformed feature definition: a pair refers to no landmark or twice to one"
+            )
         return definition
 
     def check_same(self, other: "FeatureDefinition", what: str) -> None:
         """ValueError naming what differs, unless other is the same definition."""
         if other.fingerprint == self.fingerprint:
             return
-        for field in ("task", "landmark_names", "landmark_sources", "pairs", "joint_names", "robot_model"):
+        for field in (
+            "task",
+            "landmark_names",
+            "landmark_sources",
+            "pairs",
+            "joint_names",
+            "robot_model",
+        ):
             if getattr(self, field) != getattr(other, field):
-                raise ValueError(f"{what} has another feature definition: its {field} differs "
-                                 f"({getattr(other, field)!r} instead of {getattr(self, field)!r})")
+                raise ValueError(
+                    f"{what} has another feature definition: its {field} differs "
+                    f"({getattr(other, field)!r} instead of {getattr(self, field)!r})"
+                )
 
 
 def robot_description(robot: RobotModel) -> str:
@@ -129,12 +160,14 @@ class FeatureMap:
 
     def __init__(self, definition: FeatureDefinition, robot: RobotModel):
         if definition.robot_model != robot_description(robot):
-            raise ValueError("the feature definition was made for another robot description "
-                             f"({definition.robot_model.split(':')[0]} with a different URDF)")
+            raise ValueError(
+                "the feature definition was made for another robot description "
+                f"({definition.robot_model.split(':')[0]} with a different URDF)"
+            )
         if tuple(definition.joint_names) != tuple(robot.joint_names):
             raise ValueError("the feature definition's joints differ from the robot's")
         self.definition, self.robot = definition, robot
-        self.robot_landmarks = []   # (landmark index, frame id)
+        self.robot_landmarks = []  # (landmark index, frame id)
         self.object_landmarks = []  # (landmark index, object name)
         for k, source in enumerate(definition.landmark_sources):
             kind, _, name = source.partition("/")
@@ -143,7 +176,9 @@ class FeatureMap:
             elif kind == "object":
                 self.object_landmarks.append((k, name))
             else:
-                raise ValueError(f"landmark source '{source}' is neither robot/<frame> nor object/<name>")
+                raise ValueError(
+                    f"landmark source '{source}' is neither robot/<frame> nor object/<name>"
+                )
         self.object_names = tuple(name for _, name in self.object_landmarks)
         pairs = np.array(definition.pairs)
         self._first, self._second = first, second = pairs[:, 0], pairs[:, 1]
@@ -153,11 +188,15 @@ class FeatureMap:
         # 3 i + a: axis a of landmark i (row a of R_i^T); 3 L + 3 i + a: its opposite;
         # 6 L + L i + j: from x_i towards x_j (zero for i = j); the last row: zero.
         self._directions = np.zeros((6 * count + count * count + 1, 3))
-        self._axes = self._directions[:3 * count].reshape(count, 3, 3)
+        self._axes = self._directions[: 3 * count].reshape(count, 3, 3)
         self._pair = first * count + second
         # R_i^T (x_j - x_k) for all i, (k, j) is (3 L, L L); y's p_ij is at [3 i + a, L i + j]
-        self._local_index = ((3 * first[:, None] + np.arange(3)) * count * count + self._pair[:, None])
-        self._jacobian_index, self._extra_jacobian_indices, self.moves_with_q = self._jacobian_indices(robot)
+        self._local_index = (3 * first[:, None] + np.arange(3)) * count * count + self._pair[
+            :, None
+        ]
+        self._jacobian_index, self._extra_jacobian_indices, self.moves_with_q = (
+            self._jacobian_indices(robot)
+        )
         self._object_rotations = {}  # object name -> (its xyzw quaternion, rotation matrix)
 
     def _jacobian_indices(self, robot: RobotModel):
@@ -170,17 +209,30 @@ class FeatureMap:
         count, first, second = self._count, self._first, self._second
         columns = robot.joint_supports.shape[1]
         # the columns of data.J that move each landmark (none for objects), and for each pair those
-        # that move j relative to i: +1 moving j only, -1 moving i only (the others move both rigidly)
+        # that move j relative to i: +1 moving j only, -1 moving i only (the others move both
+        # rigidly)
         supports = np.zeros((count, columns))
         for k, fid in self.robot_landmarks:
             supports[k] = robot.joint_supports[robot.model.frames[fid].parentJoint]
-        relative = supports[second] - supports[first]                          # (P, E)
-        moving_j = np.concatenate([3 * first[:, None] + np.arange(3),
-                                   (6 * count + count * first + second)[:, None]], axis=1)   # (P, 4)
-        moving_i = np.concatenate([3 * count + 3 * first[:, None] + np.arange(3),
-                                   (6 * count + count * second + first)[:, None]], axis=1)
+        relative = supports[second] - supports[first]  # (P, E)
+        moving_j = np.concatenate(
+            [
+                3 * first[:, None] + np.arange(3),
+                # (P, 4)
+                (6 * count + count * first + second)[:, None],
+            ],
+            axis=1,
+        )
+        moving_i = np.concatenate(
+            [
+                3 * count + 3 * first[:, None] + np.arange(3),
+                (6 * count + count * second + first)[:, None],
+            ],
+            axis=1,
+        )
         zero_row = 6 * count + count * count
         sources = [np.flatnonzero(robot.extended_to_q[:, c]) for c in range(robot.n_joints)]
+
         def index(e):
             sign = relative[:, e, None]
             row = np.where(sign > 0, moving_j, np.where(sign < 0, moving_i, zero_row))
@@ -208,19 +260,23 @@ class FeatureMap:
         for k, name in self.object_landmarks:
             pose = object_poses.get(name)
             if pose is None:
-                raise ValueError(f"object '{name}' is missing from the object poses "
-                                 f"(have: {', '.join(sorted(object_poses)) or 'none'})")
+                raise ValueError(
+                    f"object '{name}' is missing from the object poses "
+                    f"(have: {', '.join(sorted(object_poses)) or 'none'})"
+                )
             placements[k, :3, 3] = pose[0]
             quaternion = tuple(pose[1])
             cached = self._object_rotations.get(name)
-            if cached is None or cached[0] != quaternion:  # objects mostly stand still between calls
+            # objects mostly stand still between calls
+            if cached is None or cached[0] != quaternion:
                 cached = self._object_rotations[name] = (quaternion, _rotation(quaternion))
             placements[k, :3, :3] = cached[1]
         np.copyto(self._axes, placements[:, :3, :3].transpose(0, 2, 1))
         return placements[:, :3, 3]
 
     def __call__(self, q, object_poses: dict) -> np.ndarray:
-        """Features y (d,) at joint positions q (n,) with objects at object_poses {name: (p, xyzw)}."""
+        """Features y (d,) at joint positions q (n,) with objects at object_poses {name: (p,
+        xyzw)}."""
         positions = self._landmarks(np.asarray(q, dtype=float), object_poses, False)
         return self._features(positions)[0]
 
@@ -242,21 +298,25 @@ class FeatureMap:
             if any(name not in p for p in poses):
                 raise ValueError(f"object '{name}' is missing from the object poses")
             positions[:, k] = [p[name][0] for p in poses]
-            rotations[:, k] = np.array([_rotation(p[name][1]) for p in poses]) if per_configuration \
+            rotations[:, k] = (
+                np.array([_rotation(p[name][1]) for p in poses])
+                if per_configuration
                 else _rotation(object_poses[name][1])
+            )
         out = np.empty((batch, len(self._first), 4))
         for i in np.unique(self._first):
             pairs = np.flatnonzero(self._first == i)
-            offsets = positions[:, self._second[pairs]] - positions[:, i, None]    # (B, k, 3) world
-            out[:, pairs, :3] = offsets @ rotations[:, i]                          # rows: R_i^T offset
+            offsets = positions[:, self._second[pairs]] - positions[:, i, None]  # (B, k, 3) world
+            # rows: R_i^T offset
+            out[:, pairs, :3] = offsets @ rotations[:, i]
             out[:, pairs, 3] = np.sqrt(np.sum(offsets * offsets, axis=2))
         return out.reshape(batch, -1)
 
     def with_jacobian(self, q, object_poses: dict):
         """(y (d,), dy/dq (d, n)) at q (n,).
 
-        With V_j = Jv + Jw x x_j, the velocity Jacobian of the point x_j as if fixed to the body each
-        column of data.J moves, the columns moving both landmarks move them rigidly and cancel:
+        With V_j = Jv + Jw x x_j, the velocity Jacobian of the point x_j as if fixed to the body
+        each column of data.J moves, the columns moving both landmarks move them rigidly and cancel:
 
             dp_ij/dq = s R_i^T V_j,    dd_ij/dq = s (x_j - x_i)^T V_j / d_ij
 
@@ -267,11 +327,16 @@ class FeatureMap:
         positions = self._landmarks(np.asarray(q, dtype=float), object_poses, True)
         y, offsets, distances = self._features(positions)
         count, directions = self._count, self._directions
-        np.negative(directions[:3 * count], out=directions[3 * count:6 * count])
-        np.divide(offsets.reshape(-1, 3), np.maximum(distances, 1e-12).reshape(-1, 1),
-                  out=directions[6 * count:-1])
-        projections = directions @ self.robot.point_jacobians(positions).reshape(3, -1)   # (rows, E L)
-        jacobian = projections.take(self._jacobian_index)                                 # (P, 4, n)
+        np.negative(directions[: 3 * count], out=directions[3 * count : 6 * count])
+        np.divide(
+            offsets.reshape(-1, 3),
+            np.maximum(distances, 1e-12).reshape(-1, 1),
+            out=directions[6 * count : -1],
+        )
+        # (rows, E L)
+        projections = directions @ self.robot.point_jacobians(positions).reshape(3, -1)
+        # (P, 4, n)
+        jacobian = projections.take(self._jacobian_index)
         for column, index in self._extra_jacobian_indices:
             jacobian[:, :, column] += projections.take(index)
         return y, jacobian.reshape(-1, self.robot.n_joints)
@@ -279,9 +344,11 @@ class FeatureMap:
     def _features(self, positions):
         """(y (d,), x_j - x_i (L, L, 3), d_ij (L, L)) of landmark positions (L, 3), for all (i, j),
         with the landmarks' R_i^T in self._axes."""
-        offsets = positions[None, :, :] - positions[:, None, :]                   # [i, j]: x_j - x_i
+        # [i, j]: x_j - x_i
+        offsets = positions[None, :, :] - positions[:, None, :]
         y = np.empty((len(self._first), 4))
-        local = self._directions[:3 * self._count] @ offsets.reshape(-1, 3).T      # R_i^T (x_j - x_k)
+        # R_i^T (x_j - x_k)
+        local = self._directions[: 3 * self._count] @ offsets.reshape(-1, 3).T
         local.take(self._local_index, out=y[:, :3])
         distances = np.sqrt(np.einsum("ija,ija->ij", offsets, offsets))
         distances.take(self._pair, out=y[:, 3])
@@ -295,6 +362,10 @@ def _rotation(quaternion) -> np.ndarray:
     if not norm > 0:
         raise ValueError(f"object orientation {tuple(quaternion)} is not a valid quaternion")
     x, y, z, w = x / norm, y / norm, z / norm, w / norm
-    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-                     [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-                     [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
+    return np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+        ]
+    )

@@ -34,14 +34,23 @@ class ModelFile:
     info: dict = field(default_factory=dict)
 
     def save(self, path) -> pathlib.Path:
-        """Write atomically (a temporary file renamed into place; removed again if writing fails)."""
+        """Write atomically (a temporary file renamed into place; removed again if writing
+        fails)."""
         path = pathlib.Path(path)
-        meta = {"format": FORMAT, "version": VERSION, "kind": self.kind,
-                "definition": self.definition.to_dict(), "fingerprint": self.definition.fingerprint,
-                "info": self.info}
+        meta = {
+            "format": FORMAT,
+            "version": VERSION,
+            "kind": self.kind,
+            "definition": self.definition.to_dict(),
+            "fingerprint": self.definition.fingerprint,
+            "info": self.info,
+        }
         with atomic_path(path) as temporary:
-            save_file({k: np.ascontiguousarray(v) for k, v in self.arrays.items()}, str(temporary),
-                      metadata={"tric": json.dumps(meta)})
+            save_file(
+                {k: np.ascontiguousarray(v) for k, v in self.arrays.items()},
+                str(temporary),
+                metadata={"tric": json.dumps(meta)},
+            )
         return path
 
     @classmethod
@@ -60,9 +69,13 @@ class ModelFile:
         except (SafetensorError, OSError, json.JSONDecodeError, ValueError) as error:
             raise ValueError(f"{path} is not a readable model file: {error}") from None
         if not isinstance(meta, dict) or meta.get("format") != FORMAT:
-            raise ValueError(f"{path} is a safetensors file but not a TRIC model (no 'tric' metadata)")
+            raise ValueError(
+                f"{path} is a safetensors file but not a TRIC model (no 'tric' metadata)"
+            )
         if meta.get("version") != VERSION:
-            raise ValueError(f"{path} has model format version {meta.get('version')}; this reads {VERSION}")
+            raise ValueError(
+                f"{path} has model format version {meta.get('version')}; this reads {VERSION}"
+            )
         if meta.get("kind") not in KINDS:
             raise ValueError(f"{path} holds an unknown model kind '{meta.get('kind')}'")
         try:
@@ -72,7 +85,9 @@ class ModelFile:
         if not isinstance(meta.get("info", {}), dict):
             raise ValueError(f"{path}: its 'info' metadata is not a mapping")
         if definition.fingerprint != meta.get("fingerprint"):
-            raise ValueError(f"{path}: its feature definition does not match its recorded fingerprint")
+            raise ValueError(
+                f"{path}: its feature definition does not match its recorded fingerprint"
+            )
         if expected is not None:
             expected.check_same(definition, f"model {path}")
         return cls(meta["kind"], definition, arrays, meta.get("info", {}))
@@ -80,8 +95,14 @@ class ModelFile:
 
 def value_function_arrays(model: ValueFunction) -> dict:
     """The arrays of a TRIC value function for a ModelFile."""
-    return {"w1": model.w1, "w2": model.w2, "w3": model.w3, "kept": model.scaling.kept.astype(np.int64),
-            "low": model.scaling.low, "high": model.scaling.high}
+    return {
+        "w1": model.w1,
+        "w2": model.w2,
+        "w3": model.w3,
+        "kept": model.scaling.kept.astype(np.int64),
+        "low": model.scaling.low,
+        "high": model.scaling.high,
+    }
 
 
 def value_function(model_file: ModelFile) -> ValueFunction:
@@ -95,9 +116,16 @@ def value_function(model_file: ModelFile) -> ValueFunction:
             raise ValueError("the model file's kept feature indices are not a list of integers")
         kept = kept.astype(int)
         s = len(kept)
-        consistent = (a["w1"].ndim == 2 and a["w1"].shape[1] == s and a["w2"].shape == (a["w1"].shape[0],)
-                      and a["w3"].shape == (s,) and a["low"].shape == (s,) and a["high"].shape == (s,)
-                      and np.all((kept >= 0) & (kept < size)) and np.all(a["high"] > a["low"]))
+        consistent = (
+            a["w1"].ndim == 2
+            and a["w1"].shape[1] == s
+            and a["w2"].shape == (a["w1"].shape[0],)
+            and a["w3"].shape == (s,)
+            and a["low"].shape == (s,)
+            and a["high"].shape == (s,)
+            and np.all((kept >= 0) & (kept < size))
+            and np.all(a["high"] > a["low"])
+        )
     except KeyError as missing:
         raise ValueError(f"the model file lacks the array {missing}") from None
     if not consistent:
@@ -109,22 +137,28 @@ def value_function(model_file: ModelFile) -> ValueFunction:
 
 
 def from_training(result, dataset) -> ModelFile:
-    """The ModelFile of a TRIC training result (tric_learning.training.TrainingResult) on dataset."""
+    """The ModelFile of a TRIC training result (tric_learning.training.TrainingResult) on
+    dataset."""
     model = result.model
     names = np.array(dataset.definition.feature_names)[model.scaling.kept]
-    return ModelFile("tric", dataset.definition, value_function_arrays(model), {
-        "hyperparameters": result.config.to_dict(),
-        "dataset_fingerprint": dataset.fingerprint,
-        "demos": [demo.name for demo in dataset.demos],
-        "losses": result.losses,
-        "iterations": result.iterations,
-        "sampling_time_s": result.sampling_time_s,
-        "optimization_time_s": result.optimization_time_s,
-        "train_time_s": result.train_time_s,
-        "delta": result.delta,
-        "rho": result.rho,
-        "selected_features": result.selected_features,
-        "mean_samples_per_step": result.mean_samples_per_step,
-        "kept_features": names.tolist(),
-        "scores": model.scores().tolist(),
-    })
+    return ModelFile(
+        "tric",
+        dataset.definition,
+        value_function_arrays(model),
+        {
+            "hyperparameters": result.config.to_dict(),
+            "dataset_fingerprint": dataset.fingerprint,
+            "demos": [demo.name for demo in dataset.demos],
+            "losses": result.losses,
+            "iterations": result.iterations,
+            "sampling_time_s": result.sampling_time_s,
+            "optimization_time_s": result.optimization_time_s,
+            "train_time_s": result.train_time_s,
+            "delta": result.delta,
+            "rho": result.rho,
+            "selected_features": result.selected_features,
+            "mean_samples_per_step": result.mean_samples_per_step,
+            "kept_features": names.tolist(),
+            "scores": model.scores().tolist(),
+        },
+    )

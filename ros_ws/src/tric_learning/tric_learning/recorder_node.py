@@ -1,13 +1,14 @@
-"""The recorder node: one MCAP bag per episode, with features and Jacobians (tric_learning.recording).
+"""The recorder node: one MCAP bag per episode, with features and Jacobians
+(tric_learning.recording).
 
 Listens to /episode (tric_msgs/EpisodeEvent): on START from a recorded source it opens
 `<output_dir>/<episode_id>.mcap.part`; it then writes every /joint_states and /object_poses of the
 episode and, every `sample_period_s` of simulated time, a tric_msgs/FeatureSample with
 y = phi(q) and dphi/dq; on END it stops, on OUTCOME (or after `outcome_timeout_s` without one) it
-writes the outcome and renames the bag to `<episode_id>.mcap`; on ABORT it deletes it. Events, states
-and poses are read by one thread of the node's own and applied in the order of their stamps, so that
-an END is never overtaken by the states that follow it (a lift test's), and a bag is closed only
-once that thread has seen the episode's last state (or `outcome_timeout_s` passed).
+writes the outcome and renames the bag to `<episode_id>.mcap`; on ABORT it deletes it. Events,
+states and poses are read by one thread of the node's own and applied in the order of their stamps,
+so that an END is never overtaken by the states that follow it (a lift test's), and a bag is closed
+only once that thread has seen the episode's last state (or `outcome_timeout_s` passed).
 
 Each bag also carries the scene for 3D replay in Foxglove (/robot_description, /tf_static, /tf,
 /scene_markers: tric_learning.scene_recording) and, when `status_topic` is set, the controller's
@@ -30,10 +31,10 @@ from collections import deque
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState
-from tric_msgs.msg import ControllerStatus, EpisodeEvent, ObjectPoses
 
 from tric_learning import bags
 from tric_learning.recording import SAMPLE_PERIOD, BagRecorder
+from tric_msgs.msg import ControllerStatus, EpisodeEvent, ObjectPoses
 from tric_sim import messages
 from tric_sim.lockstep import TopicPoller
 from tric_sim.node_main import run_node
@@ -55,15 +56,29 @@ class RecorderNode(Node):
     def __init__(self, **kwargs):
         super().__init__("recorder", **kwargs)
         self.output_dir = check_output_folder(
-            declare(self, "output_dir", "recordings", "folder the bags are written to"), "parameter output_dir")
-        self.period = declare(self, "sample_period_s", SAMPLE_PERIOD, "simulated seconds between samples", POSITIVE)
+            declare(self, "output_dir", "recordings", "folder the bags are written to"),
+            "parameter output_dir",
+        )
+        self.period = declare(
+            self, "sample_period_s", SAMPLE_PERIOD, "simulated seconds between samples", POSITIVE
+        )
         self.sources = declare(self, "sources", ["teacher"], "episode sources to record")
-        self.outcome_timeout = declare(self, "outcome_timeout_s", 30.0,
-                                       "wall seconds to wait for an ended episode's outcome", POSITIVE)
-        self.overwrite = declare(self, "overwrite", False,
-                                 "replace a bag of the same name (false: add a numbered copy beside it)")
-        self.status_topic = declare(self, "status_topic", "",
-                                    "the controller's status topic to record (empty: none)")
+        self.outcome_timeout = declare(
+            self,
+            "outcome_timeout_s",
+            30.0,
+            "wall seconds to wait for an ended episode's outcome",
+            POSITIVE,
+        )
+        self.overwrite = declare(
+            self,
+            "overwrite",
+            False,
+            "replace a bag of the same name (false: add a numbered copy beside it)",
+        )
+        self.status_topic = declare(
+            self, "status_topic", "", "the controller's status topic to record (empty: none)"
+        )
         self.robot = RobotModel()
         self.finished = []
         self.failed = []
@@ -73,15 +88,20 @@ class RecorderNode(Node):
         self._outcome = None
         self._backlog = deque(maxlen=BACKLOG)
         self._stop = threading.Event()
-        streams = {"state": (JointState, "/joint_states", STATE_QOS),
-                   "poses": (ObjectPoses, "/object_poses", STATE_QOS), "event": (EpisodeEvent, "/episode", EVENT_QOS)}
+        streams = {
+            "state": (JointState, "/joint_states", STATE_QOS),
+            "poses": (ObjectPoses, "/object_poses", STATE_QOS),
+            "event": (EpisodeEvent, "/episode", EVENT_QOS),
+        }
         if self.status_topic:
             streams["status"] = (ControllerStatus, self.status_topic, STATE_QOS)
         self._poller = TopicPoller(self.context, "recorder_streams", streams)
         self._thread = threading.Thread(target=self._stream, daemon=True, name="recorder_streams")
         self._thread.start()
         self.create_timer(1.0, self._check_outcome_timeout)
-        self.get_logger().info(f"recording episodes of {', '.join(self.sources)} to {self.output_dir}/")
+        self.get_logger().info(
+            f"recording episodes of {', '.join(self.sources)} to {self.output_dir}/"
+        )
 
     def destroy_node(self):
         self._stop.set()
@@ -98,13 +118,16 @@ class RecorderNode(Node):
         return self._recorder is not None
 
     def _stream(self):
-        """The recording thread: events and states in the order of their stamps (at one stamp: START,
-        poses, state, then END, OUTCOME or ABORT), so that an episode's END is applied before the
-        states that follow it (a lift test's, the next scene's)."""
+        """The recording thread: events and states in the order of their stamps (at one stamp:
+        START, poses, state, then END, OUTCOME or ABORT), so that an episode's END is applied before
+        the states that follow it (a lift test's, the next scene's)."""
         while not self._stop.is_set() and self.context.ok():
             received = self._poller.poll(0.05)
-            batch = [(messages.time_ns(msg.header.stamp), _order(kind, msg), k, kind, msg)
-                     for kind, msgs in received.items() for k, msg in enumerate(msgs)]
+            batch = [
+                (messages.time_ns(msg.header.stamp), _order(kind, msg), k, kind, msg)
+                for kind, msgs in received.items()
+                for k, msg in enumerate(msgs)
+            ]
             if not batch:
                 continue
             with self._lock:
@@ -127,7 +150,9 @@ class RecorderNode(Node):
             else:
                 self._recorder.joint_state(msg)
         except ValueError as error:
-            self.get_logger().warning(f"skipped a malformed {kind} message: {error}", throttle_duration_sec=1.0)
+            self.get_logger().warning(
+                f"skipped a malformed {kind} message: {error}", throttle_duration_sec=1.0
+            )
 
     def _on_event(self, event: EpisodeEvent):
         """Apply an episode event (called by the recording thread, holding the lock)."""
@@ -135,8 +160,10 @@ class RecorderNode(Node):
             if event.source not in self.sources:
                 return
             if self._recorder is not None:
-                self.get_logger().warning(f"episode '{event.episode_id}' started before the previous one "
-                                          "finished; closing the previous bag")
+                self.get_logger().warning(
+                    f"episode '{event.episode_id}' started before the previous one "
+                    "finished; closing the previous bag"
+                )
                 self._close(None)
             self._start(event)
         elif self._recorder is None or event.episode_id != self._episode_id:
@@ -157,8 +184,17 @@ class RecorderNode(Node):
         try:
             situation = messages.situation_from_msg(event.situation, self.robot.n_joints)
             path = self._free_path(event.episode_id or situation.name)
-            self._recorder = BagRecorder(path, self.robot, situation, event.episode_id, event.source, event,
-                                         self.period, self.status_topic, overwrite=self.overwrite)
+            self._recorder = BagRecorder(
+                path,
+                self.robot,
+                situation,
+                event.episode_id,
+                event.source,
+                event,
+                self.period,
+                self.status_topic,
+                overwrite=self.overwrite,
+            )
         except (ValueError, OSError) as error:
             self._failed(event.episode_id, str(error))
             return
@@ -173,7 +209,9 @@ class RecorderNode(Node):
         taken, the first free <name>_<k>.mcap."""
         safe = "".join(c if c.isalnum() or c in "-_." else "_" for c in name) or "episode"
         path, k = self.output_dir / f"{safe}{bags.BAG_SUFFIX}", 1
-        while not self.overwrite and (path.exists() or path.with_name(path.name + bags.PART_SUFFIX).exists()):
+        while not self.overwrite and (
+            path.exists() or path.with_name(path.name + bags.PART_SUFFIX).exists()
+        ):
             path, k = self.output_dir / f"{safe}_{k}{bags.BAG_SUFFIX}", k + 1
         return path
 
@@ -189,20 +227,28 @@ class RecorderNode(Node):
         self.get_logger().info(f"wrote {path} ({len(recorder.sampler.samples)} samples)")
 
     def _failed(self, episode_id: str, reason: str):
-        """An episode that could not be recorded: logged and kept in `failed` as (episode id, reason)."""
+        """An episode that could not be recorded: logged and kept in `failed` as (episode id,
+        reason)."""
         self.failed.append((episode_id, reason))
         self.get_logger().error(f"episode '{episode_id}' not recorded: {reason}")
 
     def _check_outcome_timeout(self):
         with self._lock:
-            if self._recorder is not None and self._ended_at is not None \
-                    and time.monotonic() - self._ended_at > self.outcome_timeout:
+            if (
+                self._recorder is not None
+                and self._ended_at is not None
+                and time.monotonic() - self._ended_at > self.outcome_timeout
+            ):
                 if self._outcome is None:
-                    self.get_logger().warning(f"no outcome for '{self._episode_id}' within "
-                                              f"{self.outcome_timeout:g} s: closing its bag without one")
+                    self.get_logger().warning(
+                        f"no outcome for '{self._episode_id}' within "
+                        f"{self.outcome_timeout:g} s: closing its bag without one"
+                    )
                 else:
-                    self.get_logger().warning(f"the last state of '{self._episode_id}' never arrived: "
-                                              "closing its bag with the states it has")
+                    self.get_logger().warning(
+                        f"the last state of '{self._episode_id}' never arrived: "
+                        "closing its bag with the states it has"
+                    )
                 self._close(self._outcome)
 
 

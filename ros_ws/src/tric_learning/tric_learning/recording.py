@@ -11,8 +11,10 @@ A bag holds (topic: type):
     /tric/samples:            tric_msgs/FeatureSample       one per sample (q, y, J, object poses)
     /joint_states:            sensor_msgs/JointState        every control period (raw)
     /object_poses:            tric_msgs/ObjectPoses         every control period (raw)
-    /episode:                 tric_msgs/EpisodeEvent        START, END, OUTCOME (the teacher's metrics)
-    /controller/status:       tric_msgs/ControllerStatus    every control tick, when recording a controller
+    /episode:                 tric_msgs/EpisodeEvent        START, END, OUTCOME (the teacher's
+                                                            metrics)
+    /controller/status:       tric_msgs/ControllerStatus    every control tick, when recording a
+                                                            controller
 and the scene topics for 3D replay (tric_learning.scene_recording: /robot_description, /tf_static,
 /tf, /scene_markers), and in its rosbag2 custom data: tric.episode_id, tric.source, tric.task,
 tric.fingerprint and, once known, tric.outcome (the metrics as JSON).
@@ -25,25 +27,30 @@ from dataclasses import dataclass
 
 import numpy as np
 from sensor_msgs.msg import JointState
-from tric_msgs.msg import ControllerStatus, EpisodeEvent, FeatureDefinition as FeatureDefinitionMsg, FeatureSample
-from tric_msgs.msg import ObjectPoses
-from tric_msgs.msg import Situation as SituationMsg
 
 from tric_learning import bags
 from tric_learning.dataset import Dataset, Demo
 from tric_learning.features import FeatureDefinition, FeatureMap
 from tric_learning.messages import definition_from_msg, definition_msg, sample_arrays, sample_msg
 from tric_learning.scene_recording import SceneTopics
+from tric_msgs.msg import ControllerStatus, EpisodeEvent, FeatureSample, ObjectPoses
+from tric_msgs.msg import FeatureDefinition as FeatureDefinitionMsg
+from tric_msgs.msg import Situation as SituationMsg
 from tric_sim import messages
-from tric_sim.scene_view import RobotView
 from tric_sim.robot_model import RobotModel
+from tric_sim.scene_view import RobotView
 
 DEFINITION_TOPIC = "/tric/feature_definition"
 SITUATION_TOPIC = "/tric/situation"
 SAMPLES_TOPIC = "/tric/samples"
-TOPIC_TYPES = {DEFINITION_TOPIC: FeatureDefinitionMsg, SITUATION_TOPIC: SituationMsg,
-               SAMPLES_TOPIC: FeatureSample, "/joint_states": JointState, "/object_poses": ObjectPoses,
-               "/episode": EpisodeEvent}
+TOPIC_TYPES = {
+    DEFINITION_TOPIC: FeatureDefinitionMsg,
+    SITUATION_TOPIC: SituationMsg,
+    SAMPLES_TOPIC: FeatureSample,
+    "/joint_states": JointState,
+    "/object_poses": ObjectPoses,
+    "/episode": EpisodeEvent,
+}
 
 #: Default sampling period of demonstrations, s (the paper's 125 ms).
 SAMPLE_PERIOD = 0.125
@@ -52,7 +59,8 @@ _log = logging.getLogger(__name__)
 
 @dataclass
 class Sample:
-    """One recorded sample: stamp (ns), step index, q (n,), y (d,), jacobian (d, n), object poses."""
+    """One recorded sample: stamp (ns), step index, q (n,), y (d,), jacobian (d, n), object
+    poses."""
 
     stamp_ns: int
     step: int
@@ -79,7 +87,9 @@ class EpisodeSampler:
         if self._next_ns is not None and stamp_ns < self._next_ns:
             return None
         y, jacobian = self.features.with_jacobian(q, object_poses)
-        sample = Sample(stamp_ns, len(self.samples), np.array(q, dtype=float), y, jacobian, dict(object_poses))
+        sample = Sample(
+            stamp_ns, len(self.samples), np.array(q, dtype=float), y, jacobian, dict(object_poses)
+        )
         self.samples.append(sample)
         start = self.samples[0].stamp_ns
         self._next_ns = start + len(self.samples) * self.period_ns
@@ -88,18 +98,24 @@ class EpisodeSampler:
 
 def demo_from_samples(name, situation, samples, metrics=None, source="teacher") -> Demo:
     """A Demo from an episode's samples (in time order)."""
-    return Demo(name=name, situation=situation,
-                q=np.array([s.q for s in samples]), y=np.array([s.y for s in samples]),
-                jacobians=np.array([s.jacobian for s in samples]),
-                object_poses=[s.object_poses for s in samples],
-                stamps_ns=np.array([s.stamp_ns for s in samples], dtype=np.int64),
-                metrics=dict(metrics or {}), source=source)
+    return Demo(
+        name=name,
+        situation=situation,
+        q=np.array([s.q for s in samples]),
+        y=np.array([s.y for s in samples]),
+        jacobians=np.array([s.jacobian for s in samples]),
+        object_poses=[s.object_poses for s in samples],
+        stamps_ns=np.array([s.stamp_ns for s in samples], dtype=np.int64),
+        metrics=dict(metrics or {}),
+        source=source,
+    )
 
 
-def record_offline(robot: RobotModel, situations, duration: float, period: float = SAMPLE_PERIOD,
-                   progress=None) -> Dataset:
-    """Demonstrate each situation with its teacher directly on a PhysicsWorld (no ROS) and record it:
-    the same samples the recorder node writes to bags. The situations share one task."""
+def record_offline(
+    robot: RobotModel, situations, duration: float, period: float = SAMPLE_PERIOD, progress=None
+) -> Dataset:
+    """Demonstrate each situation with its teacher directly on a PhysicsWorld (no ROS) and record
+    it: the same samples the recorder node writes to bags. The situations share one task."""
     from tric_sim import metrics
     from tric_sim.physics import PhysicsWorld
     from tric_sim.teachers import demonstrate
@@ -115,7 +131,7 @@ def record_offline(robot: RobotModel, situations, duration: float, period: float
         for k, situation in enumerate(situations):
             sampler = EpisodeSampler(feature_map, period)
 
-            def observe(w, _teacher, period_index):
+            def observe(w, _teacher, period_index, sampler=sampler):
                 q, _ = w.joint_state()
                 sampler.offer(period_index * w.control_period_ns, q, w.object_poses())
 
@@ -124,9 +140,18 @@ def record_offline(robot: RobotModel, situations, duration: float, period: float
             sampler.offer(0, q, world.object_poses())
             demonstrate(world, robot, situation, duration, lambda w, t, i: observe(w, t, i + 1))
             outcome = metrics.evaluate(world, robot, run_lift_test=situation.task == "grasp")
-            demos.append(demo_from_samples(situation.name, situation, sampler.samples[:int(round(duration / period))],
-                                           {"success": outcome.success, "grasp_cost": outcome.grasp_cost,
-                                            "lid_angle": outcome.lid_angle}))
+            demos.append(
+                demo_from_samples(
+                    situation.name,
+                    situation,
+                    sampler.samples[: int(round(duration / period))],
+                    {
+                        "success": outcome.success,
+                        "grasp_cost": outcome.grasp_cost,
+                        "lid_angle": outcome.lid_angle,
+                    },
+                )
+            )
             if progress is not None:
                 progress(k + 1, len(situations))
     finally:
@@ -145,9 +170,18 @@ class BagRecorder:
     125 ms give the paper's T = 40.
     """
 
-    def __init__(self, path, robot: RobotModel, situation, episode_id: str, source: str,
-                 start_event: EpisodeEvent, period: float = SAMPLE_PERIOD, status_topic: str = "",
-                 overwrite: bool = False):
+    def __init__(
+        self,
+        path,
+        robot: RobotModel,
+        situation,
+        episode_id: str,
+        source: str,
+        start_event: EpisodeEvent,
+        period: float = SAMPLE_PERIOD,
+        status_topic: str = "",
+        overwrite: bool = False,
+    ):
         """status_topic: also record the controller's status from this topic (empty: none)."""
         self.definition = FeatureDefinition.for_task(situation.task, robot)
         self.sampler = EpisodeSampler(FeatureMap(self.definition, robot), period)
@@ -156,12 +190,20 @@ class BagRecorder:
         self.end_ns = None
         self.latest_state_ns = -1
         self.pending = None
-        self.writer = bags.BagWriter(path, {"tric.episode_id": episode_id, "tric.source": source,
-                                            "tric.task": situation.task,
-                                            "tric.fingerprint": self.definition.fingerprint},
-                                      overwrite=overwrite)
+        self.writer = bags.BagWriter(
+            path,
+            {
+                "tric.episode_id": episode_id,
+                "tric.source": source,
+                "tric.task": situation.task,
+                "tric.fingerprint": self.definition.fingerprint,
+            },
+            overwrite=overwrite,
+        )
         for topic, msg_type in TOPIC_TYPES.items():
-            self.writer.add_topic(topic, msg_type, latched=topic in (DEFINITION_TOPIC, SITUATION_TOPIC))
+            self.writer.add_topic(
+                topic, msg_type, latched=topic in (DEFINITION_TOPIC, SITUATION_TOPIC)
+            )
         start_ns = messages.time_ns(start_event.header.stamp)
         self.start_ns = start_ns
         self.writer.write(DEFINITION_TOPIC, definition_msg(self.definition), start_ns)
@@ -189,7 +231,11 @@ class BagRecorder:
         stamp = messages.time_ns(msg.header.stamp)
         if stamp >= self.start_ns:
             self.latest_state_ns = max(self.latest_state_ns, stamp)
-        if stamp < self.start_ns or (self.end_ns is not None and stamp > self.end_ns) or not self.poses:
+        if (
+            stamp < self.start_ns
+            or (self.end_ns is not None and stamp > self.end_ns)
+            or not self.poses
+        ):
             return False
         self.writer.write("/joint_states", msg, stamp)
         q = messages.joint_positions_from_msg(msg, self.definition.joint_names)
@@ -207,8 +253,11 @@ class BagRecorder:
     def _write_pending(self):
         if self.pending is not None:
             if self.end_ns is None or self.pending.stamp_ns < self.end_ns:
-                self.writer.write(SAMPLES_TOPIC, sample_msg(self.pending, self.definition.fingerprint),
-                                  self.pending.stamp_ns)
+                self.writer.write(
+                    SAMPLES_TOPIC,
+                    sample_msg(self.pending, self.definition.fingerprint),
+                    self.pending.stamp_ns,
+                )
                 self.writer.flush()
             else:
                 self.sampler.samples.remove(self.pending)
@@ -229,7 +278,9 @@ class BagRecorder:
         self._write_pending()
         if outcome is not None:
             self.writer.write("/episode", outcome, messages.time_ns(outcome.header.stamp))
-            self.writer.set_custom_data("tric.outcome", json.dumps(messages.metrics_dict(outcome.metrics)))
+            self.writer.set_custom_data(
+                "tric.outcome", json.dumps(messages.metrics_dict(outcome.metrics))
+            )
         return self.writer.close()
 
     def abort(self) -> None:
@@ -251,10 +302,14 @@ def bag_paths(paths, tolerant: bool = False, notice=None) -> list:
                 inside = sorted(inside + unfinished)
             else:
                 for part in unfinished:
-                    notice(f"skipped {part}: an unfinished recording (tric-train --tolerant reads it)")
+                    notice(
+                        f"skipped {part}: an unfinished recording (tric-train --tolerant reads it)"
+                    )
             if not inside:
-                raise ValueError(f"{path} holds no {bags.BAG_SUFFIX} bags"
-                                 + (f" (only {len(unfinished)} unfinished .part files)" if unfinished else ""))
+                raise ValueError(
+                    f"{path} holds no {bags.BAG_SUFFIX} bags"
+                    + (f" (only {len(unfinished)} unfinished .part files)" if unfinished else "")
+                )
             found += inside
         elif path.is_file():
             found.append(path)
@@ -265,8 +320,15 @@ def bag_paths(paths, tolerant: bool = False, notice=None) -> list:
     return found
 
 
-def load_dataset(paths, robot: RobotModel = None, progress=None, *, include_failed: bool = False,
-                 tolerant: bool = False, notice=None) -> Dataset:
+def load_dataset(
+    paths,
+    robot: RobotModel = None,
+    progress=None,
+    *,
+    include_failed: bool = False,
+    tolerant: bool = False,
+    notice=None,
+) -> Dataset:
     """A Dataset of the demonstrations in the bags at paths (see bag_paths). Every bag must be a
     TRIC recording of the same feature definition, on this robot, of a demonstration that succeeded
     by its recorded outcome (include_failed: of any outcome, or none); anything else is refused
@@ -283,17 +345,23 @@ def load_dataset(paths, robot: RobotModel = None, progress=None, *, include_fail
             definition = bag_definition
             if robot is not None:
                 try:
-                    FeatureDefinition.for_task(definition.task, robot).check_same(definition, f"bag {path}")
+                    FeatureDefinition.for_task(definition.task, robot).check_same(
+                        definition, f"bag {path}"
+                    )
                 except ValueError as error:
-                    raise ValueError(f"{error} (recorded with another robot model or definition)") from None
+                    raise ValueError(
+                        f"{error} (recorded with another robot model or definition)"
+                    ) from None
         else:
             try:
                 definition.check_same(bag_definition, f"bag {path}")
             except ValueError as error:
                 raise ValueError(f"{error}; the first bag was {files[0]}") from None
         if demo.name in origin:
-            raise ValueError(f"bags {origin[demo.name]} and {path} both hold the demonstration '{demo.name}' "
-                             "(recorded twice into one folder?); give only one of them")
+            raise ValueError(
+                f"bags {origin[demo.name]} and {path} both hold the demonstration '{demo.name}' "
+                "(recorded twice into one folder?); give only one of them"
+            )
         origin[demo.name] = path
         outcome = _outcome_problem(demo.metrics)
         if outcome:
@@ -302,9 +370,11 @@ def load_dataset(paths, robot: RobotModel = None, progress=None, *, include_fail
         if progress is not None:
             progress(k + 1, len(files))
     if failed and not include_failed:
-        raise ValueError(f"{len(failed)} of {len(files)} bags are not successful demonstrations: "
-                         f"{'; '.join(failed)}. Leave them out, or include them on purpose "
-                         "(tric-train --include-failed)")
+        raise ValueError(
+            f"{len(failed)} of {len(files)} bags are not successful demonstrations: "
+            f"{'; '.join(failed)}. Leave them out, or include them on purpose "
+            "(tric-train --include-failed)"
+        )
     for entry in failed:
         notice(f"included {entry}, as include_failed asks")
     try:
@@ -319,8 +389,11 @@ def _outcome_problem(metrics: dict) -> str:
         return "no recorded outcome"
     if metrics.get("success") is True:
         return ""
-    details = [f"{key.replace('_', ' ')} {metrics[key]:.3g}" for key in ("grasp_cost", "lid_angle")
-               if isinstance(metrics.get(key), (int, float)) and not isinstance(metrics.get(key), bool)]
+    details = [
+        f"{key.replace('_', ' ')} {metrics[key]:.3g}"
+        for key in ("grasp_cost", "lid_angle")
+        if isinstance(metrics.get(key), (int, float)) and not isinstance(metrics.get(key), bool)
+    ]
     return "failed" + (f": {', '.join(details)}" if details else "")
 
 
@@ -329,13 +402,21 @@ def _load_demo(path: pathlib.Path, tolerant: bool = False, notice=None):
     if not info.complete and notice is not None:
         notice(f"reading {path} up to its end or damage: it is not a finished bag")
     if SAMPLES_TOPIC not in info.topics or DEFINITION_TOPIC not in info.topics:
-        raise ValueError(f"bag {path} is not a TRIC demonstration (no {SAMPLES_TOPIC} or {DEFINITION_TOPIC})")
+        raise ValueError(
+            f"bag {path} is not a TRIC demonstration (no {SAMPLES_TOPIC} or {DEFINITION_TOPIC})"
+        )
     definition = situation = None
     samples, metrics, source = [], {}, info.custom_data.get("tric.source", "")
-    expected = {DEFINITION_TOPIC: FeatureDefinitionMsg, SITUATION_TOPIC: SituationMsg,
-                SAMPLES_TOPIC: FeatureSample, "/episode": EpisodeEvent}
+    expected = {
+        DEFINITION_TOPIC: FeatureDefinitionMsg,
+        SITUATION_TOPIC: SituationMsg,
+        SAMPLES_TOPIC: FeatureSample,
+        "/episode": EpisodeEvent,
+    }
     try:
-        for message in bags.read_bag(path, topics=list(expected), expected_types=expected, tolerant=tolerant):
+        for message in bags.read_bag(
+            path, topics=list(expected), expected_types=expected, tolerant=tolerant
+        ):
             if message.topic == DEFINITION_TOPIC:
                 definition = definition_from_msg(message.message)
             elif message.topic == SITUATION_TOPIC:
@@ -362,7 +443,16 @@ def _load_demo(path: pathlib.Path, tolerant: bool = False, notice=None):
             raise ValueError(f"bag {path}: its recorded outcome is not JSON") from None
         if not isinstance(metrics, dict):
             raise ValueError(f"bag {path}: its recorded outcome is not a mapping")
-    demo = Demo(name=name, situation=situation, q=np.array(qs), y=np.array(ys), jacobians=np.array(jacobians),
-                object_poses=list(poses), stamps_ns=np.array(stamps, dtype=np.int64), metrics=metrics,
-                source=source, bag=str(path))
+    demo = Demo(
+        name=name,
+        situation=situation,
+        q=np.array(qs),
+        y=np.array(ys),
+        jacobians=np.array(jacobians),
+        object_poses=list(poses),
+        stamps_ns=np.array(stamps, dtype=np.int64),
+        metrics=metrics,
+        source=source,
+        bag=str(path),
+    )
     return demo, definition

@@ -47,9 +47,12 @@ def joined(first: NoisySamples, second: NoisySamples) -> NoisySamples:
     """The samples of both sets (of the same dataset), ordered by step."""
     step = np.concatenate([first.step, second.step])
     order = np.argsort(step, kind="stable")
-    return NoisySamples(step=step[order], y=np.concatenate([first.y, second.y])[order],
-                        weight=np.concatenate([first.weight, second.weight])[order],
-                        kept_per_step=first.kept_per_step + second.kept_per_step)
+    return NoisySamples(
+        step=step[order],
+        y=np.concatenate([first.y, second.y])[order],
+        weight=np.concatenate([first.weight, second.weight])[order],
+        kept_per_step=first.kept_per_step + second.kept_per_step,
+    )
 
 
 def d_curve(points: np.ndarray, path: np.ndarray) -> np.ndarray:
@@ -57,9 +60,9 @@ def d_curve(points: np.ndarray, path: np.ndarray) -> np.ndarray:
     if len(path) == 1:
         return np.linalg.norm(points - path[0], axis=1)
     starts, ends = path[:-1], path[1:]
-    segments = ends - starts                                                  # (P-1, n)
+    segments = ends - starts  # (P-1, n)
     lengths = np.einsum("sn,sn->s", segments, segments)
-    relative = points[:, None, :] - starts[None, :, :]                        # (B, P-1, n)
+    relative = points[:, None, :] - starts[None, :, :]  # (B, P-1, n)
     fraction = np.einsum("bsn,sn->bs", relative, segments) / np.maximum(lengths, 1e-18)
     fraction = np.clip(fraction, 0.0, 1.0)
     closest = relative - fraction[:, :, None] * segments[None, :, :]
@@ -71,8 +74,15 @@ def step_offsets(dataset: Dataset) -> np.ndarray:
     return np.concatenate([[0], np.cumsum([demo.length for demo in dataset.demos])])
 
 
-def generate(dataset: Dataset, robot: RobotModel, count: int, sigma: float, seed: int,
-             progress=None, workers: int = 2) -> NoisySamples:
+def generate(
+    dataset: Dataset,
+    robot: RobotModel,
+    count: int,
+    sigma: float,
+    seed: int,
+    progress=None,
+    workers: int = 2,
+) -> NoisySamples:
     """count (M) collision-free noisy samples per demo step t >= 1 (fewer only where MAX_ROUNDS of
     resampling could not find them); progress(done, total) is called after each demo. Demos are
     sampled in `workers` forked processes where the platform allows it, each from its own seed
@@ -88,7 +98,9 @@ def generate(dataset: Dataset, robot: RobotModel, count: int, sigma: float, seed
         _JOB = job
         try:
             with worker_pool(workers) as pool:
-                for done, (i, result) in enumerate(pool.imap_unordered(_forked_demo, range(len(dataset.demos)))):
+                for done, (i, result) in enumerate(
+                    pool.imap_unordered(_forked_demo, range(len(dataset.demos)))
+                ):
                     results[i] = result
                     if progress is not None:
                         progress(done + 1, len(dataset.demos))
@@ -102,10 +114,12 @@ def generate(dataset: Dataset, robot: RobotModel, count: int, sigma: float, seed
     kept = np.zeros(offsets[-1], dtype=int)
     for i, (steps, _, _) in enumerate(results):
         np.add.at(kept, offsets[i] + steps, 1)
-    return NoisySamples(step=np.concatenate([offsets[i] + r[0] for i, r in enumerate(results)]),
-                        y=np.concatenate([r[1] for r in results]),
-                        weight=np.concatenate([r[2] for r in results]),
-                        kept_per_step=kept)
+    return NoisySamples(
+        step=np.concatenate([offsets[i] + r[0] for i, r in enumerate(results)]),
+        y=np.concatenate([r[1] for r in results]),
+        weight=np.concatenate([r[2] for r in results]),
+        kept_per_step=kept,
+    )
 
 
 _JOB = None
@@ -115,7 +129,8 @@ def worker_pool(workers: int):
     """A pool of `workers` forked processes in which SIGTERM and SIGINT act as by default. A worker
     forked from a process where rclpy.init() installed its signal handlers (every node executable)
     would otherwise ignore the SIGTERM with which the pool may end it (rclpy's handler only wakes a
-    thread that the fork did not copy), and the pool's exit, so the training, would wait for ever."""
+    thread that the fork did not copy), and the pool's exit, so the training, would wait for
+    ever."""
     return multiprocessing.get_context("fork").Pool(workers, initializer=_default_signal_handling)
 
 
@@ -129,7 +144,9 @@ def _forked_demo(index: int):
     return index, _demo_samples(dataset, robot, index, count, sigma, seed)
 
 
-def _demo_samples(dataset: Dataset, robot: RobotModel, index: int, count: int, sigma: float, seed: int):
+def _demo_samples(
+    dataset: Dataset, robot: RobotModel, index: int, count: int, sigma: float, seed: int
+):
     """(steps (S,), features (S, d), weights (S,)) of one demo's noisy samples."""
     demo = dataset.demos[index]
     features = FeatureMap(dataset.definition, robot)
@@ -141,14 +158,19 @@ def _demo_samples(dataset: Dataset, robot: RobotModel, index: int, count: int, s
     while t < demo.length:
         # steps whose objects are where they were at step t - 1 (within POSE_TOLERANCE) form a batch
         end = t + 1
-        while end < demo.length and _surface_shift(demo.object_poses[end - 1], demo.object_poses[t - 1],
-                                                  extents) < POSE_TOLERANCE:
+        while (
+            end < demo.length
+            and _surface_shift(demo.object_poses[end - 1], demo.object_poses[t - 1], extents)
+            < POSE_TOLERANCE
+        ):
             end += 1
         block = np.arange(t, end)
         need = np.full(len(block), count)
         acceptance = np.full(len(block), 1.0 / OVERSAMPLING)
         for _ in range(MAX_ROUNDS):
-            draws = np.minimum(np.ceil(need / np.maximum(acceptance, 0.1)).astype(int), MAX_DRAWS * count)
+            draws = np.minimum(
+                np.ceil(need / np.maximum(acceptance, 0.1)).astype(int), MAX_DRAWS * count
+            )
             draws[need == 0] = 0
             if not draws.any():
                 break
@@ -157,7 +179,7 @@ def _demo_samples(dataset: Dataset, robot: RobotModel, index: int, count: int, s
             valid = np.all((candidates >= robot.lower) & (candidates <= robot.upper), axis=1)
             valid[valid] = collision.collision_free(candidates[valid], demo.object_poses[t - 1])
             for k, step in enumerate(block):
-                mine = np.flatnonzero(valid & (owner == step))[:need[k]]
+                mine = np.flatnonzero(valid & (owner == step))[: need[k]]
                 if draws[k]:
                     acceptance[k] = max(np.sum(valid & (owner == step)) / draws[k], 1e-3)
                 need[k] -= len(mine)
@@ -166,9 +188,12 @@ def _demo_samples(dataset: Dataset, robot: RobotModel, index: int, count: int, s
         t = end
     qs, steps = np.concatenate(chosen_q), np.concatenate(chosen_step)
     if not len(qs):
-        raise ValueError(f"demo '{demo.name}'" + (f" (bag {demo.bag})" if demo.bag else "")
-                         + f": none of its noisy samples (sigma {sigma:g} rad) is inside the joint limits and "
-                         "free of collisions; its robot may start in contact with the scene")
+        raise ValueError(
+            f"demo '{demo.name}'"
+            + (f" (bag {demo.bag})" if demo.bag else "")
+            + f": none of its noisy samples (sigma {sigma:g} rad) is inside the joint limits and "
+            "free of collisions; its robot may start in contact with the scene"
+        )
     order = np.argsort(steps, kind="stable")
     qs, steps = qs[order], steps[order]
     ys = features.batch(qs, [demo.object_poses[s - 1] for s in steps])
@@ -198,5 +223,7 @@ def _surface_shift(a: dict, b: dict, extents: dict) -> float:
     for name in a:
         (pa, qa), (pb, qb) = a[name], b[name]
         angle = 2 * np.arccos(min(1.0, abs(float(np.dot(qa, qb)))))
-        shift = max(shift, float(np.linalg.norm(np.subtract(pa, pb))) + angle * extents.get(name, 0.0))
+        shift = max(
+            shift, float(np.linalg.norm(np.subtract(pa, pb))) + angle * extents.get(name, 0.0)
+        )
     return shift

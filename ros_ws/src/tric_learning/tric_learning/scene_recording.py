@@ -1,10 +1,12 @@
-"""The scene topics of a bag, so that Foxglove (and `ros2 bag play` into RViz) shows the episode in 3D:
+"""The scene topics of a bag, so that Foxglove (and `ros2 bag play` into RViz) shows the episode in
+3D:
 
     /robot_description: std_msgs/String                 once, latched (the URDF)
-    /tf_static:         tf2_msgs/TFMessage              once, latched (world -> base_link, fixed joints)
+    /tf_static:         tf2_msgs/TFMessage              once, latched (world -> base_link, fixed
+                                                        joints)
     /scene_markers:     visualization_msgs/MarkerArray  once, latched (robot and scene primitives)
-    /tf:                tf2_msgs/TFMessage              every TF_PERIOD of simulated time: the moving
-                                                        joints and world -> each object
+    /tf:                tf2_msgs/TFMessage              every TF_PERIOD of simulated time: the
+                                                        moving joints and world -> each object
 
 The frames and primitives are tric_sim.scene_view's, the messages tric_sim.scene_messages'; the live
 visualizer node publishes the same. tf2_msgs is not on PyPI: TFMessage ("geometry_msgs/
@@ -32,9 +34,10 @@ _TRANSFORM = struct.Struct("<7d")
 
 
 def tf_message_cdr(transform_sets, stamp_ns: int) -> bytes:
-    """The CDR bytes (little endian, with the encapsulation header, as bags.serialize_cdr makes them)
-    of a tf2_msgs/TFMessage of the transforms (tric_sim.scene_view.Transforms), all stamped stamp_ns.
-    Written field by field: a few times faster than the generic serializer on message objects."""
+    """The CDR bytes (little endian, with the encapsulation header, as bags.serialize_cdr makes
+    them) of a tf2_msgs/TFMessage of the transforms (tric_sim.scene_view.Transforms), all stamped
+    stamp_ns. Written field by field: a few times faster than the generic serializer on message
+    objects."""
     sec, nanosec = divmod(int(stamp_ns), 1_000_000_000)
     count = sum(len(transforms) for transforms in transform_sets)
     payload = bytearray(_COUNT.pack(count))
@@ -53,8 +56,14 @@ class SceneTopics:
     """Writes the scene topics of one episode into writer (a bags.BagWriter): the latched ones at
     start_ns, and /tf with state() whenever TF_PERIOD of simulated time has passed."""
 
-    def __init__(self, writer: bags.BagWriter, robot_view: scene_view.RobotView, situation, start_ns: int,
-                 period: float = TF_PERIOD):
+    def __init__(
+        self,
+        writer: bags.BagWriter,
+        robot_view: scene_view.RobotView,
+        situation,
+        start_ns: int,
+        period: float = TF_PERIOD,
+    ):
         self.writer, self.robot_view = writer, robot_view
         self.period_ns = int(round(period * 1e9))
         self._next_ns = start_ns
@@ -62,7 +71,9 @@ class SceneTopics:
         writer.add_topic_definition("/tf_static", TF_TYPE, TF_DEFINITION, latched=True)
         writer.add_topic_definition("/tf", TF_TYPE, TF_DEFINITION)
         writer.add_topic("/scene_markers", MarkerArray, latched=True)
-        writer.write("/robot_description", scene_messages.robot_description_msg(robot_view.urdf), start_ns)
+        writer.write(
+            "/robot_description", scene_messages.robot_description_msg(robot_view.urdf), start_ns
+        )
         writer.write_cdr("/tf_static", tf_message_cdr([robot_view.static], start_ns), start_ns)
         primitives = list(robot_view.primitives) + scene_view.scene_primitives(situation)
         writer.write("/scene_markers", scene_messages.marker_array(primitives, start_ns), start_ns)

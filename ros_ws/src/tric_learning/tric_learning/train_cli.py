@@ -1,11 +1,13 @@
-"""tric-train: train a TRIC value function (or a DPL baseline policy) from demonstration bags into a model file.
+"""tric-train: train a TRIC value function (or a DPL baseline policy) from demonstration bags into
+a model file.
 
     tric-train BAGS... [--kind {tric,dpl_joint,dpl_finger}] [--out MODEL] [--hidden-units K]
                [--noisy-samples M] [--sigma RAD] [--alpha-n A] [--alpha-g A] [--alpha-w A] [--l2 W]
-               [--iterations N] [--correlation-threshold C] [--seed S] [--include-failed] [--tolerant]
+               [--iterations N] [--correlation-threshold C] [--seed S] [--include-failed]
+               [--tolerant]
 
-BAGS are MCAP bags written by tric-record or the recorder node, or folders of them. MODEL defaults to
-model.safetensors next to the first bag; the hyper-parameters default to the paper's (Sec. 5.2).
+BAGS are MCAP bags written by tric-record or the recorder node, or folders of them. MODEL defaults
+to model.safetensors next to the first bag; the hyper-parameters default to the paper's (Sec. 5.2).
 --kind dpl_joint / dpl_finger trains the DPL baseline instead (tric_learning.dpl, Sec. 5.3.2): it
 takes --hidden-units, --l2, --iterations, --correlation-threshold and --seed; the other
 hyper-parameters are TRIC's and ignored.
@@ -37,7 +39,11 @@ class StageBars:
     demos sampled, optimizer iterations (with the current loss terms)."""
 
     def __init__(self, bags: int, max_iterations: int, enabled: bool = True):
-        self.totals = {"loading": (bags, "bag"), "sampling": (bags, "demo"), "optimizing": (max_iterations, "it")}
+        self.totals = {
+            "loading": (bags, "bag"),
+            "sampling": (bags, "demo"),
+            "optimizing": (max_iterations, "it"),
+        }
         self.enabled = enabled
         self.stage, self.bar = None, None
 
@@ -47,8 +53,13 @@ class StageBars:
             self.stage = stage
             if stage in self.totals:
                 total, unit = self.totals[stage]
-                self.bar = tqdm(total=total, desc=f"{stage:10s}", unit=unit, disable=not self.enabled,
-                                file=sys.stderr)
+                self.bar = tqdm(
+                    total=total,
+                    desc=f"{stage:10s}",
+                    unit=unit,
+                    disable=not self.enabled,
+                    file=sys.stderr,
+                )
         if self.bar is None:
             return
         total = self.totals[stage][0]
@@ -57,8 +68,11 @@ class StageBars:
         if stage == "optimizing" and "n" not in losses:  # DPL: one objective
             self.bar.set_postfix_str(f"L {losses['total']:.4f}", refresh=False)
         elif stage == "optimizing":
-            self.bar.set_postfix_str(f"L {losses['total']:.4f}  L_n {losses['n']:.4f}  L_g {losses['g']:.4f}  "
-                                     f"|w|_1 {losses['w']:.1f}", refresh=False)
+            self.bar.set_postfix_str(
+                f"L {losses['total']:.4f}  L_n {losses['n']:.4f}  L_g {losses['g']:.4f}  "
+                f"|w|_1 {losses['w']:.1f}",
+                refresh=False,
+            )
 
     def close(self):
         if self.bar is not None:
@@ -68,38 +82,101 @@ class StageBars:
 
 def parse_arguments(argv):
     defaults, dpl_defaults = TrainingConfig(), DplConfig()
-    parser = argparse.ArgumentParser(prog=PROG, description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(prog=PROG, description=__doc__.split("\n\n")[0])
     parser.add_argument("bags", nargs="+", metavar="BAGS", help="MCAP bags, or folders of them")
-    parser.add_argument("--kind", choices=KINDS, default="tric",
-                        help="the model: TRIC's value function or a DPL policy (default %(default)s)")
-    parser.add_argument("--out", default="", metavar="MODEL",
-                        help="model file to write (.safetensors; default: model.safetensors next to the first bag)")
-    parser.add_argument("--hidden-units", metavar="K", type=int,
-                        help=f"sigmoid units K of f (0: linear model; default {defaults.hidden_units}) "
-                             f"or of the DPL network (default {dpl_defaults.hidden_units})")
-    parser.add_argument("--noisy-samples", metavar="M", type=int, default=defaults.noisy_samples,
-                        help="noisy samples M per demonstration step (default %(default)s)")
-    parser.add_argument("--sigma", metavar="RAD", type=float, default=defaults.sigma,
-                        help="standard deviation of the noisy samples, rad (default %(default)s)")
-    parser.add_argument("--alpha-n", metavar="A", type=float, default=defaults.alpha_n,
-                        help="weight of L_n (default %(default)s)")
-    parser.add_argument("--alpha-g", metavar="A", type=float, default=defaults.alpha_g,
-                        help="weight of L_g (default %(default)s)")
-    parser.add_argument("--alpha-w", metavar="A", type=float, default=defaults.alpha_w,
-                        help="weight of |w|_1 (default %(default)s)")
-    parser.add_argument("--l2", metavar="W", type=float, default=dpl_defaults.l2,
-                        help="DPL: weight of the L2 penalty on the network's weights (default %(default)s)")
-    parser.add_argument("--iterations", metavar="N", type=int,
-                        help=f"L-BFGS iterations at most (default {defaults.max_iterations}, "
-                             f"DPL {dpl_defaults.max_iterations})")
-    parser.add_argument("--correlation-threshold", metavar="C", type=float, default=defaults.correlation_threshold,
-                        help="drop features correlated above this with an earlier one, in (0, 1] (default %(default)s)")
-    parser.add_argument("--seed", metavar="S", type=int, default=defaults.seed,
-                        help="seed of the noisy samples and initial weights (default %(default)s)")
-    parser.add_argument("--include-failed", action="store_true",
-                        help="train on demonstrations whose recorded outcome is a failure too")
-    parser.add_argument("--tolerant", action="store_true",
-                        help="read unfinished (.part) and damaged bags up to their damage")
+    parser.add_argument(
+        "--kind",
+        choices=KINDS,
+        default="tric",
+        help="the model: TRIC's value function or a DPL policy (default %(default)s)",
+    )
+    parser.add_argument(
+        "--out",
+        default="",
+        metavar="MODEL",
+        help="model file to write (.safetensors; default: model.safetensors next to the first bag)",
+    )
+    parser.add_argument(
+        "--hidden-units",
+        metavar="K",
+        type=int,
+        help=f"sigmoid units K of f (0: linear model; default {defaults.hidden_units}) "
+        f"or of the DPL network (default {dpl_defaults.hidden_units})",
+    )
+    parser.add_argument(
+        "--noisy-samples",
+        metavar="M",
+        type=int,
+        default=defaults.noisy_samples,
+        help="noisy samples M per demonstration step (default %(default)s)",
+    )
+    parser.add_argument(
+        "--sigma",
+        metavar="RAD",
+        type=float,
+        default=defaults.sigma,
+        help="standard deviation of the noisy samples, rad (default %(default)s)",
+    )
+    parser.add_argument(
+        "--alpha-n",
+        metavar="A",
+        type=float,
+        default=defaults.alpha_n,
+        help="weight of L_n (default %(default)s)",
+    )
+    parser.add_argument(
+        "--alpha-g",
+        metavar="A",
+        type=float,
+        default=defaults.alpha_g,
+        help="weight of L_g (default %(default)s)",
+    )
+    parser.add_argument(
+        "--alpha-w",
+        metavar="A",
+        type=float,
+        default=defaults.alpha_w,
+        help="weight of |w|_1 (default %(default)s)",
+    )
+    parser.add_argument(
+        "--l2",
+        metavar="W",
+        type=float,
+        default=dpl_defaults.l2,
+        help="DPL: weight of the L2 penalty on the network's weights (default %(default)s)",
+    )
+    parser.add_argument(
+        "--iterations",
+        metavar="N",
+        type=int,
+        help=f"L-BFGS iterations at most (default {defaults.max_iterations}, "
+        f"DPL {dpl_defaults.max_iterations})",
+    )
+    parser.add_argument(
+        "--correlation-threshold",
+        metavar="C",
+        type=float,
+        default=defaults.correlation_threshold,
+        help="drop features correlated above this with an earlier one, in (0, 1] (default "
+        "%(default)s)",
+    )
+    parser.add_argument(
+        "--seed",
+        metavar="S",
+        type=int,
+        default=defaults.seed,
+        help="seed of the noisy samples and initial weights (default %(default)s)",
+    )
+    parser.add_argument(
+        "--include-failed",
+        action="store_true",
+        help="train on demonstrations whose recorded outcome is a failure too",
+    )
+    parser.add_argument(
+        "--tolerant",
+        action="store_true",
+        help="read unfinished (.part) and damaged bags up to their damage",
+    )
     parser.add_argument("--quiet", action="store_true", help="no progress bars")
     return parser.parse_args(argv)
 
@@ -109,19 +186,23 @@ def summary(run) -> str:
     result, model = run.result, run.result.model
     losses = result.losses
     steps = sum(demo.length for demo in run.dataset.demos)
-    return "\n".join([
-        f"model      {run.path}",
-        f"data       {len(run.dataset.demos)} demonstrations, {steps} steps, "
-        f"{result.mean_samples_per_step:.1f} noisy samples per step",
-        f"losses     total {losses['total']:.4f} = {result.config.alpha_n:g} L_n {losses['n']:.4f} "
-        f"+ {result.config.alpha_g:g} L_g {losses['g']:.4f} + {result.config.alpha_w:g} |w|_1 {losses['w']:.2f} "
-        "(L_n, L_g per demonstration step)",
-        f"features   {model.scaling.size} -> {len(model.scaling.kept)} kept -> {result.selected_features} selected "
-        f"(score above {SELECTED_FRACTION:.0%} of the largest)",
-        f"time       sampling {result.sampling_time_s:.2f} s, optimization {result.optimization_time_s:.2f} s "
-        f"({result.iterations} iterations), total {result.train_time_s:.2f} s",
-        f"controller delta {result.delta:.4g}, rho {result.rho:.4g}",
-    ])
+    return "\n".join(
+        [
+            f"model      {run.path}",
+            f"data       {len(run.dataset.demos)} demonstrations, {steps} steps, "
+            f"{result.mean_samples_per_step:.1f} noisy samples per step",
+            f"losses     total {losses['total']:.4f} = {result.config.alpha_n:g} L_n "
+            f"{losses['n']:.4f} + {result.config.alpha_g:g} L_g {losses['g']:.4f} + "
+            f"{result.config.alpha_w:g} |w|_1 {losses['w']:.2f} (L_n, L_g per demonstration step)",
+            f"features   {model.scaling.size} -> {len(model.scaling.kept)} kept -> "
+            f"{result.selected_features} selected (score above {SELECTED_FRACTION:.0%} of the "
+            "largest)",
+            f"time       sampling {result.sampling_time_s:.2f} s, optimization "
+            f"{result.optimization_time_s:.2f} s ({result.iterations} iterations), total "
+            f"{result.train_time_s:.2f} s",
+            f"controller delta {result.delta:.4g}, rho {result.rho:.4g}",
+        ]
+    )
 
 
 def dpl_summary(run) -> str:
@@ -129,39 +210,69 @@ def dpl_summary(run) -> str:
     result, scaling = run.result, run.result.policy.scaling
     steps = sum(demo.length - 1 for demo in run.dataset.demos)
     unit = "rad" if result.kind == "dpl_joint" else "m"
-    return "\n".join([
-        f"model      {run.path} ({result.kind})",
-        f"data       {len(run.dataset.demos)} demonstrations, {steps} steps of {result.sample_period_s * 1e3:.0f} ms",
-        f"losses     training MSE {result.losses['mse']:.4g} {unit}^2 per output, mean |error| "
-        f"{result.losses['mean_abs_error']:.4g} {unit} (targets' RMS {result.target_rms:.4g} {unit})",
-        f"features   {scaling.size} -> {len(scaling.kept)} kept",
-        f"time       optimization {result.optimization_time_s:.2f} s ({result.iterations} iterations)",
-    ])
+    return "\n".join(
+        [
+            f"model      {run.path} ({result.kind})",
+            f"data       {len(run.dataset.demos)} demonstrations, {steps} steps of "
+            f"{result.sample_period_s * 1e3:.0f} ms",
+            f"losses     training MSE {result.losses['mse']:.4g} {unit}^2 per output, mean "
+            f"|error| {result.losses['mean_abs_error']:.4g} {unit} (targets' RMS "
+            f"{result.target_rms:.4g} {unit})",
+            f"features   {scaling.size} -> {len(scaling.kept)} kept",
+            f"time       optimization {result.optimization_time_s:.2f} s ({result.iterations} "
+            "iterations)",
+        ]
+    )
 
 
 def main(argv=None) -> int:
     args = parse_arguments(argv)
     if args.kind in DPL_KINDS:
         dpl_defaults = DplConfig()
-        config = DplConfig(hidden_units=dpl_defaults.hidden_units if args.hidden_units is None else args.hidden_units,
-                           l2=args.l2, correlation_threshold=args.correlation_threshold, seed=args.seed,
-                           max_iterations=dpl_defaults.max_iterations if args.iterations is None else args.iterations)
+        config = DplConfig(
+            hidden_units=dpl_defaults.hidden_units
+            if args.hidden_units is None
+            else args.hidden_units,
+            l2=args.l2,
+            correlation_threshold=args.correlation_threshold,
+            seed=args.seed,
+            max_iterations=dpl_defaults.max_iterations
+            if args.iterations is None
+            else args.iterations,
+        )
         job = functools.partial(train_dpl_from_bags, kind=args.kind)
     else:
         defaults = TrainingConfig()
-        config = TrainingConfig(hidden_units=defaults.hidden_units if args.hidden_units is None else args.hidden_units,
-                                noisy_samples=args.noisy_samples, sigma=args.sigma, alpha_n=args.alpha_n,
-                                alpha_g=args.alpha_g, alpha_w=args.alpha_w,
-                                max_iterations=defaults.max_iterations if args.iterations is None else args.iterations,
-                                correlation_threshold=args.correlation_threshold, seed=args.seed)
+        config = TrainingConfig(
+            hidden_units=defaults.hidden_units if args.hidden_units is None else args.hidden_units,
+            noisy_samples=args.noisy_samples,
+            sigma=args.sigma,
+            alpha_n=args.alpha_n,
+            alpha_g=args.alpha_g,
+            alpha_w=args.alpha_w,
+            max_iterations=defaults.max_iterations if args.iterations is None else args.iterations,
+            correlation_threshold=args.correlation_threshold,
+            seed=args.seed,
+        )
         job = train_from_bags
     try:
         config.validate()
-        bars = StageBars(len(bag_paths(args.bags, args.tolerant, notice=lambda _: None)), config.max_iterations,
-                         enabled=not args.quiet)
+        bars = StageBars(
+            len(bag_paths(args.bags, args.tolerant, notice=lambda _: None)),
+            config.max_iterations,
+            enabled=not args.quiet,
+        )
         try:
-            run = job(args.bags, args.out, config, RobotModel(), bars, include_failed=args.include_failed,
-                      tolerant=args.tolerant, notice=lambda text: tqdm.write(f"{PROG}: {text}", file=sys.stderr))
+            run = job(
+                args.bags,
+                args.out,
+                config,
+                RobotModel(),
+                bars,
+                include_failed=args.include_failed,
+                tolerant=args.tolerant,
+                notice=lambda text: tqdm.write(f"{PROG}: {text}", file=sys.stderr),
+            )
         finally:
             bars.close()
     except (ValueError, OSError) as error:

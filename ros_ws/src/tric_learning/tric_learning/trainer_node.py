@@ -41,12 +41,12 @@ import time
 
 from rclpy.callback_groups import ReentrantCallbackGroup
 from rclpy.node import Node
-from tric_msgs.msg import TrainingProgress
-from tric_msgs.srv import Train
 
 from tric_learning.dpl import DPL_KINDS, DplConfig, train_dpl_from_bags
 from tric_learning.model_file import KINDS
 from tric_learning.training import TrainingConfig, train_from_bags
+from tric_msgs.msg import TrainingProgress
+from tric_msgs.srv import Train
 from tric_sim import messages
 from tric_sim.lockstep import run_in_thread
 from tric_sim.node_main import run_node
@@ -54,11 +54,18 @@ from tric_sim.parameters import NOT_NEGATIVE, declare
 from tric_sim.robot_model import RobotModel
 
 #: Overall progress spanned by each stage of a training: (start, end) fractions.
-STAGE_SPANS = {"loading": (0.0, 0.05), "sampling": (0.05, 0.35), "optimizing": (0.35, 0.95),
-               "saving": (0.95, 1.0)}
-STAGE_DETAILS = {"loading": "reading the bags", "sampling": "drawing noisy joint samples around the demonstrations",
-                 "optimizing": "L-BFGS on the training loss (TRIC: Eq. 11, DPL: Eq. 2)",
-                 "saving": "writing the model file"}
+STAGE_SPANS = {
+    "loading": (0.0, 0.05),
+    "sampling": (0.05, 0.35),
+    "optimizing": (0.35, 0.95),
+    "saving": (0.95, 1.0),
+}
+STAGE_DETAILS = {
+    "loading": "reading the bags",
+    "sampling": "drawing noisy joint samples around the demonstrations",
+    "optimizing": "L-BFGS on the training loss (TRIC: Eq. 11, DPL: Eq. 2)",
+    "saving": "writing the model file",
+}
 NO_LOSSES = {"total": math.nan, "n": math.nan, "g": math.nan, "w": math.nan}
 
 
@@ -68,14 +75,29 @@ def training_config(request: Train.Request):
     if request.model_kind not in KINDS:
         raise ValueError(f"unknown model_kind '{request.model_kind}' (known: {', '.join(KINDS)})")
     if request.model_kind in DPL_KINDS:
-        hidden_units = DplConfig.hidden_units if request.hidden_units == -1 else request.hidden_units
-        return DplConfig(hidden_units=hidden_units, max_iterations=request.max_iterations,
-                         correlation_threshold=request.correlation_threshold, seed=request.seed).validate()
-    hidden_units = TrainingConfig.hidden_units if request.hidden_units == -1 else request.hidden_units
-    return TrainingConfig(hidden_units=hidden_units, noisy_samples=request.noisy_samples, sigma=request.sigma,
-                          alpha_n=request.alpha_n, alpha_g=request.alpha_g, alpha_w=request.alpha_w,
-                          max_iterations=request.max_iterations,
-                          correlation_threshold=request.correlation_threshold, seed=request.seed).validate()
+        hidden_units = (
+            DplConfig.hidden_units if request.hidden_units == -1 else request.hidden_units
+        )
+        return DplConfig(
+            hidden_units=hidden_units,
+            max_iterations=request.max_iterations,
+            correlation_threshold=request.correlation_threshold,
+            seed=request.seed,
+        ).validate()
+    hidden_units = (
+        TrainingConfig.hidden_units if request.hidden_units == -1 else request.hidden_units
+    )
+    return TrainingConfig(
+        hidden_units=hidden_units,
+        noisy_samples=request.noisy_samples,
+        sigma=request.sigma,
+        alpha_n=request.alpha_n,
+        alpha_g=request.alpha_g,
+        alpha_w=request.alpha_w,
+        max_iterations=request.max_iterations,
+        correlation_threshold=request.correlation_threshold,
+        seed=request.seed,
+    ).validate()
 
 
 class TrainerNode(Node):
@@ -83,14 +105,22 @@ class TrainerNode(Node):
 
     def __init__(self, **kwargs):
         super().__init__("trainer", **kwargs)
-        self.progress_period = declare(self, "progress_period_s", 0.2,
-                                       "least wall seconds between two progress messages of a stage", NOT_NEGATIVE)
+        self.progress_period = declare(
+            self,
+            "progress_period_s",
+            0.2,
+            "least wall seconds between two progress messages of a stage",
+            NOT_NEGATIVE,
+        )
         self.robot = RobotModel()
         self._busy = threading.Lock()
         self._last_report = (None, 0.0)  # (stage, monotonic time) of the last progress message
         self.progress_pub = self.create_publisher(TrainingProgress, "~/progress", 10)
-        # reentrant: a second request is taken (and answered "busy") while the first one awaits its worker
-        self.create_service(Train, "~/train", self._on_train, callback_group=ReentrantCallbackGroup())
+        # reentrant: a second request is taken (and answered "busy") while the first one awaits its
+        # worker
+        self.create_service(
+            Train, "~/train", self._on_train, callback_group=ReentrantCallbackGroup()
+        )
         self.get_logger().info("ready to train on ~/train")
 
     async def _on_train(self, request: Train.Request, response: Train.Response) -> Train.Response:
@@ -109,12 +139,26 @@ class TrainerNode(Node):
         notes = []
         try:
             config = training_config(request)
-            job = (train_from_bags if request.model_kind == "tric"
-                   else functools.partial(train_dpl_from_bags, kind=request.model_kind))
-            job = functools.partial(job, include_failed=request.include_failed, tolerant=request.tolerant,
-                                    notice=functools.partial(self._notice, notes))
-            run = await run_in_thread(self, job, list(request.bag_paths), request.output_path,
-                                      config, self.robot, functools.partial(self._report, config.max_iterations))
+            job = (
+                train_from_bags
+                if request.model_kind == "tric"
+                else functools.partial(train_dpl_from_bags, kind=request.model_kind)
+            )
+            job = functools.partial(
+                job,
+                include_failed=request.include_failed,
+                tolerant=request.tolerant,
+                notice=functools.partial(self._notice, notes),
+            )
+            run = await run_in_thread(
+                self,
+                job,
+                list(request.bag_paths),
+                request.output_path,
+                config,
+                self.robot,
+                functools.partial(self._report, config.max_iterations),
+            )
         except (ValueError, OSError) as error:
             return self._fail(response, str(error))
         except Exception as error:  # a bug: still an answer, not a traceback
@@ -124,26 +168,43 @@ class TrainerNode(Node):
         response.success = True
         response.model_path = str(run.path)
         response.loss_total, response.loss_n, response.loss_g, response.loss_w = (
-            losses["total"], losses["n"], losses["g"], losses["w"])
+            losses["total"],
+            losses["n"],
+            losses["g"],
+            losses["w"],
+        )
         response.optimization_time_s = result.optimization_time_s
         response.train_time_s = result.train_time_s
-        summary = f"trained on {len(run.dataset.demos)} demonstrations in {time.monotonic() - start:.1f} s"
+        summary = (
+            f"trained on {len(run.dataset.demos)} demonstrations in "
+            f"{time.monotonic() - start:.1f} s"
+        )
         if request.model_kind == "tric":
             response.input_features = len(result.model.scaling.kept)
             response.selected_features = result.selected_features
             response.sampling_time_s = result.sampling_time_s
-            response.message = (f"{summary}: loss {losses['total']:.4f} (L_n {losses['n']:.4f}, "
-                                f"L_g {losses['g']:.4f}, |w|_1 {losses['w']:.2f}), {response.input_features} "
-                                f"features kept, {result.selected_features} selected; wrote {run.path}")
+            response.message = (
+                f"{summary}: loss {losses['total']:.4f} (L_n {losses['n']:.4f}, "
+                f"L_g {losses['g']:.4f}, |w|_1 {losses['w']:.2f}), {response.input_features} "
+                f"features kept, {result.selected_features} selected; wrote {run.path}"
+            )
         else:
             response.input_features = len(result.policy.scaling.kept)
-            response.message = (f"{request.model_kind} {summary}: training MSE {losses['mse']:.3g} per output "
-                                f"(mean |error| {losses['mean_abs_error']:.3g}), {response.input_features} "
-                                f"features kept; wrote {run.path}")
+            response.message = (
+                f"{request.model_kind} {summary}: training MSE {losses['mse']:.3g} per output "
+                f"(mean |error| {losses['mean_abs_error']:.3g}), {response.input_features} "
+                f"features kept; wrote {run.path}"
+            )
         if notes:
             response.message += f" ({'; '.join(notes)})"
-        self._publish("done", 1.0, losses, message=response.message, iteration=result.iterations,
-                      max_iterations=config.max_iterations)
+        self._publish(
+            "done",
+            1.0,
+            losses,
+            message=response.message,
+            iteration=result.iterations,
+            max_iterations=config.max_iterations,
+        )
         self.get_logger().info(response.message)
         return response
 
@@ -168,15 +229,36 @@ class TrainerNode(Node):
             return
         low, high = STAGE_SPANS[stage]
         iteration = int(losses["iteration"]) if losses and "iteration" in losses else 0
-        self._publish(stage, low + (high - low) * fraction, losses, message=STAGE_DETAILS[stage],
-                      iteration=iteration, max_iterations=max_iterations)
+        self._publish(
+            stage,
+            low + (high - low) * fraction,
+            losses,
+            message=STAGE_DETAILS[stage],
+            iteration=iteration,
+            max_iterations=max_iterations,
+        )
 
-    def _publish(self, stage: str, fraction: float, losses, message: str = "", iteration: int = 0,
-                 max_iterations: int = 0) -> None:
+    def _publish(
+        self,
+        stage: str,
+        fraction: float,
+        losses,
+        message: str = "",
+        iteration: int = 0,
+        max_iterations: int = 0,
+    ) -> None:
         losses = dict(NO_LOSSES, **(losses or {}))
-        msg = TrainingProgress(stage=stage, iteration=iteration, max_iterations=max_iterations,
-                               fraction=float(fraction), loss_total=losses["total"], loss_n=losses["n"],
-                               loss_g=losses["g"], loss_w=losses["w"], message=message)
+        msg = TrainingProgress(
+            stage=stage,
+            iteration=iteration,
+            max_iterations=max_iterations,
+            fraction=float(fraction),
+            loss_total=losses["total"],
+            loss_n=losses["n"],
+            loss_g=losses["g"],
+            loss_w=losses["w"],
+            message=message,
+        )
         msg.header.stamp = messages.time_msg(time.time_ns())
         self._last_report = (stage, time.monotonic())
         self.progress_pub.publish(msg)

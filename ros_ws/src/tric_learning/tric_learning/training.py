@@ -7,17 +7,18 @@
 with grad_q (f o phi) = (df/dy)(dphi/dq) from the recorded Jacobians (Eq. 10). Steps where the
 demonstration does not move (|q_{t+1} - q_t| < MIN_STEP) have no direction and are left out of L_g.
 The data terms are divided by the number S of demonstration steps (N T): then the paper's
-alpha_w = 0.001 gives its regularization whatever N and T are (summed, it would grow weaker with every
-demonstration added; measured here, the summed form leaves f too rough to control with).
+alpha_w = 0.001 gives its regularization whatever N and T are (summed, it would grow weaker with
+every demonstration added; measured here, the summed form leaves f too rough to control with).
 The noisy samples are drawn once (tric_learning.samples); the optimizer is PyTorch's L-BFGS with a
 strong-Wolfe line search on the full batch, in float32, with PyTorch's deterministic algorithms
 (deterministic_torch): the same seed gives the same model on a given machine, run after run (with
-PyTorch's defaults, two threads gave another model each run; measured, no slower). The defaults are the paper's but for the balance of the terms: in this form of the loss (the
-data terms averaged per step, L_n's weights summed over the M samples) the paper's alpha_g = 1 leaves
-L_g about ten times weaker than L_n, and the learned gradient does not follow the demonstrations
-(mean cosine -0.6 on spheres and boxes, -0.16 on cylinders); alpha_g = 30 with 300 iterations (the
-paper: 100 of BFGS) was chosen on the training and validation sets over three seeds (boxes 5 -> 8 to
-9 of 10 reproduced, 10 -> 20 to 22 of 25 validation boxes opened; docs/decisions/loss-balance.md).
+PyTorch's defaults, two threads gave another model each run; measured, no slower). The defaults are
+the paper's but for the balance of the terms: in this form of the loss (the data terms averaged per
+step, L_n's weights summed over the M samples) the paper's alpha_g = 1 leaves L_g about ten times
+weaker than L_n, and the learned gradient does not follow the demonstrations (mean cosine -0.6 on
+spheres and boxes, -0.16 on cylinders); alpha_g = 30 with 300 iterations (the paper: 100 of BFGS)
+was chosen on the training and validation sets over three seeds (boxes 5 -> 8 to 9 of 10 reproduced,
+10 -> 20 to 22 of 25 validation boxes opened; docs/decisions/loss-balance.md).
 
 train_from_bags() is the whole job that the trainer node and tric-train share: bags -> dataset ->
 train() -> model file.
@@ -60,7 +61,8 @@ MODEL_SUFFIX = ".safetensors"
 
 @dataclass
 class TrainingConfig:
-    """Hyper-parameters: the paper's defaults but alpha_g and max_iterations (see the module docstring)."""
+    """Hyper-parameters: the paper's defaults but alpha_g and max_iterations (see the module
+    docstring)."""
 
     hidden_units: int = 30
     noisy_samples: int = 60
@@ -74,8 +76,9 @@ class TrainingConfig:
     #: L_n's weights eps divided by their sum at each step (each step's L_n a weighted mean over its
     #: noisy samples) instead of summed as in Eq. 16.
     per_step_weights: bool = False
-    #: "lbfgs": PyTorch's L-BFGS on the whole loss, |w|_1 included (not smooth at 0); "lbfgsb": SciPy's
-    #: L-BFGS-B on w = w+ - w-, w+, w- >= 0, where |w|_1 = sum(w+ + w-) is linear (exact L1, sparse).
+    #: "lbfgs": PyTorch's L-BFGS on the whole loss, |w|_1 included (not smooth at 0); "lbfgsb":
+    #: SciPy's L-BFGS-B on w = w+ - w-, w+, w- >= 0, where |w|_1 = sum(w+ + w-) is linear (exact L1,
+    #: sparse).
     optimizer: str = "lbfgs"
 
     def validate(self) -> "TrainingConfig":
@@ -84,8 +87,10 @@ class TrainingConfig:
             (0 <= self.hidden_units <= 1000, "hidden_units must be in [0, 1000]"),
             (1 <= self.noisy_samples <= 10000, "noisy_samples must be in [1, 10000]"),
             (0 < self.sigma <= 1.0, "sigma must be in (0, 1] rad"),
-            (all(a >= 0 and np.isfinite(a) for a in (self.alpha_n, self.alpha_g, self.alpha_w)),
-             "alpha_n, alpha_g and alpha_w must be finite and >= 0"),
+            (
+                all(a >= 0 and np.isfinite(a) for a in (self.alpha_n, self.alpha_g, self.alpha_w)),
+                "alpha_n, alpha_g and alpha_w must be finite and >= 0",
+            ),
             (self.alpha_n + self.alpha_g > 0, "alpha_n and alpha_g cannot both be 0"),
             (1 <= self.max_iterations <= 100000, "max_iterations must be in [1, 100000]"),
             (0 < self.correlation_threshold <= 1, "correlation_threshold must be in (0, 1]"),
@@ -122,18 +127,30 @@ class TrainingResult:
         return self.sampling_time_s + self.optimization_time_s
 
 
-def train(dataset: Dataset, robot: RobotModel, config: TrainingConfig = TrainingConfig(),
-          progress=None, extra_samples: samples.NoisySamples = None) -> TrainingResult:
+def train(
+    dataset: Dataset,
+    robot: RobotModel,
+    config: TrainingConfig | None = None,
+    progress=None,
+    extra_samples: samples.NoisySamples = None,
+) -> TrainingResult:
     """Train f on dataset. progress(stage, fraction, losses) is called during sampling and after
     each optimizer evaluation (losses: dict of the current terms, or None). extra_samples: more
-    contrasts for L_n beside the noisy ones (e.g. states a learned controller visited: hard negatives),
-    each with the demonstration step it is contrasted with and its weight."""
+    contrasts for L_n beside the noisy ones (e.g. states a learned controller visited: hard
+    negatives), each with the demonstration step it is contrasted with and its weight."""
+    config = TrainingConfig() if config is None else config
     config.validate()
     dataset.check()
     report = progress or (lambda *_: None)
     start = time.perf_counter()
-    noisy = samples.generate(dataset, robot, config.noisy_samples, config.sigma, config.seed,
-                             lambda done, total: report("sampling", done / total, None))
+    noisy = samples.generate(
+        dataset,
+        robot,
+        config.noisy_samples,
+        config.sigma,
+        config.seed,
+        lambda done, total: report("sampling", done / total, None),
+    )
     if extra_samples is not None:
         noisy = samples.joined(noisy, extra_samples)
     sampling_time = time.perf_counter() - start
@@ -147,16 +164,26 @@ def train(dataset: Dataset, robot: RobotModel, config: TrainingConfig = Training
     optimization_time = time.perf_counter() - start
     starts = np.array([model.value(demo.y[0]) for demo in dataset.demos])
     ends = np.array([model.value(demo.y[-1]) for demo in dataset.demos])
-    norms = [np.linalg.norm(model.gradient(y)[1] @ jacobian)
-             for demo in dataset.demos for y, jacobian in zip(demo.y, demo.jacobians)]
+    norms = [
+        np.linalg.norm(model.gradient(y)[1] @ jacobian)
+        for demo in dataset.demos
+        for y, jacobian in zip(demo.y, demo.jacobians)
+    ]
     scores = model.scores()
     return TrainingResult(
-        model=model, config=config, losses=losses, iterations=iterations,
-        sampling_time_s=sampling_time, optimization_time_s=optimization_time,
+        model=model,
+        config=config,
+        losses=losses,
+        iterations=iterations,
+        sampling_time_s=sampling_time,
+        optimization_time_s=optimization_time,
         delta=float(np.mean(starts - ends) / TICKS_PER_DEMO),
         rho=float(RHO_GAIN / max(np.median(norms), 1e-9) ** 2),
-        selected_features=int(np.sum(scores > SELECTED_FRACTION * scores.max())) if scores.max() > 0 else 0,
-        mean_samples_per_step=float(noisy.kept_per_step[_later_steps(dataset)].mean()))
+        selected_features=int(np.sum(scores > SELECTED_FRACTION * scores.max()))
+        if scores.max() > 0
+        else 0,
+        mean_samples_per_step=float(noisy.kept_per_step[_later_steps(dataset)].mean()),
+    )
 
 
 @dataclass
@@ -175,8 +202,17 @@ def model_output_path(output_path, first_bag: pathlib.Path) -> pathlib.Path:
     return check_output_file(path, (MODEL_SUFFIX,), "the model path")
 
 
-def train_from_bags(paths, output_path, config: TrainingConfig, robot: RobotModel, progress=None, *,
-                    include_failed: bool = False, tolerant: bool = False, notice=None) -> BagTraining:
+def train_from_bags(
+    paths,
+    output_path,
+    config: TrainingConfig,
+    robot: RobotModel,
+    progress=None,
+    *,
+    include_failed: bool = False,
+    tolerant: bool = False,
+    notice=None,
+) -> BagTraining:
     """Load the demonstrations in the bags at paths (files or folders, see recording.load_dataset
     for include_failed, tolerant and notice), train on them and write the model file to output_path
     (see model_output_path). Every input is checked before anything is written: a bad bag, value
@@ -187,8 +223,14 @@ def train_from_bags(paths, output_path, config: TrainingConfig, robot: RobotMode
     path = model_output_path(output_path, files[0])
     report = progress or (lambda *_: None)
     report("loading", 0.0, None)
-    dataset = load_dataset(files, robot, lambda done, total: report("loading", done / total, None),
-                           include_failed=include_failed, tolerant=tolerant, notice=notice)
+    dataset = load_dataset(
+        files,
+        robot,
+        lambda done, total: report("loading", done / total, None),
+        include_failed=include_failed,
+        tolerant=tolerant,
+        notice=notice,
+    )
     result = train(dataset, robot, config, report)
     report("saving", 0.0, result.losses)
     model_file.from_training(result, dataset).save(path)
@@ -211,17 +253,27 @@ def deterministic_torch():
 def _later_steps(dataset: Dataset) -> np.ndarray:
     """Flattened indices of every step t >= 1 (the ones with noisy samples)."""
     offsets = samples.step_offsets(dataset)
-    return np.concatenate([np.arange(offsets[i] + 1, offsets[i + 1]) for i in range(len(dataset.demos))])
+    return np.concatenate(
+        [np.arange(offsets[i] + 1, offsets[i + 1]) for i in range(len(dataset.demos))]
+    )
 
 
 class _Problem:
     """The loss of Eq. 11 as a torch function of the flattened weights."""
 
-    def __init__(self, dataset: Dataset, noisy: samples.NoisySamples, scaling: Scaling, config: TrainingConfig):
+    def __init__(
+        self,
+        dataset: Dataset,
+        noisy: samples.NoisySamples,
+        scaling: Scaling,
+        config: TrainingConfig,
+    ):
         self.config = config
         dtype = torch.float64 if config.optimizer == "lbfgsb" else torch.float32
         self.s, self.k = len(scaling.kept), config.hidden_units
-        self.u = torch.tensor(scaling.transform(np.concatenate([d.y for d in dataset.demos])), dtype=dtype)
+        self.u = torch.tensor(
+            scaling.transform(np.concatenate([d.y for d in dataset.demos])), dtype=dtype
+        )
         self.steps = len(self.u)
         self.u_noisy = torch.tensor(scaling.transform(noisy.y), dtype=dtype)
         self.noisy_step = torch.tensor(noisy.step, dtype=torch.long)
@@ -237,19 +289,26 @@ class _Problem:
             delta = np.diff(demo.q, axis=0)
             moving = np.flatnonzero(np.linalg.norm(delta, axis=1) >= MIN_STEP)
             rows.append(offsets[i] + moving)
-            jacobians.append(demo.jacobians[moving][:, scaling.kept, :] * scaling.factor[None, :, None])
+            jacobians.append(
+                demo.jacobians[moving][:, scaling.kept, :] * scaling.factor[None, :, None]
+            )
             directions.append(delta[moving])
         self.g_rows = torch.tensor(np.concatenate(rows), dtype=torch.long)
-        self.g_jacobian = torch.tensor(np.concatenate(jacobians), dtype=dtype)      # (G, s, n)
-        self.g_direction = torch.tensor(np.concatenate(directions), dtype=dtype)    # (G, n)
+        self.g_jacobian = torch.tensor(np.concatenate(jacobians), dtype=dtype)  # (G, s, n)
+        self.g_direction = torch.tensor(np.concatenate(directions), dtype=dtype)  # (G, n)
         rng = np.random.default_rng(config.seed)
-        initial = np.concatenate([rng.normal(0.0, 1.0 / np.sqrt(max(self.s, 1)), self.k * self.s),
-                                  rng.normal(0.0, 0.1, self.k), rng.normal(0.0, 0.01, self.s)])
+        initial = np.concatenate(
+            [
+                rng.normal(0.0, 1.0 / np.sqrt(max(self.s, 1)), self.k * self.s),
+                rng.normal(0.0, 0.1, self.k),
+                rng.normal(0.0, 0.01, self.s),
+            ]
+        )
         self.theta = torch.tensor(initial, dtype=dtype, requires_grad=True)
 
     def _split(self, theta):
         k, s = self.k, self.s
-        return theta[:k * s].reshape(k, s), theta[k * s:k * s + k], theta[k * s + k:]
+        return theta[: k * s].reshape(k, s), theta[k * s : k * s + k], theta[k * s + k :]
 
     def terms(self, theta):
         w1, w2, w3 = self._split(theta)
@@ -260,15 +319,18 @@ class _Problem:
 
         f_demo = value(self.u)
         f_noisy = value(self.u_noisy)
-        loss_n = torch.sum(self.noisy_weight
-                           * torch.nn.functional.softplus(f_demo[self.noisy_step] - f_noisy))
+        loss_n = torch.sum(
+            self.noisy_weight * torch.nn.functional.softplus(f_demo[self.noisy_step] - f_noisy)
+        )
         u = self.u[self.g_rows]
         du = w3.expand(len(u), -1)
         if self.k:
             z = torch.sigmoid(u @ w1.T)
             du = du + (z * (1 - z) * w2) @ w1
         gradient_q = torch.einsum("gsn,gs->gn", self.g_jacobian, du)
-        loss_g = torch.sum(torch.nn.functional.cosine_similarity(gradient_q, self.g_direction, dim=1, eps=1e-12))
+        loss_g = torch.sum(
+            torch.nn.functional.cosine_similarity(gradient_q, self.g_direction, dim=1, eps=1e-12)
+        )
         loss_w = theta.abs().sum()
         return loss_n, loss_g, loss_w
 
@@ -282,21 +344,41 @@ class _Problem:
         with torch.no_grad():
             loss_n, loss_g, loss_w = self.terms(self.theta)
         config = self.config
-        losses = {"n": float(loss_n) / self.steps, "g": float(loss_g) / self.steps, "w": float(loss_w)}
-        losses["total"] = config.alpha_n * losses["n"] + config.alpha_g * losses["g"] + config.alpha_w * losses["w"]
+        losses = {
+            "n": float(loss_n) / self.steps,
+            "g": float(loss_g) / self.steps,
+            "w": float(loss_w),
+        }
+        losses["total"] = (
+            config.alpha_n * losses["n"]
+            + config.alpha_g * losses["g"]
+            + config.alpha_w * losses["w"]
+        )
         w1, w2, w3 = (t.detach().to(torch.float64).numpy().copy() for t in self._split(self.theta))
         return (w1, w2, w3), losses, int(iterations)
 
     def _data_loss(self, theta):
         """(alpha_n L_n + alpha_g L_g) / S and the terms (L_n, L_g, |w|_1) as tensors."""
         loss_n, loss_g, loss_w = self.terms(theta)
-        return (self.config.alpha_n * loss_n + self.config.alpha_g * loss_g) / self.steps, (loss_n, loss_g, loss_w)
+        return (self.config.alpha_n * loss_n + self.config.alpha_g * loss_g) / self.steps, (
+            loss_n,
+            loss_g,
+            loss_w,
+        )
 
     def _report(self, report, iteration, loss_n, loss_g, loss_w):
         config = self.config
         latest = dict(n=float(loss_n) / self.steps, g=float(loss_g) / self.steps, w=float(loss_w))
-        latest["total"] = config.alpha_n * latest["n"] + config.alpha_g * latest["g"] + config.alpha_w * latest["w"]
-        report("optimizing", min(iteration / config.max_iterations, 1.0), dict(latest, iteration=iteration))
+        latest["total"] = (
+            config.alpha_n * latest["n"]
+            + config.alpha_g * latest["g"]
+            + config.alpha_w * latest["w"]
+        )
+        report(
+            "optimizing",
+            min(iteration / config.max_iterations, 1.0),
+            dict(latest, iteration=iteration),
+        )
 
     def _solve_split(self, report) -> int:
         """SciPy's L-BFGS-B on x = (w+, w-) >= 0, w = w+ - w-: the data loss plus alpha_w sum(x)."""
@@ -319,27 +401,44 @@ class _Problem:
             state["iteration"] += 1
             self._report(report, state["iteration"], *state["terms"])
 
-        result = scipy.optimize.minimize(objective, x0, jac=True, method="L-BFGS-B",
-                                         bounds=[(0.0, None)] * (2 * size), callback=iterated,
-                                         options={"maxiter": config.max_iterations, "maxcor": 20,
-                                                  "ftol": 1e-12, "gtol": 1e-10})
+        result = scipy.optimize.minimize(
+            objective,
+            x0,
+            jac=True,
+            method="L-BFGS-B",
+            bounds=[(0.0, None)] * (2 * size),
+            callback=iterated,
+            options={"maxiter": config.max_iterations, "maxcor": 20, "ftol": 1e-12, "gtol": 1e-10},
+        )
         with torch.no_grad():
-            self.theta.copy_(torch.tensor(result.x[:size] - result.x[size:], dtype=self.theta.dtype))
+            self.theta.copy_(
+                torch.tensor(result.x[:size] - result.x[size:], dtype=self.theta.dtype)
+            )
         return result.nit
 
     def _solve_lbfgs(self, report) -> int:
         config = self.config
-        optimizer = torch.optim.LBFGS([self.theta], lr=1.0, max_iter=config.max_iterations,
-                                      max_eval=config.max_iterations * 2, history_size=20,
-                                      tolerance_grad=1e-10, tolerance_change=1e-12,
-                                      line_search_fn="strong_wolfe")
+        optimizer = torch.optim.LBFGS(
+            [self.theta],
+            lr=1.0,
+            max_iter=config.max_iterations,
+            max_eval=config.max_iterations * 2,
+            history_size=20,
+            tolerance_grad=1e-10,
+            tolerance_change=1e-12,
+            line_search_fn="strong_wolfe",
+        )
 
         def closure():
             optimizer.zero_grad()
             data, terms = self._data_loss(self.theta)
             total = data + config.alpha_w * terms[2]
             total.backward()
-            self._report(report, optimizer.state[optimizer._params[0]].get("n_iter", 0), *(t.detach() for t in terms))
+            self._report(
+                report,
+                optimizer.state[optimizer._params[0]].get("n_iter", 0),
+                *(t.detach() for t in terms),
+            )
             return total
 
         torch.manual_seed(config.seed)

@@ -1,7 +1,7 @@
 """Collision checking (tric_sim.collision). Proximity, the controller's collision queries: it finds
 every pair within reach although it sends only some pairs to coal each call (checked against all
-pairs, computed directly, along walks with jumps and moving bodies), the rows of the pairs within the
-robot are the gradients of their distances, and the task's contacts come with the scene.
+pairs, computed directly, along walks with jumps and moving bodies), the rows of the pairs within
+the robot are the gradients of their distances, and the task's contacts come with the scene.
 SceneCollision, the training's batch check: its mask is the one coal's distances of every pair give,
 on colliding and free configurations. Units: m, rad."""
 
@@ -23,15 +23,22 @@ def robot():
 
 
 def all_close_pairs(proximity: Proximity, robot: RobotModel, q, influence: float) -> dict:
-    """{pair index: distance} of every pair of proximity's table within influence at q, each computed
-    by coal, on a geometry model and data of their own (the bodies where proximity last put them)."""
+    """{pair index: distance} of every pair of proximity's table within influence at q, each
+    computed by coal, on a geometry model and data of their own (the bodies where proximity last put
+    them)."""
     model = proximity.geometry_model.copy()
     data = pin.GeometryData(model)
     pin.updateGeometryPlacements(robot.model, robot.model.createData(), model, data, q)
-    moving = [robot.collision_model.geometryObjects[k].parentJoint != 0 for k in range(proximity._geometry_count)]
+    moving = [
+        robot.collision_model.geometryObjects[k].parentJoint != 0
+        for k in range(proximity._geometry_count)
+    ]
     close = {}
     for pair in range(len(proximity.pair_names)):
-        if pair < proximity._geometry_count * proximity._body_count and not moving[pair // proximity._body_count]:
+        if (
+            pair < proximity._geometry_count * proximity._body_count
+            and not moving[pair // proximity._body_count]
+        ):
             continue  # geometry fixed to the world is not checked against the scene
         distance = pin.computeDistance(model, data, pair).min_distance
         if distance < influence:
@@ -50,8 +57,11 @@ def check_near(proximity: Proximity, robot: RobotModel, q, poses: dict) -> int:
     return len(closest)
 
 
-@pytest.mark.parametrize("situation, body", [(situations.dataset("sphere_test")[0], "object"),
-                                             (situations.dataset("box_test")[0], "lid")], ids=["sphere", "box"])
+@pytest.mark.parametrize(
+    "situation, body",
+    [(situations.dataset("sphere_test")[0], "object"), (situations.dataset("box_test")[0], "lid")],
+    ids=["sphere", "box"],
+)
 def test_near_finds_every_pair_within_reach_along_a_walk(robot, situation, body):
     """The robot walking towards the object in small steps, jumping now and then; then standing
     still while a body comes towards its hand from 30 cm and turns: at every call near() returns
@@ -63,18 +73,24 @@ def test_near_finds_every_pair_within_reach_along_a_walk(robot, situation, body)
     q, found = robot.home.copy(), 0
     for step in range(40):
         if step % 15 == 14:
-            q = rng.uniform(robot.lower, robot.upper)          # a jump
+            q = rng.uniform(robot.lower, robot.upper)  # a jump
         else:
-            q = np.clip(q + 0.1 * (goal - q) + rng.normal(0, 0.01, robot.n_joints), robot.lower, robot.upper)
+            q = np.clip(
+                q + 0.1 * (goal - q) + rng.normal(0, 0.01, robot.n_joints), robot.lower, robot.upper
+            )
         found += check_near(proximity, robot, q, {})
     home = next(b for b in proximity.scene.bodies if b.name == body)
     robot.forward(goal)
     palm = robot.frame_placement("palm_center").translation
     start = np.array(home.position)
-    for step in range(31):   # from 30 cm away towards the palm, turning
+    for step in range(31):  # from 30 cm away towards the palm, turning
         position = palm + (start - palm) * (1.0 + (30 - step) * 0.01 / np.linalg.norm(start - palm))
-        turn = pin.Quaternion(pin.utils.rotate("z", 0.03 * step) @ scene.se3((0, 0, 0), home.orientation).rotation)
-        near = check_near(proximity, robot, goal, {body: (tuple(position), (turn.x, turn.y, turn.z, turn.w))})
+        turn = pin.Quaternion(
+            pin.utils.rotate("z", 0.03 * step) @ scene.se3((0, 0, 0), home.orientation).rotation
+        )
+        near = check_near(
+            proximity, robot, goal, {body: (tuple(position), (turn.x, turn.y, turn.z, turn.w))}
+        )
     assert found and near, "the walks should come near something"
 
 
@@ -82,7 +98,9 @@ def test_a_configuration_that_is_not_finite_forgets_nothing(robot):
     """After a NaN configuration, the next finite one gets all its pairs again."""
     situation = situations.dataset("sphere_test")[0]
     proximity = Proximity(robot, situation)
-    q = robot.reach(robot.home, "palm_center", pin.SE3(np.eye(3), np.array(situation.object_position)))
+    q = robot.reach(
+        robot.home, "palm_center", pin.SE3(np.eye(3), np.array(situation.object_position))
+    )
     proximity.near(robot.home, {}, INFLUENCE)
     bad = q.copy()
     bad[3] = np.nan
@@ -102,8 +120,10 @@ def test_the_task_s_contacts_come_with_the_scene(robot):
         proximity = Proximity(robot, situation)
         assert proximity.contacts == scene.contacts(situation)
         allowance = dict(zip(proximity.body_names, proximity.scene.allowance))
-        assert allowance == {name: CONTACT_TOLERANCE if name in proximity.contacts else 0.0
-                             for name in proximity.body_names}
+        assert allowance == {
+            name: CONTACT_TOLERANCE if name in proximity.contacts else 0.0
+            for name in proximity.body_names
+        }
 
 
 # --- SceneCollision.collision_free, against coal on every pair -----------------------------------
@@ -120,34 +140,62 @@ def colliding_by_coal(collision: SceneCollision, robot: RobotModel, q, object_po
 
     def distance(shape, placement, other, other_placement):
         result.clear()
-        return coal.distance(shape, coal.Transform3s(placement.rotation, placement.translation), other,
-                             coal.Transform3s(other_placement.rotation, other_placement.translation), request, result)
+        return coal.distance(
+            shape,
+            coal.Transform3s(placement.rotation, placement.translation),
+            other,
+            coal.Transform3s(other_placement.rotation, other_placement.translation),
+            request,
+            result,
+        )
 
     objects = robot.collision_model.geometryObjects
-    for body, shape, placement, allowance in zip(collision.bodies, collision.body_shapes,
-                                                 collision.body_placements(object_poses), collision.allowance):
+    for _body, shape, placement, allowance in zip(
+        collision.bodies,
+        collision.body_shapes,
+        collision.body_placements(object_poses),
+        collision.allowance,
+    ):
         for k, geometry in enumerate(objects):
-            if geometry.parentJoint != 0 and distance(geometry.geometry, geometry_data.oMg[k], shape,
-                                                      placement) < -allowance:
+            if (
+                geometry.parentJoint != 0
+                and distance(geometry.geometry, geometry_data.oMg[k], shape, placement) < -allowance
+            ):
                 return True
-    return any(distance(objects[a].geometry, geometry_data.oMg[a], objects[b].geometry, geometry_data.oMg[b]) < 0
-               for a, b in collision.self_pairs)
+    return any(
+        distance(
+            objects[a].geometry, geometry_data.oMg[a], objects[b].geometry, geometry_data.oMg[b]
+        )
+        < 0
+        for a, b in collision.self_pairs
+    )
 
 
-@pytest.mark.parametrize("situation", [situations.dataset("sphere_test")[0], situations.dataset("box_test")[0]],
-                         ids=["sphere", "box"])
+@pytest.mark.parametrize(
+    "situation",
+    [situations.dataset("sphere_test")[0], situations.dataset("box_test")[0]],
+    ids=["sphere", "box"],
+)
 def test_collision_free_agrees_with_coal_on_every_pair(robot, situation):
     """Random configurations (many collide with the table, the object or the robot itself), the hand
-    pushed into the object, the arm swung down onto the table, and home: collision_free's mask is the
-    one coal's distances of every pair give, and both kinds of configuration are met."""
+    pushed into the object, the arm swung down onto the table, and home: collision_free's mask is
+    the one coal's distances of every pair give, and both kinds of configuration are met."""
     collision = SceneCollision(robot, situation)
     poses = {"object": (situation.object_position, situation.object_orientation)}
     rng = np.random.default_rng(7)
-    into_object = robot.reach(robot.home, "palm_center", pin.SE3(np.eye(3), np.array(situation.object_position)))
+    into_object = robot.reach(
+        robot.home, "palm_center", pin.SE3(np.eye(3), np.array(situation.object_position))
+    )
     on_table = robot.home.copy()
     on_table[[1, 3]] = 1.9, 0.3
-    configurations = np.vstack([rng.uniform(robot.lower, robot.upper, (60, robot.n_joints)),
-                                into_object, on_table, robot.home])
+    configurations = np.vstack(
+        [
+            rng.uniform(robot.lower, robot.upper, (60, robot.n_joints)),
+            into_object,
+            on_table,
+            robot.home,
+        ]
+    )
     free = collision.collision_free(configurations, poses)
     expected = np.array([not colliding_by_coal(collision, robot, q, poses) for q in configurations])
     assert free.tolist() == expected.tolist()
@@ -157,12 +205,14 @@ def test_collision_free_agrees_with_coal_on_every_pair(robot, situation):
 
 def test_self_collision_rows_are_the_gradients_of_the_distances(robot):
     """At random configurations, each pair within the robot that near() returns (arm geometries near
-    other robot geometries, separate) has the row of its distance's gradient in q: the central finite
-    difference of coal's distance, joint by joint, to 1e-3 of its norm (as the scene pairs' rows in
-    test_collision_damper); the joints that move neither side or both together have a zero entry."""
+    other robot geometries, separate) has the row of its distance's gradient in q: the central
+    finite difference of coal's distance, joint by joint, to 1e-3 of its norm (as the scene pairs'
+    rows in test_collision_damper); the joints that move neither side or both together have a zero
+    entry."""
     proximity = Proximity(robot, situations.dataset("sphere_test")[0])
     geometry_data = pin.GeometryData(proximity.geometry_model)
-    for pair in range(len(proximity.pair_names)):  # GJK to 1e-10 m: coal's default 1e-6 is too coarse for h
+    # GJK to 1e-10 m: coal's default 1e-6 is too coarse for h
+    for pair in range(len(proximity.pair_names)):
         geometry_data.distanceRequests[pair] = coal.DistanceRequest()
         geometry_data.distanceRequests[pair].gjk_tolerance = 1e-10
     data = robot.model.createData()
@@ -178,9 +228,15 @@ def test_self_collision_rows_are_the_gradients_of_the_distances(robot):
         closest = proximity.near(q, {}, INFLUENCE)
         for k in np.flatnonzero((closest.bodies == -1) & (closest.distances > 0.0)):
             pair = int(closest.pairs[k])
-            numeric = np.array([(distance(pair, q + h * e) - distance(pair, q - h * e)) / (2 * h)
-                                for e in np.eye(robot.n_joints)])
-            assert np.abs(closest.rows[k] - numeric).max() <= 1e-3 * np.linalg.norm(numeric), closest.pair_names[pair]
+            numeric = np.array(
+                [
+                    (distance(pair, q + h * e) - distance(pair, q - h * e)) / (2 * h)
+                    for e in np.eye(robot.n_joints)
+                ]
+            )
+            assert np.abs(closest.rows[k] - numeric).max() <= 1e-3 * np.linalg.norm(numeric), (
+                closest.pair_names[pair]
+            )
             assert not closest.hand[k]
             checked += 1
     assert checked >= 5

@@ -5,7 +5,8 @@ import math
 import numpy as np
 import pytest
 
-from tric_sim import metrics, scene, situations as S
+from tric_sim import metrics, scene
+from tric_sim import situations as S
 from tric_sim.physics import DISTANCE_CUTOFF, PhysicsWorld, pb
 from tric_sim.robot_model import RobotModel
 
@@ -49,8 +50,9 @@ def test_lid_rests_closed_and_opens_when_pushed_up(world):
     hinge = scene.hinge_placement(situation)
     free_edge = hinge.act(np.array([0.2 + scene.LID_OVERHANG, 0.0, 0.0]))
     for _ in range(40):  # push the lip up with 8 N for 0.4 s
-        pb.applyExternalForce(lid, 0, [0, 0, 8.0], free_edge.tolist(), pb.WORLD_FRAME,
-                              physicsClientId=world.client)
+        pb.applyExternalForce(
+            lid, 0, [0, 0, 8.0], free_edge.tolist(), pb.WORLD_FRAME, physicsClientId=world.client
+        )
         world.step()
     assert world.lid_angle() > scene.LID_OPEN_ANGLE
     position, _ = world.object_poses()["lid"]
@@ -68,13 +70,15 @@ def test_lid_edge_pose_is_the_lip_and_turns_with_the_lid(world):
     pb.resetJointState(world.bodies["object"], 0, 0.5, physicsClientId=world.client)
     position, orientation = world.object_poses()["lid_edge"]
     opened = scene.lid_placement(hinge, 0.5)
-    assert np.allclose(position, opened.act(np.array([0.2 + scene.LID_OVERHANG, 0.0, 0.0])), atol=1e-3)
+    assert np.allclose(
+        position, opened.act(np.array([0.2 + scene.LID_OVERHANG, 0.0, 0.0])), atol=1e-3
+    )
     assert position[2] > lip[2] + 0.1  # lifted: 25 cm from the hinge, turned by 0.5 rad
 
 
 def servo_run(world, robot):
-    """Three joints commanded 1.0, -0.5 and 0.8 rad away from home, 170 control periods: the measured
-    joint positions (171, n) and one period's velocity bound (n,), rad."""
+    """Three joints commanded 1.0, -0.5 and 0.8 rad away from home, 170 control periods: the
+    measured joint positions (171, n) and one period's velocity bound (n,), rad."""
     world.reset(S.sphere("s", (0.6, 0.0, 0.35)))
     target = robot.home.copy()
     target[[0, 3, 8]] += [1.0, -0.5, 0.8]
@@ -91,10 +95,13 @@ def test_servos_bring_the_joints_to_their_targets(world, robot):
     assert np.abs(trajectory[-1] - target).max() < 0.01  # design.md 6's joint tolerance, 0.01 rad
 
 
-@pytest.mark.xfail(strict=True, reason="goal: no measured joint moves faster than its velocity limit; "
-                   "measured on 2026-12-01: 1.30 times the limit in one period (arm_4_joint) and up to 0.65 "
-                   "periods of limit-speed motion ahead of the setpoint (arm_1_joint), in the periods after a "
-                   "joint starts moving, when the servo catches up with its setpoint")
+@pytest.mark.xfail(
+    strict=True,
+    reason="goal: no measured joint moves faster than its velocity limit; "
+    "measured on 2026-12-01: 1.30 times the limit in one period (arm_4_joint) and up to 0.65 "
+    "periods of limit-speed motion ahead of the setpoint (arm_1_joint), in the periods after a "
+    "joint starts moving, when the servo catches up with its setpoint",
+)
 def test_measured_joints_keep_within_their_velocity_limits(world, robot):
     """Per period, and in all: after p periods from rest a joint has travelled at most p periods of
     limit-speed motion."""
@@ -133,12 +140,15 @@ def test_min_distance_tracks_contact_with_the_table(world, robot):
 
 
 def test_joint_stops_hold_a_joint_pushed_past_its_limit(robot, world):
-    """A joint found past its limit after a physics step is put back on it (PyBullet's own limits are
-    soft: a constant 3 N m held a distal joint 0.22 rad past, and contacts pushed up to 1 rad past)."""
+    """A joint found past its limit after a physics step is put back on it (PyBullet's own limits
+    are soft: a constant 3 N m held a distal joint 0.22 rad past, and contacts pushed up to 1 rad
+    past)."""
     world.reset(S.sphere("s", (0.6, 0.0, 0.35)))
     k = robot.joint_names.index("finger_2_distal_joint")
     index = world.actuated[k]
-    pb.resetJointState(world.robot_id, index, robot.upper[k] + 0.5, 2.0, physicsClientId=world.client)
+    pb.resetJointState(
+        world.robot_id, index, robot.upper[k] + 0.5, 2.0, physicsClientId=world.client
+    )
     world.command(np.minimum(world.targets, robot.upper))
     world.step()
     position, velocity = world.joint_state()
@@ -154,8 +164,9 @@ def test_lid_hinge_stays_at_or_above_its_closed_stop(world):
     free_edge = hinge.act(np.array([0.2 + scene.LID_OVERHANG, 0.0, 0.0]))
     lowest = 0.0
     for _ in range(40):  # press the lip down with 200 N for 0.4 s
-        pb.applyExternalForce(lid, 0, [0, 0, -200.0], free_edge.tolist(), pb.WORLD_FRAME,
-                              physicsClientId=world.client)
+        pb.applyExternalForce(
+            lid, 0, [0, 0, -200.0], free_edge.tolist(), pb.WORLD_FRAME, physicsClientId=world.client
+        )
         world.step()
         lowest = min(lowest, world.lid_angle())
     assert lowest >= -0.01
@@ -168,8 +179,9 @@ def test_overshoot_is_measured_and_reported_in_the_metrics(robot, world):
     assert world.max_overshoot == 0.0 and world.max_overshoot_joint == ""
     # a joint moved past its limit between two measurements (as a solver slip would) is reported
     k = robot.joint_names.index("arm_4_joint")
-    world._stop_high[k] = world.joint_state()[0][k] - 0.05   # pretend the limit is 0.05 rad below q
-    world._enforce_stops = lambda: None                     # without the stop, the joint stays there
+    world._stop_high[k] = world.joint_state()[0][k] - 0.05  # pretend the limit is 0.05 rad below q
+    # without the stop, the joint stays there
+    world._enforce_stops = lambda: None
     world.step()
     judged = metrics.evaluate(world, robot)
     assert judged.max_joint_overshoot == pytest.approx(0.05, abs=0.01)

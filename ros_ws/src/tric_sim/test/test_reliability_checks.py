@@ -5,10 +5,16 @@ import math
 
 import pytest
 import yaml
-from hypothesis import HealthCheck, event, given, settings, strategies as st
+from hypothesis import HealthCheck, event, given, settings
+from hypothesis import strategies as st
 
 from tric_sim import situations as S
-from tric_sim.output_files import atomic_path, check_output_file, check_output_folder, write_text_atomic
+from tric_sim.output_files import (
+    atomic_path,
+    check_output_file,
+    check_output_folder,
+    write_text_atomic,
+)
 from tric_sim.physics import PhysicsWorld
 from tric_sim.robot_model import RobotModel
 
@@ -31,7 +37,10 @@ def test_output_file_checks_name_the_problem_and_create_nothing(tmp_path):
             check_output_file(path, what="--json file")
     with pytest.raises(ValueError, match=r"the model path .*m\.json must end in \.safetensors"):
         check_output_file(tmp_path / "m.json", (".safetensors",), "the model path")
-    assert check_output_file(tmp_path / "new" / "deeper" / "r.json") == tmp_path / "new" / "deeper" / "r.json"
+    assert (
+        check_output_file(tmp_path / "new" / "deeper" / "r.json")
+        == tmp_path / "new" / "deeper" / "r.json"
+    )
     assert sorted(p.name for p in tmp_path.rglob("*")) == ["folder.json", "plain"]
 
 
@@ -60,16 +69,40 @@ def test_atomic_writes_replace_whole_files_or_leave_the_old_one(tmp_path):
     assert [p.name for p in path.parent.iterdir()] == ["result.json"]  # no temporary left
 
 
-@pytest.mark.parametrize("situation, reason", [
-    (S.sphere("in_base", (0.0, 0.0, 0.05)), "the object \\(sphere\\) intersects the robot's base_link"),
-    (S.sphere("through_table", (0.6, 0.0, 0.1), radius=0.3), "the object \\(sphere\\) reaches 20.0 cm into the table"),
-    (S.Situation(name="sunk_box", task="open_box", object_kind="box", object_dimensions=(0.2,),
-                 object_position=(0.6, 0.0, 0.05)), "the object \\(box\\) reaches 5.0 cm into the table"),
-    (S.Situation(name="plate_in_arm", task="grasp", object_kind="sphere", object_dimensions=(0.04,),
-                 object_position=(0.6, 0.0, 0.3),
-                 obstacles=(S.Obstacle("box", (0.3, 0.3, 0.3), (0.0, 0.0, 0.4)),)),
-     "obstacle 0 \\(box\\) intersects the robot's"),
-])
+@pytest.mark.parametrize(
+    "situation, reason",
+    [
+        (
+            S.sphere("in_base", (0.0, 0.0, 0.05)),
+            "the object \\(sphere\\) intersects the robot's base_link",
+        ),
+        (
+            S.sphere("through_table", (0.6, 0.0, 0.1), radius=0.3),
+            "the object \\(sphere\\) reaches 20.0 cm into the table",
+        ),
+        (
+            S.Situation(
+                name="sunk_box",
+                task="open_box",
+                object_kind="box",
+                object_dimensions=(0.2,),
+                object_position=(0.6, 0.0, 0.05),
+            ),
+            "the object \\(box\\) reaches 5.0 cm into the table",
+        ),
+        (
+            S.Situation(
+                name="plate_in_arm",
+                task="grasp",
+                object_kind="sphere",
+                object_dimensions=(0.04,),
+                object_position=(0.6, 0.0, 0.3),
+                obstacles=(S.Obstacle("box", (0.3, 0.3, 0.3), (0.0, 0.0, 0.4)),),
+            ),
+            "obstacle 0 \\(box\\) intersects the robot's",
+        ),
+    ],
+)
 def test_physically_impossible_situations_are_refused(robot, situation, reason, tmp_path):
     with pytest.raises(ValueError, match=f"situation '{situation.name}': {reason}"):
         situation.validate(robot=robot)
@@ -93,11 +126,14 @@ def test_every_built_in_situation_is_physically_possible(robot):
 
 # --- fuzzed situation data ----------------------------------------------------------------------
 
-ANYTHING = st.recursive(st.none() | st.booleans() | st.integers() | st.floats() | st.text(max_size=8),
-                        lambda inner: st.lists(inner, max_size=4) | st.dictionaries(st.text(max_size=8), inner,
-                                                                                       max_size=4),
-                        max_leaves=8)
-NUMBER = st.floats(allow_nan=True, allow_infinity=True) | st.integers(-10**6, 10**6)
+ANYTHING = st.recursive(
+    st.none() | st.booleans() | st.integers() | st.floats() | st.text(max_size=8),
+    lambda inner: (
+        st.lists(inner, max_size=4) | st.dictionaries(st.text(max_size=8), inner, max_size=4)
+    ),
+    max_leaves=8,
+)
+NUMBER = st.floats(allow_nan=True, allow_infinity=True) | st.integers(-(10**6), 10**6)
 VECTOR = st.lists(NUMBER, min_size=0, max_size=5) | ANYTHING
 FIELDS = {
     "name": st.text(max_size=12) | ANYTHING,
@@ -106,9 +142,19 @@ FIELDS = {
     "object_dimensions": VECTOR,
     "object_position": VECTOR,
     "object_orientation": VECTOR,
-    "obstacles": st.lists(st.fixed_dictionaries({}, optional={
-        "shape": st.sampled_from(["box", "sphere", "x"]) | ANYTHING, "dimensions": VECTOR, "position": VECTOR,
-        "orientation": VECTOR}), max_size=2) | ANYTHING,
+    "obstacles": st.lists(
+        st.fixed_dictionaries(
+            {},
+            optional={
+                "shape": st.sampled_from(["box", "sphere", "x"]) | ANYTHING,
+                "dimensions": VECTOR,
+                "position": VECTOR,
+                "orientation": VECTOR,
+            },
+        ),
+        max_size=2,
+    )
+    | ANYTHING,
     "initial_joint_positions": VECTOR,
     "seed": NUMBER | ANYTHING,
 }
@@ -117,11 +163,15 @@ SITUATION_DATA = st.fixed_dictionaries({}, optional=dict(FIELDS, unknown_field=A
 
 #: A valid sphere situation with one field replaced by a generated value.
 NEAR_VALID = st.sampled_from(sorted(FIELDS)).flatmap(
-    lambda key: FIELDS[key].map(lambda value: {**S.sphere("fuzzed", (0.6, 0.1, 0.3)).to_dict(), key: value}))
+    lambda key: FIELDS[key].map(
+        lambda value: {**S.sphere("fuzzed", (0.6, 0.1, 0.3)).to_dict(), key: value}
+    )
+)
 
 #: Spheres anywhere in the workspace, of any size: some inside the robot or the table.
-SPHERES = st.tuples(*(st.floats(lo, hi) for lo, hi in zip(S.WORKSPACE_LOW, S.WORKSPACE_HIGH)),
-                    st.floats(0.001, 0.8)).map(lambda v: S.sphere("fuzzed", v[:3], radius=v[3]).to_dict())
+SPHERES = st.tuples(
+    *(st.floats(lo, hi) for lo, hi in zip(S.WORKSPACE_LOW, S.WORKSPACE_HIGH)), st.floats(0.001, 0.8)
+).map(lambda v: S.sphere("fuzzed", v[:3], radius=v[3]).to_dict())
 
 
 @settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.too_slow])

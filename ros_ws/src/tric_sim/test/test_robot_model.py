@@ -41,11 +41,14 @@ def test_knuckle_turns_fingers_two_and_three_in_opposition(robot):
     assert np.isclose(np.angle(np.exp(1j * (yaw3 - np.pi))), -0.4, atol=1e-9)
 
 
-@pytest.mark.parametrize("bad, message", [
-    (np.zeros(13), "14 joint positions"),
-    (np.full(14, np.nan), "non-finite"),
-    (np.full(14, 5.0), "outside its limits"),
-])
+@pytest.mark.parametrize(
+    "bad, message",
+    [
+        (np.zeros(13), "14 joint positions"),
+        (np.full(14, np.nan), "non-finite"),
+        (np.full(14, 5.0), "outside its limits"),
+    ],
+)
 def test_bad_configurations_are_refused(robot, bad, message):
     with pytest.raises(ValueError, match=message):
         robot.check_configuration(bad)
@@ -68,8 +71,11 @@ def test_pybullet_and_pinocchio_link_poses_agree(robot):
         for _ in range(25):
             q = rng.uniform(robot.lower, robot.upper)
             for name, angle in robot.urdf_joint_positions(q).items():
-                index = world.actuated[robot.joint_names.index(name)] if name in robot.joint_names \
+                index = (
+                    world.actuated[robot.joint_names.index(name)]
+                    if name in robot.joint_names
                     else next(m[0] for m in world.mimics)
+                )
                 pb.resetJointState(world.robot_id, index, angle, physicsClientId=world.client)
             robot.forward(q)
             placements = world.link_placements()
@@ -77,8 +83,11 @@ def test_pybullet_and_pinocchio_link_poses_agree(robot):
             for name, (position, orientation) in placements.items():
                 expected = robot.frame_placement(name)
                 got = scene.se3(position, orientation)
-                worst = max(worst, np.abs(expected.translation - got.translation).max(),
-                            np.linalg.norm(pin.log3(expected.rotation.T @ got.rotation)))
+                worst = max(
+                    worst,
+                    np.abs(expected.translation - got.translation).max(),
+                    np.linalg.norm(pin.log3(expected.rotation.T @ got.rotation)),
+                )
         assert worst < 1e-6
     finally:
         world.close()

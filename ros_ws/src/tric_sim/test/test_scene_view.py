@@ -1,15 +1,15 @@
-"""The viewer's scene (tric_sim.scene_view): the robot's primitives and transforms against Pinocchio's
-collision model and kinematics, the scene's primitives against the situation's geometry; and their
-messages (tric_sim.scene_messages)."""
+"""The viewer's scene (tric_sim.scene_view): the robot's primitives and transforms against
+Pinocchio's collision model and kinematics, the scene's primitives against the situation's geometry;
+and their messages (tric_sim.scene_messages)."""
 
 import json
 
 import numpy as np
 import pinocchio as pin
 import pytest
-from tric_msgs.msg import ControllerStatus
 from visualization_msgs.msg import Marker
 
+from tric_msgs.msg import ControllerStatus
 from tric_sim import scene, scene_messages, scene_view, situations
 from tric_sim.robot_model import RobotModel
 
@@ -25,7 +25,9 @@ def view(robot):
 
 
 def random_configurations(robot, count, seed=0):
-    return np.random.default_rng(seed).uniform(robot.lower, robot.upper, size=(count, robot.n_joints))
+    return np.random.default_rng(seed).uniform(
+        robot.lower, robot.upper, size=(count, robot.n_joints)
+    )
 
 
 def world_pose(placements, primitive):
@@ -51,7 +53,9 @@ def test_link_primitives_are_the_collision_model(robot, view):
     geometries = {g.name: g for g in robot.collision_model.geometryObjects}
     assert len(view.primitives) == len(geometries) == 21
     q = random_configurations(robot, 1, seed=3)[0]
-    pin.updateGeometryPlacements(robot.model, robot.data, robot.collision_model, robot.collision_data, q)
+    pin.updateGeometryPlacements(
+        robot.model, robot.data, robot.collision_model, robot.collision_data, q
+    )
     placements = scene_view.frame_placements(view.static, view.transforms(q))
     for primitive in view.primitives:
         link, index = primitive.id.split("/")[1:]
@@ -87,10 +91,16 @@ def test_scene_primitives_are_the_situation_bodies(name):
         expected = scene.se3(body.position, body.orientation)
         if body.role == "lid":
             expected = expected * scene.lid_geometry_offset(situation.object_dimensions[0])
-        assert np.allclose(world_pose(placements, primitive).homogeneous, expected.homogeneous, atol=1e-12), body.name
+        assert np.allclose(
+            world_pose(placements, primitive).homogeneous, expected.homogeneous, atol=1e-12
+        ), body.name
     if situation.object_kind == "sphere":
-        assert primitives["scene/object"].size == pytest.approx((2 * situation.object_dimensions[0],) * 3)
-        assert primitives["scene/obstacle_0"].size == pytest.approx(situation.obstacles[0].dimensions)
+        assert primitives["scene/object"].size == pytest.approx(
+            (2 * situation.object_dimensions[0],) * 3
+        )
+        assert primitives["scene/obstacle_0"].size == pytest.approx(
+            situation.obstacles[0].dimensions
+        )
     elif situation.object_kind == "cylinder":
         height, radius = situation.object_dimensions
         assert primitives["scene/object"].size == pytest.approx((2 * radius, 2 * radius, height))
@@ -126,13 +136,29 @@ def test_marker_array_holds_every_primitive(view):
 
 
 def test_status_fields_are_json(view):
-    status = ControllerStatus(state=ControllerStatus.RUNNING, step=7, value=float("nan"), value_rate=0.1,
-                              gradient_norm=2.0, step_norm=0.01, min_distance=float("inf"), tick_time_ms=0.4,
-                              active_constraints=["collision:palm_link/table"], feature_names=["d[palm,object]"],
-                              feature_values=[0.25], feature_gradients=[float("nan")])
+    status = ControllerStatus(
+        state=ControllerStatus.RUNNING,
+        step=7,
+        value=float("nan"),
+        value_rate=0.1,
+        gradient_norm=2.0,
+        step_norm=0.01,
+        min_distance=float("inf"),
+        tick_time_ms=0.4,
+        active_constraints=["collision:palm_link/table"],
+        feature_names=["d[palm,object]"],
+        feature_values=[0.25],
+        feature_gradients=[float("nan")],
+    )
     status.header.stamp.sec = 3
     fields = scene_messages.status_fields(status)
     assert json.loads(json.dumps(fields, allow_nan=False)) == fields
-    assert fields["value"] is None and fields["min_distance"] is None and fields["feature_gradients"] == [None]
-    assert fields["stamp_ns"] == 3_000_000_000 and fields["active_constraints"] == ["collision:palm_link/table"]
+    assert (
+        fields["value"] is None
+        and fields["min_distance"] is None
+        and fields["feature_gradients"] == [None]
+    )
+    assert fields["stamp_ns"] == 3_000_000_000 and fields["active_constraints"] == [
+        "collision:palm_link/table"
+    ]
     assert set(fields) == set(scene_messages.STATUS_FIELDS) | {"stamp_ns"}

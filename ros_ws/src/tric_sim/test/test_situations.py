@@ -45,9 +45,11 @@ def test_boxes_are_cubes_on_the_table():
 def test_shift_moves_objects_by_about_the_standard_deviation():
     base = S.sphere_grid()
     moved = S.shifted(base, 0.04, seed=1)
-    offsets = np.array([np.subtract(m.object_position, b.object_position) for m, b in zip(base, moved)])
+    offsets = np.array(
+        [np.subtract(m.object_position, b.object_position) for m, b in zip(base, moved)]
+    )
     assert 0.02 < offsets.std() < 0.06
-    assert S.shifted(base, 0.0) [0].object_position == base[0].object_position
+    assert S.shifted(base, 0.0)[0].object_position == base[0].object_position
 
 
 def test_obstacle_stands_between_robot_and_object():
@@ -64,17 +66,20 @@ def test_file_round_trip(tmp_path, suffix):
     assert S.load_situations(path) == original
 
 
-@pytest.mark.parametrize("change, message", [
-    ({"task": "juggle"}, "unknown task"),
-    ({"object_kind": "box"}, "does not fit task"),
-    ({"object_dimensions": (0.04, 0.1)}, "must have 1 value"),
-    ({"object_dimensions": (-0.04,)}, "positive"),
-    ({"object_position": (math.nan, 0.0, 0.3)}, "non-finite"),
-    ({"object_position": (5.0, 0.0, 0.3)}, "outside the workspace"),
-    ({"object_orientation": (0.0, 0.0, 0.0, 2.0)}, "unit quaternion"),
-    ({"initial_joint_positions": (0.0,) * 3}, "must have 14"),
-    ({"name": ""}, "non-empty name"),
-])
+@pytest.mark.parametrize(
+    "change, message",
+    [
+        ({"task": "juggle"}, "unknown task"),
+        ({"object_kind": "box"}, "does not fit task"),
+        ({"object_dimensions": (0.04, 0.1)}, "must have 1 value"),
+        ({"object_dimensions": (-0.04,)}, "positive"),
+        ({"object_position": (math.nan, 0.0, 0.3)}, "non-finite"),
+        ({"object_position": (5.0, 0.0, 0.3)}, "outside the workspace"),
+        ({"object_orientation": (0.0, 0.0, 0.0, 2.0)}, "unit quaternion"),
+        ({"initial_joint_positions": (0.0,) * 3}, "must have 14"),
+        ({"name": ""}, "non-empty name"),
+    ],
+)
 def test_bad_situations_are_refused(change, message):
     good = S.sphere("s", (0.6, 0.0, 0.3))
     with pytest.raises(ValueError, match=message):
@@ -93,6 +98,7 @@ def test_bad_files_are_refused_with_the_reason(tmp_path):
     data = S.sphere("s", (0.6, 0.0, 0.3)).to_dict()
     data["colour"] = "red"
     import yaml
+
     unknown.write_text(yaml.safe_dump([data]))
     with pytest.raises(ValueError, match="unknown field"):
         S.load_situations(unknown)
@@ -107,13 +113,19 @@ def test_validation_sets_are_drawn_apart_from_the_training_and_test_sets():
         assert len(chosen) == count and all(s.name.startswith(name) for s in chosen)
         task = name.split("_")[0].replace("obstacle", "sphere")
         others = S.dataset(f"{task}_train") + S.dataset(f"{task}_test")
-        placements = {(s.object_position, s.object_orientation, s.object_dimensions) for s in others}
-        assert not placements & {(s.object_position, s.object_orientation, s.object_dimensions) for s in chosen}
+        placements = {
+            (s.object_position, s.object_orientation, s.object_dimensions) for s in others
+        }
+        assert not placements & {
+            (s.object_position, s.object_orientation, s.object_dimensions) for s in chosen
+        }
     plates = [s.obstacles[0] for s in S.dataset("obstacle_val")]
     heights = [plate.dimensions[2] for plate in plates]
     assert all(0.10 <= h <= 0.18 for h in heights) and max(heights) - min(heights) > 0.03
     for situation in S.dataset("obstacle_val"):
         centre, radius = np.asarray(situation.object_position), situation.object_dimensions[0]
         plate = np.asarray(situation.obstacles[0].position)
-        gap = np.linalg.norm((centre - plate)[:2]) - radius - situation.obstacles[0].dimensions[0] / 2
+        gap = (
+            np.linalg.norm((centre - plate)[:2]) - radius - situation.obstacles[0].dimensions[0] / 2
+        )
         assert 0.04 - 1e-9 <= gap <= 0.10 + 1e-9

@@ -1,1 +1,2 @@
-"""The world of TRIC: the robot model (URDF, Pinocchio, coal), scenes and situations, the PyBullet simulator node, the teachers and the hidden task metrics."""
+"""The world of TRIC: the robot model (URDF, Pinocchio, coal), scenes and situations, the PyBullet
+simulator node, the teachers and the hidden task metrics."""

@@ -7,8 +7,8 @@ Gauss-Newton on the stacked residuals (the normal equations are block-banded in 
   lip (the overhang at the box's front), passing a point a few centimetres beneath it;
 - phase 2, open (the remaining steps): the fingertips follow the lip's arc about the hinge while the
   lid turns to OPEN_ANGLE: up and towards the box centre;
-- always: smooth motion (squared accelerations), joint limits, the hand and arm kept clear of the box
-  body and the table (and of the closed lid during the reach), and a weak posture prior.
+- always: smooth motion (squared accelerations), joint limits, the hand and arm kept clear of the
+  box body and the table (and of the closed lid during the reach), and a weak posture prior.
 
 The plan is then executed open loop, interpolated to the control rate. Units: m, rad, s.
 """
@@ -27,8 +27,9 @@ STEPS = 80
 STEP_DURATION = 0.1
 REACH_STEPS = 44
 OPEN_ANGLE = 0.9
-#: Fingertip targets in the lid (hinge) frame: CONTACT_INSET in from the lip's edge, +-CONTACT_SPREAD
-#: across, and the tip sphere's top CONTACT_CLEARANCE under the lid (negative: pressing into it).
+#: Fingertip targets in the lid (hinge) frame: CONTACT_INSET in from the lip's edge,
+#: +-CONTACT_SPREAD across, and the tip sphere's top CONTACT_CLEARANCE under the lid (negative:
+#: pressing into it).
 CONTACT_INSET = 0.02
 CONTACT_SPREAD = 0.033
 TIP_RADIUS = 0.014
@@ -39,23 +40,42 @@ LIFT_PRESS = -0.004
 REACH_WAYPOINTS = ((16, 0.10, 0.04), (28, 0.08, -0.06), (37, 0.0, -0.05))
 #: Nominal hand shape (knuckle, finger 1 proximal/distal, fingers 2 and 3 proximal/distal), rad:
 #: fingers 2 and 3 side by side and bent outwards (up, with the palm's x axis up), the thumb curled.
-NOMINAL_HAND = {"finger_2_knuckle_joint": 0.0, "finger_1_proximal_joint": 1.0,
-                "finger_1_distal_joint": 1.0, "finger_2_proximal_joint": -0.8,
-                "finger_2_distal_joint": 0.2, "finger_3_proximal_joint": -0.8,
-                "finger_3_distal_joint": 0.2}
+NOMINAL_HAND = {
+    "finger_2_knuckle_joint": 0.0,
+    "finger_1_proximal_joint": 1.0,
+    "finger_1_distal_joint": 1.0,
+    "finger_2_proximal_joint": -0.8,
+    "finger_2_distal_joint": 0.2,
+    "finger_3_proximal_joint": -0.8,
+    "finger_3_distal_joint": 0.2,
+}
 #: Robot points kept clear of the box body, the table and (while reaching) the lid: frame, offset in
 #: the frame (m), radius (m).
 COLLISION_POINTS = (
-    ("finger_1_tip", 0.0, 0.014), ("finger_2_tip", 0.0, 0.014), ("finger_3_tip", 0.0, 0.014),
-    ("finger_1_distal_link", 0.0, 0.016), ("finger_2_distal_link", 0.0, 0.016),
-    ("finger_3_distal_link", 0.0, 0.016), ("finger_1_proximal_link", 0.043, 0.016),
-    ("finger_2_proximal_link", 0.043, 0.016), ("finger_3_proximal_link", 0.043, 0.016),
-    ("palm_link", 0.02, 0.06), ("palm_link", 0.07, 0.06), ("arm_7_link", 0.0, 0.05),
-    ("arm_6_link", 0.0, 0.05), ("arm_5_link", 0.08, 0.055),
+    ("finger_1_tip", 0.0, 0.014),
+    ("finger_2_tip", 0.0, 0.014),
+    ("finger_3_tip", 0.0, 0.014),
+    ("finger_1_distal_link", 0.0, 0.016),
+    ("finger_2_distal_link", 0.0, 0.016),
+    ("finger_3_distal_link", 0.0, 0.016),
+    ("finger_1_proximal_link", 0.043, 0.016),
+    ("finger_2_proximal_link", 0.043, 0.016),
+    ("finger_3_proximal_link", 0.043, 0.016),
+    ("palm_link", 0.02, 0.06),
+    ("palm_link", 0.07, 0.06),
+    ("arm_7_link", 0.0, 0.05),
+    ("arm_6_link", 0.0, 0.05),
+    ("arm_5_link", 0.08, 0.055),
 )
 SAFETY = {"box_body": 0.012, "table": 0.02, "lid": 0.006}
-WEIGHTS = {"smooth": 30.0, "goal": 30.0, "collision": 60.0, "limit": 30.0, "posture": 0.05,
-           "hand": 0.5}
+WEIGHTS = {
+    "smooth": 30.0,
+    "goal": 30.0,
+    "collision": 60.0,
+    "limit": 30.0,
+    "posture": 0.05,
+    "hand": 0.5,
+}
 ITERATIONS = 40
 
 
@@ -90,7 +110,9 @@ class BoxTeacher:
         self.lid_extents = scene.lid_extents(self.side)
         self.q_start = robot.check_configuration(q_start, "q_start")
         self.tips = [robot.frame_id("finger_2_tip"), robot.frame_id("finger_3_tip")]
-        self.points = [(robot.frame_id(f), np.array([0.0, 0.0, dz]), r) for f, dz, r in COLLISION_POINTS]
+        self.points = [
+            (robot.frame_id(f), np.array([0.0, 0.0, dz]), r) for f, dz, r in COLLISION_POINTS
+        ]
         self.nominal = robot.home.copy()
         for name, value in NOMINAL_HAND.items():
             self.nominal[robot.joint_names.index(name)] = value
@@ -101,14 +123,19 @@ class BoxTeacher:
 
     # --- targets -------------------------------------------------------------------------------
 
-    def _lip_points(self, angle: float, clearance: float, out: float = 0.0, up: float = 0.0) -> list:
+    def _lip_points(
+        self, angle: float, clearance: float, out: float = 0.0, up: float = 0.0
+    ) -> list:
         """World targets of the two fingertip centres under the lip with the lid opened by angle,
         moved out (along the lid's x) and up (world z) by the given offsets."""
         lid = scene.lid_placement(self.hinge, angle)
         depth = self.lid_extents[0]
         z = -(TIP_RADIUS + clearance)
-        return [lid.act(np.array([depth - CONTACT_INSET + out, side * CONTACT_SPREAD, z])) + [0.0, 0.0, up]
-                for side in (1, -1)]
+        return [
+            lid.act(np.array([depth - CONTACT_INSET + out, side * CONTACT_SPREAD, z]))
+            + [0.0, 0.0, up]
+            for side in (1, -1)
+        ]
 
     def _goal(self, step: int):
         """Fingertip targets at a plan step (1-based), or None where the cost has no goal."""
@@ -211,7 +238,9 @@ class BoxTeacher:
             prior[robot.hand_indices] = 1e-1
             hessian = jac.T @ jac + np.diag(prior)
             gradient = jac.T @ error + prior * (self.nominal - q) * 0.1
-            q = np.clip(q + np.linalg.solve(hessian, gradient), robot.lower + 0.03, robot.upper - 0.03)
+            q = np.clip(
+                q + np.linalg.solve(hessian, gradient), robot.lower + 0.03, robot.upper - 0.03
+            )
         return q
 
     def _optimize(self, plan: np.ndarray) -> np.ndarray:
@@ -258,9 +287,9 @@ class BoxTeacher:
                 if step >= 1:
                     columns[step] = columns.get(step, 0.0) + c
             for a, ca in columns.items():
-                gradient[(a - 1) * n:a * n] += ca * residual
+                gradient[(a - 1) * n : a * n] += ca * residual
                 for b, cb in columns.items():
-                    hessian[(a - 1) * n:a * n, (b - 1) * n:b * n] += ca * cb * np.eye(n)
+                    hessian[(a - 1) * n : a * n, (b - 1) * n : b * n] += ca * cb * np.eye(n)
 
     def _cost(self, plan) -> float:
         total = 0.0
@@ -268,7 +297,7 @@ class BoxTeacher:
             total += float(np.sum(self._step_residuals(step, plan[step])[0] ** 2))
         padded = np.vstack([plan[:1], plan, plan[-1:]])
         accelerations = padded[2:] - 2 * padded[1:-1] + padded[:-2]
-        return total + WEIGHTS["smooth"] ** 2 * float(np.sum(accelerations ** 2))
+        return total + WEIGHTS["smooth"] ** 2 * float(np.sum(accelerations**2))
 
     # --- execution -----------------------------------------------------------------------------
 

@@ -27,8 +27,8 @@ from tric_sim import scene, shapes
 from tric_sim.robot_model import RobotModel
 from tric_sim.situations import Situation
 
-#: Penetration allowed into the bodies the task lets the hand contact (scene.contacts), m: the fingers
-#: of a firm grip press a few millimetres into them in simulation.
+#: Penetration allowed into the bodies the task lets the hand contact (scene.contacts), m: the
+#: fingers of a firm grip press a few millimetres into them in simulation.
 CONTACT_TOLERANCE = 0.005
 #: Proximity sends a pair to coal when its distance's lower bound is below the reach asked for plus
 #: this, m (room for coal's own tolerance).
@@ -40,8 +40,8 @@ class SceneCollision:
 
     collision_free(configurations, object_poses) tells, for each configuration, whether the robot
     (but its base, which is mounted on the table) is clear of the scene's bodies, penetrating those
-    that the task lets the hand contact (scene.contacts) by no more than CONTACT_TOLERANCE, and does not
-    collide with itself (non-adjacent links).
+    that the task lets the hand contact (scene.contacts) by no more than CONTACT_TOLERANCE, and does
+    not collide with itself (non-adjacent links).
     """
 
     def __init__(self, robot: RobotModel, situation: Situation):
@@ -51,12 +51,17 @@ class SceneCollision:
         #: the contacts the task allows the hand: scene body name -> tric_sim.scene.Contact
         self.contacts = scene.contacts(situation)
         geometry_model = robot.collision_model
-        self.robot_geometries = [(g.parentJoint, g.placement, g.geometry) for g in geometry_model.geometryObjects]
-        # geometry fixed to the world (the base, mounted on the table) is not checked against the scene
+        self.robot_geometries = [
+            (g.parentJoint, g.placement, g.geometry) for g in geometry_model.geometryObjects
+        ]
+        # geometry fixed to the world (the base, mounted on the table) is not checked against the
+        # scene
         self._moving = np.array([joint != 0 for joint, _, _ in self.robot_geometries])
         self.self_pairs = [(p.first, p.second) for p in geometry_model.collisionPairs]
         self.body_shapes = [shapes.coal_shape(b.shape, b.dimensions) for b in self.bodies]
-        self.allowance = [CONTACT_TOLERANCE if b.name in self.contacts else 0.0 for b in self.bodies]
+        self.allowance = [
+            CONTACT_TOLERANCE if b.name in self.contacts else 0.0 for b in self.bodies
+        ]
         # bounding spheres: (geometry index, centre in the joint frame, radius)
         self.spheres = []
         for k, (_, placement, shape) in enumerate(self.robot_geometries):
@@ -65,11 +70,18 @@ class SceneCollision:
         self._sphere_geometry = np.array([s[0] for s in self.spheres])
         self._sphere_radius = np.array([s[2] for s in self.spheres])
         # every pair of bounding spheres of every self-collision pair: (first, second, pair index)
-        combos = [(i, j, k) for k, (a, c) in enumerate(self.self_pairs)
-                  for i in np.flatnonzero(self._sphere_geometry == a)
-                  for j in np.flatnonzero(self._sphere_geometry == c)]
-        self._combo_first, self._combo_second, self._combo_pair = (np.array(v) for v in zip(*combos))
-        self._combo_reach = self._sphere_radius[self._combo_first] + self._sphere_radius[self._combo_second]
+        combos = [
+            (i, j, k)
+            for k, (a, c) in enumerate(self.self_pairs)
+            for i in np.flatnonzero(self._sphere_geometry == a)
+            for j in np.flatnonzero(self._sphere_geometry == c)
+        ]
+        self._combo_first, self._combo_second, self._combo_pair = (
+            np.array(v) for v in zip(*combos)
+        )
+        self._combo_reach = (
+            self._sphere_radius[self._combo_first] + self._sphere_radius[self._combo_second]
+        )
         self._pair_starts = np.flatnonzero(np.r_[True, np.diff(self._combo_pair) != 0])
         self._functors = {}
         self._request = coal.DistanceRequest()
@@ -78,7 +90,10 @@ class SceneCollision:
     def body_placements(self, object_poses: dict, bodies=None) -> list:
         """World placement of each scene body's solid (of bodies, default all); bodies named in
         object_poses (name -> (position, xyzw)) are placed there."""
-        return [body.solid_placement(object_poses.get(body.name)) for body in (self.bodies if bodies is None else bodies)]
+        return [
+            body.solid_placement(object_poses.get(body.name))
+            for body in (self.bodies if bodies is None else bodies)
+        ]
 
     def collision_free(self, configurations: np.ndarray, object_poses: dict) -> np.ndarray:
         """Boolean mask (B,) over configurations (B, n)."""
@@ -87,30 +102,45 @@ class SceneCollision:
             return np.zeros(0, dtype=bool)
         rotations, positions = self.robot.batch_joint_placements(qs)
         joints = [self.robot_geometries[k][0] for k, _, _ in self.spheres]
-        centres = np.stack([positions[j] + rotations[j] @ c for j, (_, c, _) in zip(joints, self.spheres)], 1)
+        centres = np.stack(
+            [positions[j] + rotations[j] @ c for j, (_, c, _) in zip(joints, self.spheres)], 1
+        )
         placements = self.body_placements(object_poses)
         free = np.ones(len(qs), dtype=bool)
-        suspects = []  # (configuration, robot geometry, body index or None, other robot geometry or None)
+        # (configuration, robot geometry, body index or None, other robot geometry or None)
+        suspects = []
         for b, (body, placement) in enumerate(zip(self.bodies, placements)):
             for geometry, (joint, local, shape) in enumerate(self.robot_geometries):
                 if not self._moving[geometry]:
                     continue
-                exact = shapes.exact_distances(shape, rotations[joint], positions[joint], local, body, placement)
+                exact = shapes.exact_distances(
+                    shape, rotations[joint], positions[joint], local, body, placement
+                )
                 if exact is not None:
                     free &= exact >= -self.allowance[b]
                     continue
                 spheres = np.flatnonzero(self._sphere_geometry == geometry)
-                clearance = shapes.body_distance(body, placement, centres[:, spheres].reshape(-1, 3))
-                near = np.flatnonzero((clearance.reshape(len(qs), -1) - self._sphere_radius[spheres] < 1e-3).any(axis=1)
-                                      & free)
+                clearance = shapes.body_distance(
+                    body, placement, centres[:, spheres].reshape(-1, 3)
+                )
+                near = np.flatnonzero(
+                    (clearance.reshape(len(qs), -1) - self._sphere_radius[spheres] < 1e-3).any(
+                        axis=1
+                    )
+                    & free
+                )
                 if len(near) and isinstance(shape, coal.Cylinder):
-                    solid = shapes.Cylinder.of(shape, rotations[joint][near], positions[joint][near], local)
-                    near = near[~solid.separated_from(shapes.body_solid(body, placement, len(near)))]
+                    solid = shapes.Cylinder.of(
+                        shape, rotations[joint][near], positions[joint][near], local
+                    )
+                    near = near[
+                        ~solid.separated_from(shapes.body_solid(body, placement, len(near)))
+                    ]
                 suspects += [(config, geometry, b, None) for config in near]
-        by_sphere = np.ascontiguousarray(centres.transpose(1, 2, 0))           # (spheres, 3, B)
+        by_sphere = np.ascontiguousarray(centres.transpose(1, 2, 0))  # (spheres, 3, B)
         offsets = by_sphere[self._combo_first] - by_sphere[self._combo_second]  # (combos, 3, B)
         squared = offsets[:, 0] ** 2 + offsets[:, 1] ** 2 + offsets[:, 2] ** 2
-        close = squared < ((self._combo_reach + 1e-3) ** 2)[:, None]           # (combos, B)
+        close = squared < ((self._combo_reach + 1e-3) ** 2)[:, None]  # (combos, B)
         close_pairs = np.maximum.reduceat(close, self._pair_starts, axis=0).T  # (B, self pairs)
         for pair in np.flatnonzero(close_pairs.any(axis=0)):
             a, c = self.self_pairs[self._combo_pair[self._pair_starts[pair]]]
@@ -126,10 +156,15 @@ class SceneCollision:
                 continue
             if body is not None:
                 other_shape, other_rotation, other_translation = (
-                    self.body_shapes[body], placements[body].rotation, placements[body].translation)
+                    self.body_shapes[body],
+                    placements[body].rotation,
+                    placements[body].translation,
+                )
                 allowance = self.allowance[body]
             else:
-                other_shape, other_rotation, other_translation = self._world(other, rotations, positions, config)
+                other_shape, other_rotation, other_translation = self._world(
+                    other, rotations, positions, config
+                )
                 allowance = 0.0
             shape = self.robot_geometries[geometry][2]
             rotation, translation = self._world(geometry, rotations, positions, config)[1:]
@@ -138,8 +173,12 @@ class SceneCollision:
             if functor is None:
                 functor = self._functors[key] = coal.ComputeDistance(shape, other_shape)
             self._result.clear()
-            distance = functor(coal.Transform3s(rotation, translation),
-                               coal.Transform3s(other_rotation, other_translation), self._request, self._result)
+            distance = functor(
+                coal.Transform3s(rotation, translation),
+                coal.Transform3s(other_rotation, other_translation),
+                self._request,
+                self._result,
+            )
             free[config] = distance >= -allowance
         return free
 
@@ -147,7 +186,11 @@ class SceneCollision:
         """(shape, world rotation, world translation) of a robot geometry in one configuration."""
         joint, local, shape = self.robot_geometries[geometry]
         rotation = rotations[joint][config]
-        return shape, rotation @ local.rotation, positions[joint][config] + rotation @ local.translation
+        return (
+            shape,
+            rotation @ local.rotation,
+            positions[joint][config] + rotation @ local.translation,
+        )
 
 
 @dataclass
@@ -160,8 +203,8 @@ class Closest:
         joint step dq (n^T J at the witness points).
     aways (k, 3): unit directions, world frame, in which the robot side of each pair moves away
         from the other side.
-    bodies (k,): the scene body of each pair (index into body_names), -1 for a pair within the robot.
-    hand (k,): whether the robot side of each pair is part of the hand (palm or fingers).
+    bodies (k,): the scene body of each pair (index into body_names), -1 for a pair within the
+    robot. hand (k,): whether the robot side of each pair is part of the hand (palm or fingers).
     body_names (B,), body_rotations (B, 3, 3): the scene's bodies and their solids' world rotations.
     """
 
@@ -178,9 +221,17 @@ class Closest:
     @classmethod
     def none(cls, n_joints: int, pair_names=(), body_names=(), body_rotations=None) -> "Closest":
         """No pair within reach (of a scene with these tables, default none)."""
-        return cls(np.zeros(0, dtype=int), np.zeros(0), np.zeros((0, n_joints)), np.zeros((0, 3)),
-                   np.zeros(0, dtype=int), np.zeros(0, dtype=bool), pair_names, body_names,
-                   np.zeros((0, 3, 3)) if body_rotations is None else body_rotations)
+        return cls(
+            np.zeros(0, dtype=int),
+            np.zeros(0),
+            np.zeros((0, n_joints)),
+            np.zeros((0, 3)),
+            np.zeros(0, dtype=int),
+            np.zeros(0, dtype=bool),
+            pair_names,
+            body_names,
+            np.zeros((0, 3, 3)) if body_rotations is None else body_rotations,
+        )
 
     def __len__(self) -> int:
         return len(self.pairs)
@@ -199,8 +250,8 @@ class Proximity:
 
     The scene bodies are added to a copy of the robot's collision model (fixed to the world), with
     one collision pair per (robot geometry, body) and per self pair, so that Pinocchio places every
-    geometry and runs coal on a pair in one call each. Geometry fixed to the world (the base, mounted
-    on the table) is not checked against the scene.
+    geometry and runs coal on a pair in one call each. Geometry fixed to the world (the base,
+    mounted on the table) is not checked against the scene.
     """
 
     def __init__(self, robot: RobotModel, situation: Situation):
@@ -209,11 +260,17 @@ class Proximity:
         self.contacts = self.scene.contacts
         model = robot.model
         objects = robot.collision_model.geometryObjects
-        self.hand = np.array([model.frames[g.parentFrame].name.startswith(("finger_", "palm")) for g in objects])
+        self.hand = np.array(
+            [model.frames[g.parentFrame].name.startswith(("finger_", "palm")) for g in objects]
+        )
         self.names = [g.name for g in objects]
-        bounds = [max(np.linalg.norm(c) + r for c, r in shapes.bounding_spheres(shape))
-                  for _, _, shape in self.scene.robot_geometries]
-        self.self_pairs = np.array([(a, b) for a, b in self.scene.self_pairs if not (self.hand[a] and self.hand[b])])
+        bounds = [
+            max(np.linalg.norm(c) + r for c, r in shapes.bounding_spheres(shape))
+            for _, _, shape in self.scene.robot_geometries
+        ]
+        self.self_pairs = np.array(
+            [(a, b) for a, b in self.scene.self_pairs if not (self.hand[a] and self.hand[b])]
+        )
         count, bodies = len(objects), len(self.scene.bodies)
         self.body_names = tuple(body.name for body in self.scene.bodies)
         self.geometry_model = pin.GeometryModel()
@@ -221,12 +278,19 @@ class Proximity:
             self.geometry_model.addGeometryObject(geometry)
         self._body_placements = self.scene.body_placements({})
         # the pose (position, xyzw) each body's placement was made from
-        self._body_poses = [(tuple(body.position), tuple(body.orientation)) for body in self.scene.bodies]
+        self._body_poses = [
+            (tuple(body.position), tuple(body.orientation)) for body in self.scene.bodies
+        ]
         self._body_rotations = np.array([placement.rotation for placement in self._body_placements])
-        for body, shape, placement in zip(self.scene.bodies, self.scene.body_shapes, self._body_placements):
-            self.geometry_model.addGeometryObject(pin.GeometryObject(f"scene/{body.name}", 0, 0, placement, shape))
-        # collision pairs: (robot geometry k, body b) for every k (pair k * bodies + b), then the self
-        # pairs; their names, bodies (-1: none), hands, and the joints moving their two sides (0: the world)
+        for body, shape, placement in zip(
+            self.scene.bodies, self.scene.body_shapes, self._body_placements
+        ):
+            self.geometry_model.addGeometryObject(
+                pin.GeometryObject(f"scene/{body.name}", 0, 0, placement, shape)
+            )
+        # collision pairs: (robot geometry k, body b) for every k (pair k * bodies + b), then the
+        # self pairs; their names, bodies (-1: none), hands, and the joints moving their two sides
+        # (0: the world)
         self.pair_names, pair_bodies, pair_hand, joints = [], [], [], []
         for k in range(count):
             for b, body in enumerate(self.scene.bodies):
@@ -246,32 +310,44 @@ class Proximity:
             # coal's default request (Pinocchio's warm-starts GJK from the pair's previous call)
             self.geometry_data.distanceRequests[pair] = coal.DistanceRequest()
         self._pair_bodies, self._pair_hand = np.array(pair_bodies), np.array(pair_hand)
-        # data.J's columns moving each pair's first sides (rows 0 to P - 1) and second sides (P to 2 P - 1)
-        self._side_supports = np.concatenate(robot.joint_supports[np.array(joints)].transpose(1, 0, 2))
-        # the order in which pairs are examined (and ties in distance kept): body by body, geometry by
-        # geometry, then the self pairs; pairs of geometry fixed to the world never
+        # data.J's columns moving each pair's first sides (rows 0 to P - 1) and second sides (P to 2
+        # P - 1)
+        self._side_supports = np.concatenate(
+            robot.joint_supports[np.array(joints)].transpose(1, 0, 2)
+        )
+        # the order in which pairs are examined (and ties in distance kept): body by body, geometry
+        # by geometry, then the self pairs; pairs of geometry fixed to the world never
         moving = [objects[k].parentJoint != 0 for k in range(count)]
-        self._order = np.array([k * bodies + b for b in range(bodies) for k in range(count) if moving[k]]
-                               + list(range(count * bodies, len(self.pair_names))), dtype=int)
+        self._order = np.array(
+            [k * bodies + b for b in range(bodies) for k in range(count) if moving[k]]
+            + list(range(count * bodies, len(self.pair_names))),
+            dtype=int,
+        )
         # how far a unit motion of each q entry can move each pair's two sides together, m/rad
-        reach = _geometry_reach(robot, objects, bounds)                       # (geometries, n)
-        self._pair_reach = np.concatenate([np.repeat(reach, bodies, axis=0),
-                                           reach[self.self_pairs[:, 0]] + reach[self.self_pairs[:, 1]]])
+        reach = _geometry_reach(robot, objects, bounds)  # (geometries, n)
+        self._pair_reach = np.concatenate(
+            [
+                np.repeat(reach, bodies, axis=0),
+                reach[self.self_pairs[:, 0]] + reach[self.self_pairs[:, 1]],
+            ]
+        )
         self._body_pairs = [np.arange(b, count * bodies, bodies) for b in range(bodies)]
         # how far from its frame's origin a point of each body's solid may be, m
-        self._body_reach = [shapes.bounding_radius(body.shape, body.dimensions)
-                            + (math.hypot(*body.geometry_offset[0]) if body.geometry_offset else 0.0)
-                            for body in self.scene.bodies]
+        self._body_reach = [
+            shapes.bounding_radius(body.shape, body.dimensions)
+            + (math.hypot(*body.geometry_offset[0]) if body.geometry_offset else 0.0)
+            for body in self.scene.bodies
+        ]
         self._lower_bounds = np.full(len(self.pair_names), -np.inf)
         self._wrenches = np.empty((2 * len(self.pair_names), 6))
-        self._checked_at = None   # the configuration the lower bounds hold for
+        self._checked_at = None  # the configuration the lower bounds hold for
         self._geometry_count, self._body_count = count, bodies
 
     def _update_bodies(self, object_poses: dict) -> None:
-        """Move the bodies that object_poses (name -> (position, xyzw)) places elsewhere than before,
-        lowering their pairs' bounds by how far any point of their solids can have moved: the
-        translation plus the rotation's largest displacement of a point at the solid's reach, from the
-        quaternions (|R1 - R0| <= 2 min(|q1 - q0|, |q1 + q0|) for unit quaternions)."""
+        """Move the bodies that object_poses (name -> (position, xyzw)) places elsewhere than
+        before, lowering their pairs' bounds by how far any point of their solids can have moved:
+        the translation plus the rotation's largest displacement of a point at the solid's reach,
+        from the quaternions (|R1 - R0| <= 2 min(|q1 - q0|, |q1 + q0|) for unit quaternions)."""
         for b, body in enumerate(self.scene.bodies):
             pose = object_poses.get(body.name)
             if pose is None:
@@ -280,10 +356,13 @@ class Proximity:
             before_position, before_orientation = self._body_poses[b]
             if position == before_position and orientation == before_orientation:
                 continue
-            turned = 2.0 * min(math.dist(orientation, before_orientation),
-                               math.hypot(*(a + c for a, c in zip(orientation, before_orientation))))
-            self._lower_bounds[self._body_pairs[b]] -= (math.dist(position, before_position)
-                                                        + turned * self._body_reach[b])
+            turned = 2.0 * min(
+                math.dist(orientation, before_orientation),
+                math.hypot(*(a + c for a, c in zip(orientation, before_orientation))),
+            )
+            self._lower_bounds[self._body_pairs[b]] -= (
+                math.dist(position, before_position) + turned * self._body_reach[b]
+            )
             placement = body.solid_placement(pose)
             self._body_placements[b] = placement
             self._body_rotations[b] = placement.rotation
@@ -305,7 +384,11 @@ class Proximity:
         # (a NaN bound, after a non-finite q, sends its pair to coal)
         candidates = self._order[~(bounds.take(self._order) >= influence + BOUND_SLACK)].tolist()
         close, distances, points, normals, checked = [], [], [], [], []
-        geometry_model, geometry_data, compute = self.geometry_model, self.geometry_data, pin.computeDistance
+        geometry_model, geometry_data, compute = (
+            self.geometry_model,
+            self.geometry_data,
+            pin.computeDistance,
+        )
         for pair in candidates:
             result = compute(geometry_model, geometry_data, pair)
             distance = result.min_distance
@@ -317,8 +400,10 @@ class Proximity:
                 normals.append(result.normal)  # from the first geometry towards the second
         bounds[candidates] = checked
         if not close:
-            return Closest.none(self.robot.n_joints, self.pair_names, self.body_names, self._body_rotations)
-        if len(close) > 1:   # closest first; ties keep the examination order
+            return Closest.none(
+                self.robot.n_joints, self.pair_names, self.body_names, self._body_rotations
+            )
+        if len(close) > 1:  # closest first; ties keep the examination order
             order = sorted(range(len(close)), key=distances.__getitem__)
             close, distances = [close[k] for k in order], [distances[k] for k in order]
             points, normals = [points[k] for k in order], [normals[k] for k in order]
@@ -326,41 +411,60 @@ class Proximity:
         np.negative(aways, out=aways)
         distances = np.array(distances)
         close = np.array(close)
-        return Closest(close, distances, self._rows(close, distances, np.array(points), aways), aways,
-                       self._pair_bodies.take(close), self._pair_hand.take(close), self.pair_names, self.body_names,
-                       self._body_rotations)
+        return Closest(
+            close,
+            distances,
+            self._rows(close, distances, np.array(points), aways),
+            aways,
+            self._pair_bodies.take(close),
+            self._pair_hand.take(close),
+            self.pair_names,
+            self.body_names,
+            self._body_rotations,
+        )
 
-    def _rows(self, pairs: list, distances: np.ndarray, points: np.ndarray, aways: np.ndarray) -> np.ndarray:
+    def _rows(
+        self, pairs: list, distances: np.ndarray, points: np.ndarray, aways: np.ndarray
+    ) -> np.ndarray:
         """The rows (k, n) that map a joint step to the change of the pairs' distances (k,): the
         unit directions aways (k, 3) in which the first sides move away from the second, on the
         velocities of the witness points (k, 3) on the first sides minus those of the second sides'
         (at distance along -away), each point fixed to its side's body (the world's does not move).
 
-        With data.J's column e a twist (v_e, w_e) at the world origin, a point x fixed to the body the
-        column moves has the velocity v_e + w_e x x, and a . (v_e + w_e x x) = [a, x x a] . (v_e, w_e):
-        one product of the wrenches [a, x x a] (2 k, 6) with data.J gives every projection."""
+        With data.J's column e a twist (v_e, w_e) at the world origin, a point x fixed to the body
+        the column moves has the velocity v_e + w_e x x, and a . (v_e + w_e x x) = [a, x x a] .
+        (v_e, w_e): one product of the wrenches [a, x x a] (2 k, 6) with data.J gives every
+        projection."""
         count = len(pairs)
-        wrenches = self._wrenches[:2 * count]
+        wrenches = self._wrenches[: 2 * count]
         wrenches[:count, :3] = aways
         np.negative(aways, out=wrenches[count:, :3])
-        # the other sides' witness points, at distance along -away: x x (-a) = -(p x a) + d (a x a) = -(p x a)
-        np.subtract(points.take(_NEXT, axis=1) * aways.take(_AFTER_NEXT, axis=1),
-                    points.take(_AFTER_NEXT, axis=1) * aways.take(_NEXT, axis=1), out=wrenches[:count, 3:])
+        # the other sides' witness points, at distance along -away: x x (-a) = -(p x a) + d (a x a)
+        # = -(p x a)
+        np.subtract(
+            points.take(_NEXT, axis=1) * aways.take(_AFTER_NEXT, axis=1),
+            points.take(_AFTER_NEXT, axis=1) * aways.take(_NEXT, axis=1),
+            out=wrenches[:count, 3:],
+        )
         np.negative(wrenches[:count, 3:], out=wrenches[count:, 3:])
-        along = wrenches @ self.robot.data.J                                          # (2 k, E)
-        along *= self._side_supports.take(np.concatenate([pairs, pairs + len(self.pair_names)]), axis=0)
+        along = wrenches @ self.robot.data.J  # (2 k, E)
+        along *= self._side_supports.take(
+            np.concatenate([pairs, pairs + len(self.pair_names)]), axis=0
+        )
         return (along[:count] + along[count:]) @ self.robot.extended_to_q
 
 
-#: Index permutations of (x, y, z) for row-wise cross products: a x b = a[NEXT] b[AFTER_NEXT] - a[AFTER_NEXT] b[NEXT].
+#: Index permutations of (x, y, z) for row-wise cross products: a x b = a[NEXT] b[AFTER_NEXT] -
+#: a[AFTER_NEXT] b[NEXT].
 _NEXT, _AFTER_NEXT = np.array([1, 2, 0]), np.array([2, 0, 1])
 
 
 def _geometry_reach(robot: RobotModel, objects, bounds) -> np.ndarray:
-    """(geometries, n): for each robot geometry and q entry, how far a point of the geometry can move
-    per radian of that entry at most, m/rad: the distance bound from each joint turned by the entry to
-    the geometry's points (along the kinematic chain: the joints' offsets, the geometry's placement and
-    its bounding radius), times the entry's multiplier (mimic joints follow their source)."""
+    """(geometries, n): for each robot geometry and q entry, how far a point of the geometry can
+    move per radian of that entry at most, m/rad: the distance bound from each joint turned by the
+    entry to the geometry's points (along the kinematic chain: the joints' offsets, the geometry's
+    placement and its bounding radius), times the entry's multiplier (mimic joints follow their
+    source)."""
     model = robot.model
     multipliers = {mimic.name: abs(mimic.multiplier) for mimic in robot.mimic_joints}
     columns = model.idx_vExtendeds

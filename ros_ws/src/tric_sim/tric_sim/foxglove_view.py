@@ -20,11 +20,23 @@ import threading
 import foxglove
 import foxglove.layouts as fl
 from foxglove.channels import FrameTransformsChannel, SceneUpdateChannel
-from foxglove.messages import (Color, CubePrimitive, CylinderPrimitive, FrameTransform, FrameTransforms, Pose,
-                               Quaternion, SceneEntity, SceneEntityDeletion, SceneEntityDeletionType, SceneUpdate,
-                               SpherePrimitive, Timestamp, Vector3)
+from foxglove.messages import (
+    Color,
+    CubePrimitive,
+    CylinderPrimitive,
+    FrameTransform,
+    FrameTransforms,
+    Pose,
+    Quaternion,
+    SceneEntity,
+    SceneEntityDeletion,
+    SceneEntityDeletionType,
+    SceneUpdate,
+    SpherePrimitive,
+    Timestamp,
+    Vector3,
+)
 from foxglove.websocket import Capability, ServerListener
-
 
 SCENE_TOPIC = "/scene"
 TF_TOPIC = "/tf"
@@ -33,15 +45,25 @@ DEFAULT_PORT = 8765
 #: JSON schema of the status channel (tric_sim.scene_messages.status_fields).
 _NUMBER = {"type": ["number", "null"]}
 STATUS_SCHEMA = {
-    "title": "tric_msgs/msg/ControllerStatus", "type": "object",
+    "title": "tric_msgs/msg/ControllerStatus",
+    "type": "object",
     "properties": {
-        "stamp_ns": {"type": "integer"}, "state": {"type": "integer"}, "model_path": {"type": "string"},
-        "step": {"type": "integer"}, "value": _NUMBER, "value_rate": _NUMBER, "gradient_norm": _NUMBER,
-        "step_norm": _NUMBER, "min_distance": _NUMBER, "tick_time_ms": _NUMBER,
+        "stamp_ns": {"type": "integer"},
+        "state": {"type": "integer"},
+        "model_path": {"type": "string"},
+        "step": {"type": "integer"},
+        "value": _NUMBER,
+        "value_rate": _NUMBER,
+        "gradient_norm": _NUMBER,
+        "step_norm": _NUMBER,
+        "min_distance": _NUMBER,
+        "tick_time_ms": _NUMBER,
         "active_constraints": {"type": "array", "items": {"type": "string"}},
         "feature_names": {"type": "array", "items": {"type": "string"}},
         "feature_values": {"type": "array", "items": _NUMBER},
-        "feature_gradients": {"type": "array", "items": _NUMBER}}}
+        "feature_gradients": {"type": "array", "items": _NUMBER},
+    },
+}
 LAYOUT_PATH = pathlib.Path("docs") / "foxglove_layout.json"
 
 
@@ -61,13 +83,22 @@ class FoxgloveView:
         self._scene_time = 0
         self._scene_channel = SceneUpdateChannel(SCENE_TOPIC, context=self._context)
         self._tf_channel = FrameTransformsChannel(TF_TOPIC, context=self._context)
-        self._status_channel = foxglove.Channel(STATUS_TOPIC, schema=STATUS_SCHEMA, context=self._context)
+        self._status_channel = foxglove.Channel(
+            STATUS_TOPIC, schema=STATUS_SCHEMA, context=self._context
+        )
         try:
-            self._server = foxglove.start_server(name=name, host=host, port=port, context=self._context,
-                                                 capabilities=[Capability.Time],
-                                                 server_listener=_NewSubscriber(self))
+            self._server = foxglove.start_server(
+                name=name,
+                host=host,
+                port=port,
+                context=self._context,
+                capabilities=[Capability.Time],
+                server_listener=_NewSubscriber(self),
+            )
         except RuntimeError as error:
-            raise ValueError(f"the Foxglove server could not listen on {host}:{port}: {error}") from None
+            raise ValueError(
+                f"the Foxglove server could not listen on {host}:{port}: {error}"
+            ) from None
         self.host = host
 
     @property
@@ -80,9 +111,14 @@ class FoxgloveView:
 
     def show_scene(self, primitives, stamp_ns: int) -> None:
         """Replace the scene by these primitives (tric_sim.scene_view.Primitive)."""
-        update = SceneUpdate(deletions=[SceneEntityDeletion(timestamp=_timestamp(stamp_ns),
-                                                            type=SceneEntityDeletionType.All)],
-                             entities=[_entity(p, stamp_ns) for p in primitives])
+        update = SceneUpdate(
+            deletions=[
+                SceneEntityDeletion(
+                    timestamp=_timestamp(stamp_ns), type=SceneEntityDeletionType.All
+                )
+            ],
+            entities=[_entity(p, stamp_ns) for p in primitives],
+        )
         with self._lock:
             self._scene, self._scene_time = update, stamp_ns
         self._scene_channel.log(update, log_time=stamp_ns)
@@ -90,12 +126,22 @@ class FoxgloveView:
     def show_transforms(self, transform_sets, stamp_ns: int) -> None:
         """Send the transforms (tric_sim.scene_view.Transforms) stamped stamp_ns, and that time."""
         stamp = _timestamp(stamp_ns)
-        frames = [FrameTransform(timestamp=stamp, parent_frame_id=parent, child_frame_id=child,
-                                 translation=Vector3(x=p[0], y=p[1], z=p[2]),
-                                 rotation=Quaternion(x=o[0], y=o[1], z=o[2], w=o[3]))
-                  for transforms in transform_sets
-                  for parent, child, p, o in zip(transforms.parents, transforms.children,
-                                                 transforms.positions.tolist(), transforms.orientations.tolist())]
+        frames = [
+            FrameTransform(
+                timestamp=stamp,
+                parent_frame_id=parent,
+                child_frame_id=child,
+                translation=Vector3(x=p[0], y=p[1], z=p[2]),
+                rotation=Quaternion(x=o[0], y=o[1], z=o[2], w=o[3]),
+            )
+            for transforms in transform_sets
+            for parent, child, p, o in zip(
+                transforms.parents,
+                transforms.children,
+                transforms.positions.tolist(),
+                transforms.orientations.tolist(),
+            )
+        ]
         self._tf_channel.log(FrameTransforms(transforms=frames), log_time=stamp_ns)
         self._server.broadcast_time(stamp_ns)
 
@@ -129,22 +175,57 @@ def foxglove_layout() -> str:
     """docs/foxglove_layout.json: the 3D scene (live /scene and /tf, or a bag's /scene_markers and
     /tf), f and the step size over time, the top features' gradients, and the status with the
     active constraints and the features' names and values."""
-    three_d = fl.ThreeDeePanel(config=fl.ThreeDeeConfig(
-        follow_tf="world",
-        topics={SCENE_TOPIC: fl.BaseRendererSceneUpdateTopicSettings(visible=True),
-                "/scene_markers": fl.BaseRendererRosMarkerTopicSettings(visible=True)}))
-    value = fl.PlotPanel(config=fl.PlotConfig(paths=[
-        fl.PlotSeries(value=f"{STATUS_TOPIC}.value", label="f"),
-        fl.PlotSeries(value=f"{STATUS_TOPIC}.step_norm", label="|dq| (rad)", y_axis_id="step")],
-        secondary_axes=[fl.PlotSecondaryAxis(id="step", label="step (rad)")]))
-    gradients = fl.PlotPanel(config=fl.PlotConfig(paths=[
-        fl.PlotSeries(value=f"{STATUS_TOPIC}.feature_gradients", label="df/du of the top features",
-                      array_expansion="byIndex")]))
+    three_d = fl.ThreeDeePanel(
+        config=fl.ThreeDeeConfig(
+            follow_tf="world",
+            topics={
+                SCENE_TOPIC: fl.BaseRendererSceneUpdateTopicSettings(visible=True),
+                "/scene_markers": fl.BaseRendererRosMarkerTopicSettings(visible=True),
+            },
+        )
+    )
+    value = fl.PlotPanel(
+        config=fl.PlotConfig(
+            paths=[
+                fl.PlotSeries(value=f"{STATUS_TOPIC}.value", label="f"),
+                fl.PlotSeries(
+                    value=f"{STATUS_TOPIC}.step_norm", label="|dq| (rad)", y_axis_id="step"
+                ),
+            ],
+            secondary_axes=[fl.PlotSecondaryAxis(id="step", label="step (rad)")],
+        )
+    )
+    gradients = fl.PlotPanel(
+        config=fl.PlotConfig(
+            paths=[
+                fl.PlotSeries(
+                    value=f"{STATUS_TOPIC}.feature_gradients",
+                    label="df/du of the top features",
+                    array_expansion="byIndex",
+                )
+            ]
+        )
+    )
     status = fl.RawMessagesPanel(config=fl.RawMessagesConfig(topic_path=STATUS_TOPIC))
-    layout = fl.Layout(content=fl.SplitContainer(direction="row", items=[
-        fl.SplitItem(proportion=3, content=three_d),
-        fl.SplitItem(proportion=2, content=fl.SplitContainer(direction="column", items=[
-            fl.SplitItem(content=value), fl.SplitItem(content=gradients), fl.SplitItem(content=status)]))]))
+    layout = fl.Layout(
+        content=fl.SplitContainer(
+            direction="row",
+            items=[
+                fl.SplitItem(proportion=3, content=three_d),
+                fl.SplitItem(
+                    proportion=2,
+                    content=fl.SplitContainer(
+                        direction="column",
+                        items=[
+                            fl.SplitItem(content=value),
+                            fl.SplitItem(content=gradients),
+                            fl.SplitItem(content=status),
+                        ],
+                    ),
+                ),
+            ],
+        )
+    )
     return json.dumps(json.loads(layout.to_json()), indent=2) + "\n"
 
 
@@ -157,13 +238,24 @@ def _entity(primitive, stamp_ns: int) -> SceneEntity:
     qx, qy, qz, qw = (float(v) for v in primitive.orientation)
     sx, sy, sz = (float(v) for v in primitive.size)
     r, g, b, a = (float(v) for v in primitive.color)
-    shape = {"box": ("cubes", CubePrimitive), "sphere": ("spheres", SpherePrimitive),
-             "cylinder": ("cylinders", CylinderPrimitive)}
+    shape = {
+        "box": ("cubes", CubePrimitive),
+        "sphere": ("spheres", SpherePrimitive),
+        "cylinder": ("cylinders", CylinderPrimitive),
+    }
     field, kind = shape[primitive.shape]
-    solid = kind(pose=Pose(position=Vector3(x=x, y=y, z=z), orientation=Quaternion(x=qx, y=qy, z=qz, w=qw)),
-                 size=Vector3(x=sx, y=sy, z=sz), color=Color(r=r, g=g, b=b, a=a))
-    return SceneEntity(timestamp=_timestamp(stamp_ns), frame_id=primitive.frame, id=primitive.id,
-                       frame_locked=True, **{field: [solid]})
+    solid = kind(
+        pose=Pose(position=Vector3(x=x, y=y, z=z), orientation=Quaternion(x=qx, y=qy, z=qz, w=qw)),
+        size=Vector3(x=sx, y=sy, z=sz),
+        color=Color(r=r, g=g, b=b, a=a),
+    )
+    return SceneEntity(
+        timestamp=_timestamp(stamp_ns),
+        frame_id=primitive.frame,
+        id=primitive.id,
+        frame_locked=True,
+        **{field: [solid]},
+    )
 
 
 if __name__ == "__main__":

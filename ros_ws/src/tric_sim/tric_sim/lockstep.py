@@ -3,9 +3,9 @@
 In lockstep every control period is a round trip: the simulator publishes the state, a commander
 answers with a command, the simulator steps. rclpy's executors rebuild their wait set in Python for
 each message they dispatch, which costs a few hundred microseconds per hop on a 2-core machine. A
-TopicPoller instead keeps its subscriptions on a helper node that no executor spins and waits on them
-directly with rclpy's wait set (as rclpy.wait_for_message does), from the caller's thread. The node
-that owns the poller keeps its executor for everything else (services, actions, parameters).
+TopicPoller instead keeps its subscriptions on a helper node that no executor spins and waits on
+them directly with rclpy's wait set (as rclpy.wait_for_message does), from the caller's thread. The
+node that owns the poller keeps its executor for everything else (services, actions, parameters).
 """
 
 import threading
@@ -16,8 +16,8 @@ from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
 from rclpy.node import Node
 from rclpy.task import Future
 from sensor_msgs.msg import JointState
-from tric_msgs.msg import ObjectPoses
 
+from tric_msgs.msg import ObjectPoses
 from tric_sim import messages
 
 
@@ -31,13 +31,20 @@ class TopicPoller:
     """
 
     def __init__(self, context, name: str, topics: dict):
-        self._node = Node(name, context=context, start_parameter_services=False, enable_rosout=False)
+        self._node = Node(
+            name, context=context, start_parameter_services=False, enable_rosout=False
+        )
         self._context = context
         self._subscriptions = {
             key: self._node.create_subscription(
-                msg_type, topic, lambda _: None, qos,
-                event_callbacks=SubscriptionEventCallbacks(use_default_callbacks=False))
-            for key, (msg_type, topic, qos) in topics.items()}
+                msg_type,
+                topic,
+                lambda _: None,
+                qos,
+                event_callbacks=SubscriptionEventCallbacks(use_default_callbacks=False),
+            )
+            for key, (msg_type, topic, qos) in topics.items()
+        }
         self._wait_set = _rclpy.WaitSet(len(topics), 0, 0, 0, 0, 0, context.handle)
 
     def poll(self, timeout_s: float) -> dict:
@@ -82,7 +89,9 @@ async def run_in_thread(node: Node, function, *args):
             outcome["error"] = error
         guard.trigger()
 
-    thread = threading.Thread(target=target, daemon=True, name=getattr(function, "__name__", "worker"))
+    thread = threading.Thread(
+        target=target, daemon=True, name=getattr(function, "__name__", "worker")
+    )
     thread.start()
     await done
     thread.join()
@@ -105,14 +114,20 @@ class StateStream:
         self.poses = {}
         self.poses_stamp_ns = -1
         self.rejected = 0
-        self._poller = TopicPoller(context, name, {"state": (JointState, "/joint_states", qos),
-                                                   "poses": (ObjectPoses, "/object_poses", qos)})
+        self._poller = TopicPoller(
+            context,
+            name,
+            {
+                "state": (JointState, "/joint_states", qos),
+                "poses": (ObjectPoses, "/object_poses", qos),
+            },
+        )
 
     def next_state(self, timeout_s: float, after_ns: int = -1):
         """(stamp_ns, q) of the newest joint state stamped after after_ns that arrives within
         timeout_s of wall time, or None. The simulator publishes a period's object poses before its
-        joint state; when the state comes first, this waits (within the same timeout) for the poses of
-        its period too, so that poses holds them when it returns."""
+        joint state; when the state comes first, this waits (within the same timeout) for the poses
+        of its period too, so that poses holds them when it returns."""
         deadline = time.monotonic() + timeout_s
         newest = None
         while True:

@@ -10,12 +10,17 @@ from builtin_interfaces.msg import Time
 from geometry_msgs.msg import Point, Pose, Quaternion
 from sensor_msgs.msg import JointState
 from shape_msgs.msg import SolidPrimitive
-from tric_msgs.msg import ObjectPoses, Situation as SituationMsg, TaskMetrics as TaskMetricsMsg
 
+from tric_msgs.msg import ObjectPoses
+from tric_msgs.msg import Situation as SituationMsg
+from tric_msgs.msg import TaskMetrics as TaskMetricsMsg
 from tric_sim.situations import Obstacle, Situation
 
-SHAPE_TYPES = {"box": SolidPrimitive.BOX, "sphere": SolidPrimitive.SPHERE,
-               "cylinder": SolidPrimitive.CYLINDER}
+SHAPE_TYPES = {
+    "box": SolidPrimitive.BOX,
+    "sphere": SolidPrimitive.SPHERE,
+    "cylinder": SolidPrimitive.CYLINDER,
+}
 SHAPE_NAMES = {v: k for k, v in SHAPE_TYPES.items()}
 
 
@@ -29,8 +34,10 @@ def time_ns(stamp: Time) -> int:
 
 def pose_msg(position, orientation) -> Pose:
     x, y, z, w = (float(v) for v in orientation)
-    return Pose(position=Point(x=float(position[0]), y=float(position[1]), z=float(position[2])),
-                orientation=Quaternion(x=x, y=y, z=z, w=w))
+    return Pose(
+        position=Point(x=float(position[0]), y=float(position[1]), z=float(position[2])),
+        orientation=Quaternion(x=x, y=y, z=z, w=w),
+    )
 
 
 def pose_tuple(pose: Pose) -> tuple:
@@ -40,15 +47,23 @@ def pose_tuple(pose: Pose) -> tuple:
 
 
 def situation_to_msg(situation: Situation) -> SituationMsg:
-    msg = SituationMsg(name=situation.name, task=situation.task, object_kind=situation.object_kind,
-                       object_dimensions=[float(v) for v in situation.object_dimensions],
-                       object_pose=pose_msg(situation.object_position, situation.object_orientation),
-                       initial_joint_positions=[float(v) for v in situation.initial_joint_positions],
-                       seed=int(situation.seed))
+    msg = SituationMsg(
+        name=situation.name,
+        task=situation.task,
+        object_kind=situation.object_kind,
+        object_dimensions=[float(v) for v in situation.object_dimensions],
+        object_pose=pose_msg(situation.object_position, situation.object_orientation),
+        initial_joint_positions=[float(v) for v in situation.initial_joint_positions],
+        seed=int(situation.seed),
+    )
     for obstacle in situation.obstacles:
-        # SolidPrimitive's box dimensions are the full extents; cylinder (height, radius); sphere (r).
-        msg.obstacles.append(SolidPrimitive(type=SHAPE_TYPES[obstacle.shape],
-                                            dimensions=[float(v) for v in obstacle.dimensions]))
+        # SolidPrimitive's box dimensions are the full extents; cylinder (height, radius); sphere
+        # (r).
+        msg.obstacles.append(
+            SolidPrimitive(
+                type=SHAPE_TYPES[obstacle.shape], dimensions=[float(v) for v in obstacle.dimensions]
+            )
+        )
         msg.obstacle_poses.append(pose_msg(obstacle.position, obstacle.orientation))
     return msg
 
@@ -56,23 +71,38 @@ def situation_to_msg(situation: Situation) -> SituationMsg:
 def situation_from_msg(msg: SituationMsg, n_joints: int = 14) -> Situation:
     """A validated Situation from its message, or ValueError saying what is wrong."""
     if len(msg.obstacles) != len(msg.obstacle_poses):
-        raise ValueError(f"situation '{msg.name}': {len(msg.obstacles)} obstacles but "
-                         f"{len(msg.obstacle_poses)} obstacle poses")
+        raise ValueError(
+            f"situation '{msg.name}': {len(msg.obstacles)} obstacles but "
+            f"{len(msg.obstacle_poses)} obstacle poses"
+        )
     obstacles = []
     for k, (shape, pose) in enumerate(zip(msg.obstacles, msg.obstacle_poses)):
         if shape.type not in SHAPE_NAMES:
-            raise ValueError(f"situation '{msg.name}': obstacle {k} has unsupported primitive type "
-                             f"{shape.type} (box, sphere or cylinder)")
+            raise ValueError(
+                f"situation '{msg.name}': obstacle {k} has unsupported primitive type "
+                f"{shape.type} (box, sphere or cylinder)"
+            )
         position, orientation = pose_tuple(pose)
-        obstacles.append(Obstacle(SHAPE_NAMES[shape.type], tuple(float(v) for v in shape.dimensions),
-                                  position, orientation))
+        obstacles.append(
+            Obstacle(
+                SHAPE_NAMES[shape.type],
+                tuple(float(v) for v in shape.dimensions),
+                position,
+                orientation,
+            )
+        )
     position, orientation = pose_tuple(msg.object_pose)
-    return Situation(name=msg.name, task=msg.task, object_kind=msg.object_kind,
-                     object_dimensions=tuple(float(v) for v in msg.object_dimensions),
-                     object_position=position, object_orientation=orientation,
-                     obstacles=tuple(obstacles),
-                     initial_joint_positions=tuple(float(v) for v in msg.initial_joint_positions),
-                     seed=int(msg.seed)).validate(n_joints)
+    return Situation(
+        name=msg.name,
+        task=msg.task,
+        object_kind=msg.object_kind,
+        object_dimensions=tuple(float(v) for v in msg.object_dimensions),
+        object_position=position,
+        object_orientation=orientation,
+        obstacles=tuple(obstacles),
+        initial_joint_positions=tuple(float(v) for v in msg.initial_joint_positions),
+        seed=int(msg.seed),
+    ).validate(n_joints)
 
 
 def object_poses_msg(poses: dict, stamp_ns: int) -> ObjectPoses:
@@ -100,8 +130,11 @@ def object_poses_from_msg(msg: ObjectPoses) -> dict:
 
 
 def joint_state_msg(names, positions, velocities, stamp_ns: int) -> JointState:
-    msg = JointState(name=list(names), position=[float(v) for v in positions],
-                     velocity=[float(v) for v in velocities])
+    msg = JointState(
+        name=list(names),
+        position=[float(v) for v in positions],
+        velocity=[float(v) for v in velocities],
+    )
     msg.header.stamp = time_msg(stamp_ns)
     return msg
 
@@ -124,26 +157,43 @@ def joint_positions_from_msg(msg: JointState, joint_names) -> np.ndarray:
 def metrics_msg(metrics) -> TaskMetricsMsg:
     """A TaskMetrics message from tric_sim.metrics.TaskMetrics."""
     return TaskMetricsMsg(
-        task=metrics.task, grasp_cost=float(metrics.grasp_cost),
-        cost_term_names=list(metrics.cost_terms), cost_term_values=[float(v) for v in metrics.cost_terms.values()],
-        lift_tested=bool(metrics.lift_tested), lift_passed=bool(metrics.lift_passed),
-        lift_height=float(metrics.lift_height), lid_angle=float(metrics.lid_angle),
-        success=bool(metrics.success), min_distance=float(metrics.min_distance),
-        collided=bool(metrics.collided), max_joint_overshoot=float(metrics.max_joint_overshoot),
-        overshoot_joint=metrics.overshoot_joint, failure=metrics.failure)
+        task=metrics.task,
+        grasp_cost=float(metrics.grasp_cost),
+        cost_term_names=list(metrics.cost_terms),
+        cost_term_values=[float(v) for v in metrics.cost_terms.values()],
+        lift_tested=bool(metrics.lift_tested),
+        lift_passed=bool(metrics.lift_passed),
+        lift_height=float(metrics.lift_height),
+        lid_angle=float(metrics.lid_angle),
+        success=bool(metrics.success),
+        min_distance=float(metrics.min_distance),
+        collided=bool(metrics.collided),
+        max_joint_overshoot=float(metrics.max_joint_overshoot),
+        overshoot_joint=metrics.overshoot_joint,
+        failure=metrics.failure,
+    )
 
 
 def metrics_dict(msg: TaskMetricsMsg) -> dict:
     """Plain data of a TaskMetrics message (for JSON files and bags' metadata)."""
-    return {"task": msg.task, "grasp_cost": _finite_or_none(msg.grasp_cost),
-            "cost_terms": dict(zip(msg.cost_term_names, (float(v) for v in msg.cost_term_values))),
-            "lift_tested": msg.lift_tested, "lift_passed": msg.lift_passed,
-            "lift_height": float(msg.lift_height), "lid_angle": _finite_or_none(msg.lid_angle),
-            "success": msg.success, "min_distance": float(msg.min_distance), "collided": msg.collided,
-            # bags recorded before these fields existed decode without them: unknown, not zero
-            "max_joint_overshoot": _finite_or_none(float(getattr(msg, "max_joint_overshoot", math.nan))),
-            "overshoot_joint": getattr(msg, "overshoot_joint", ""),
-            "failure": getattr(msg, "failure", None)}
+    return {
+        "task": msg.task,
+        "grasp_cost": _finite_or_none(msg.grasp_cost),
+        "cost_terms": dict(zip(msg.cost_term_names, (float(v) for v in msg.cost_term_values))),
+        "lift_tested": msg.lift_tested,
+        "lift_passed": msg.lift_passed,
+        "lift_height": float(msg.lift_height),
+        "lid_angle": _finite_or_none(msg.lid_angle),
+        "success": msg.success,
+        "min_distance": float(msg.min_distance),
+        "collided": msg.collided,
+        # bags recorded before these fields existed decode without them: unknown, not zero
+        "max_joint_overshoot": _finite_or_none(
+            float(getattr(msg, "max_joint_overshoot", math.nan))
+        ),
+        "overshoot_joint": getattr(msg, "overshoot_joint", ""),
+        "failure": getattr(msg, "failure", None),
+    }
 
 
 def _finite_or_none(value: float):

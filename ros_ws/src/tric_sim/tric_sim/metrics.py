@@ -17,11 +17,12 @@ the error of a task variable a grasp expert checks, normalized to [0, 1] (1 = as
   clipped to [0, 1].
 
 Lift test (grasps): the fingers grip (every flexion joint's target at least GRIP_CLOSURE past where
-the joint ends the episode, for GRIP_DURATION while the fixture still holds the object), then the object is
-released (given its mass) and the hand raised LIFT_HEIGHT; it passes if the object rose by at least
-LIFT_PASS_FRACTION of that. The grip is the evaluator's, the same for every agent: a learned
-controller stops the fingers where its value function is lowest, at the contacts' cushion, with its
-command equal to the measured joints, so without it the fingers hold the object with no force. Box success: lid opened by more than 0.3 rad.
+the joint ends the episode, for GRIP_DURATION while the fixture still holds the object), then the
+object is released (given its mass) and the hand raised LIFT_HEIGHT; it passes if the object rose by
+at least LIFT_PASS_FRACTION of that. The grip is the evaluator's, the same for every agent: a
+learned controller stops the fingers where its value function is lowest, at the contacts' cushion,
+with its command equal to the measured joints, so without it the fingers hold the object with no
+force. Box success: lid opened by more than 0.3 rad.
 
 Failure class (TaskMetrics.failure, "" for a success without collision): why an episode failed,
 from its final state before the lift test and the lift test's result (grasp_failure, box_failure).
@@ -59,15 +60,15 @@ LIFT_DURATION = 1.0
 LIFT_HOLD = 0.5
 LIFT_PASS_FRACTION = 0.7
 #: The lift test's grip: how far past their final positions the finger flexion joints' targets go
-#: (rad; clipped to the joint limits; the grasp teacher's squeeze past contact) and for how long they
-#: close before the release (s). Chosen on the validation sets: docs/decisions/lift-grip.md.
+#: (rad; clipped to the joint limits; the grasp teacher's squeeze past contact) and for how long
+#: they close before the release (s). Chosen on the validation sets: docs/decisions/lift-grip.md.
 GRIP_CLOSURE = 0.12
 GRIP_DURATION = 0.2
 FLEXION_JOINTS = tuple(j for j in HAND_JOINTS if not j.endswith("knuckle_joint"))
 #: A signed distance below this between the robot and an avoided body counts as a collision, m.
 COLLISION_DISTANCE = 0.0
-#: Failure classes (see the module docstring): fingers count as flexed when their flexion (proximal +
-#: distal joint, rad, averaged over the three fingers) exceeds the open pre-shape's by this, rad
+#: Failure classes (see the module docstring): fingers count as flexed when their flexion (proximal
+#: + distal joint, rad, averaged over the three fingers) exceeds the open pre-shape's by this, rad
 #: (a closed sphere grasp: about 1.3 beyond it, a cylinder grasp about 1.0).
 FLEXED_MARGIN = 0.3
 #: A palm_alignment term at or above this is a misaligned palm (about 41 deg off the object).
@@ -147,17 +148,26 @@ def grasp_cost_terms(robot: RobotModel, q, kind: str, dimensions, placement: pin
     angles = np.sort([math.atan2(n @ e2, n @ e1) for n in contact_normals])
     gaps = np.diff(np.concatenate([angles, [angles[0] + 2 * math.pi]]))
     opposition = (math.degrees(gaps.max()) - 180.0) / 90.0
-    return {"finger_contact": float(np.mean(contact_errors)),
-            "palm_distance": float(palm_error),
-            "palm_alignment": float(np.clip(alignment, 0.0, 1.0)),
-            "finger_opposition": float(np.clip(opposition, 0.0, 1.0))}
+    return {
+        "finger_contact": float(np.mean(contact_errors)),
+        "palm_distance": float(palm_error),
+        "palm_alignment": float(np.clip(alignment, 0.0, 1.0)),
+        "finger_opposition": float(np.clip(opposition, 0.0, 1.0)),
+    }
 
 
 def finger_flexion(robot: RobotModel, q) -> float:
-    """The fingers' mean flexion: proximal + distal joint angle, averaged over the three fingers, rad."""
+    """The fingers' mean flexion: proximal + distal joint angle, averaged over the three fingers,
+    rad."""
     index = robot.joint_names.index
-    return float(np.mean([q[index(f"finger_{k}_proximal_joint")] + q[index(f"finger_{k}_distal_joint")]
-                          for k in (1, 2, 3)]))
+    return float(
+        np.mean(
+            [
+                q[index(f"finger_{k}_proximal_joint")] + q[index(f"finger_{k}_distal_joint")]
+                for k in (1, 2, 3)
+            ]
+        )
+    )
 
 
 def open_flexion(kind: str) -> float:
@@ -168,8 +178,15 @@ def open_flexion(kind: str) -> float:
     return proximal + distal
 
 
-def grasp_failure(robot: RobotModel, q, kind: str, terms: dict, collided: bool, lift_tested: bool,
-                  lift_passed: bool) -> str:
+def grasp_failure(
+    robot: RobotModel,
+    q,
+    kind: str,
+    terms: dict,
+    collided: bool,
+    lift_tested: bool,
+    lift_passed: bool,
+) -> str:
     """The failure class of a grasp (see the module docstring; "" for a success) from its final
     configuration q (n,) before the lift test, the object's kind, its cost terms
     (grasp_cost_terms) and the collision and lift test results."""
@@ -187,7 +204,9 @@ def grasp_failure(robot: RobotModel, q, kind: str, terms: dict, collided: bool, 
     return "fingers on one side of the object"
 
 
-def box_failure(robot: RobotModel, q, side: float, object_poses: dict, lid_angle: float, collided: bool) -> str:
+def box_failure(
+    robot: RobotModel, q, side: float, object_poses: dict, lid_angle: float, collided: bool
+) -> str:
     """The failure class of a box opening (see the module docstring; "" for a success) from its
     final configuration q (n,), the box's side (m), the object poses ("object": the box body,
     "lid_edge": the lip; name -> (position, xyzw)), the lid angle and whether the robot collided."""
@@ -198,24 +217,31 @@ def box_failure(robot: RobotModel, q, side: float, object_poses: dict, lid_angle
     robot.forward(q)
     tips = np.array([robot.frame_placement(tip).translation for tip in LID_FINGERTIPS])
     lip = scene.se3(*object_poses["lid_edge"])
-    local = (tips - lip.translation) @ lip.rotation     # in the lip's frame: x towards the free edge
+    # in the lip's frame: x towards the free edge
+    local = (tips - lip.translation) @ lip.rotation
     depth, width, thickness = scene.lid_extents(side)
-    inside_outline = (local[:, 0] >= -depth) & (local[:, 0] <= 0.0) & (np.abs(local[:, 1]) <= width / 2)
+    inside_outline = (
+        (local[:, 0] >= -depth) & (local[:, 0] <= 0.0) & (np.abs(local[:, 1]) <= width / 2)
+    )
     if np.all(inside_outline & (local[:, 2] > thickness)):
         return "stalled above the lid"
     body = scene.se3(*object_poses["object"])
     in_box = np.all(np.abs((tips - body.translation) @ body.rotation) <= side / 2, axis=1)
-    near_lip = ((local[:, 0] >= -depth) & (local[:, 0] <= LIP_REACH)
-                & (np.abs(local[:, 1]) <= width / 2 + LIP_REACH) & (local[:, 2] >= -LIP_REACH))
+    near_lip = (
+        (local[:, 0] >= -depth)
+        & (local[:, 0] <= LIP_REACH)
+        & (np.abs(local[:, 1]) <= width / 2 + LIP_REACH)
+        & (local[:, 2] >= -LIP_REACH)
+    )
     if np.any(near_lip & (local[:, 2] < 0.0) & ~in_box):
         return "under the lip"
     return "away from the lid"
 
 
 def lift_test(world, robot: RobotModel) -> float:
-    """Grip (GRIP_CLOSURE over GRIP_DURATION), release the object and raise the hand LIFT_HEIGHT over
-    LIFT_DURATION, then hold LIFT_HOLD; returns how far the object rose, m. Changes the world (reset it
-    afterwards)."""
+    """Grip (GRIP_CLOSURE over GRIP_DURATION), release the object and raise the hand LIFT_HEIGHT
+    over LIFT_DURATION, then hold LIFT_HOLD; returns how far the object rose, m. Changes the world
+    (reset it afterwards)."""
     q, _ = world.joint_state()
     start_height = world.object_poses()["object"][0][2]
     robot.forward(q)
@@ -224,8 +250,9 @@ def lift_test(world, robot: RobotModel) -> float:
     q_raised = robot.reach(q, PALM, raised)
     hand_targets = world.targets.copy()
     flexion = np.array([robot.joint_names.index(j) for j in FLEXION_JOINTS])
-    hand_targets[flexion] = np.maximum(hand_targets[flexion],
-                                       np.minimum(q[flexion] + GRIP_CLOSURE, robot.upper[flexion]))
+    hand_targets[flexion] = np.maximum(
+        hand_targets[flexion], np.minimum(q[flexion] + GRIP_CLOSURE, robot.upper[flexion])
+    )
     world.command(hand_targets)
     for _ in range(int(round(GRIP_DURATION / world.control_period))):
         world.step()
@@ -234,8 +261,9 @@ def lift_test(world, robot: RobotModel) -> float:
     for k in range(1, periods + int(round(LIFT_HOLD / world.control_period)) + 1):
         fraction = min(k / periods, 1.0)
         target = hand_targets.copy()
-        target[robot.arm_indices] = ((1 - fraction) * q[robot.arm_indices]
-                                     + fraction * q_raised[robot.arm_indices])
+        target[robot.arm_indices] = (1 - fraction) * q[robot.arm_indices] + fraction * q_raised[
+            robot.arm_indices
+        ]
         world.command(target)
         world.step()
     return float(world.object_poses()["object"][0][2] - start_height)
@@ -252,12 +280,23 @@ def evaluate(world, robot: RobotModel, run_lift_test: bool = False) -> TaskMetri
     if situation.task == "open_box":
         metrics.lid_angle = world.lid_angle()
         metrics.success = metrics.lid_angle > scene.LID_OPEN_ANGLE
-        metrics.failure = box_failure(robot, q, situation.object_dimensions[0], world.object_poses(),
-                                      metrics.lid_angle, metrics.collided)
+        metrics.failure = box_failure(
+            robot,
+            q,
+            situation.object_dimensions[0],
+            world.object_poses(),
+            metrics.lid_angle,
+            metrics.collided,
+        )
         return _with_overshoot(metrics, world)
     position, orientation = world.object_poses()["object"]
-    terms = grasp_cost_terms(robot, q, situation.object_kind, situation.object_dimensions,
-                             scene.se3(position, orientation))
+    terms = grasp_cost_terms(
+        robot,
+        q,
+        situation.object_kind,
+        situation.object_dimensions,
+        scene.se3(position, orientation),
+    )
     metrics.cost_terms = terms
     metrics.grasp_cost = float(np.mean(list(terms.values())))
     metrics.success = metrics.grasp_cost < GOOD_GRASP
@@ -266,8 +305,15 @@ def evaluate(world, robot: RobotModel, run_lift_test: bool = False) -> TaskMetri
         metrics.lift_height = lift_test(world, robot)
         metrics.lift_passed = metrics.lift_height >= LIFT_PASS_FRACTION * LIFT_HEIGHT
         metrics.success = metrics.success and metrics.lift_passed
-    metrics.failure = grasp_failure(robot, q, situation.object_kind, terms, metrics.collided,
-                                    metrics.lift_tested, metrics.lift_passed)
+    metrics.failure = grasp_failure(
+        robot,
+        q,
+        situation.object_kind,
+        terms,
+        metrics.collided,
+        metrics.lift_tested,
+        metrics.lift_passed,
+    )
     return _with_overshoot(metrics, world)
 
 

@@ -18,7 +18,9 @@ def _probe_folder(folder: pathlib.Path, what: str) -> None:
     try:
         descriptor = os.open(probe, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o600)
     except OSError as error:
-        raise ValueError(f"{what} cannot be written: {folder} refuses new files ({error.strerror})") from None
+        raise ValueError(
+            f"{what} cannot be written: {folder} refuses new files ({error.strerror})"
+        ) from None
     os.close(descriptor)
     probe.unlink()
 
@@ -48,7 +50,9 @@ def check_output_file(path, suffixes=(), what: str = "output file") -> pathlib.P
     return path
 
 
-def check_output_folder(path, what: str = "output folder", must_be_empty: bool = False) -> pathlib.Path:
+def check_output_folder(
+    path, what: str = "output folder", must_be_empty: bool = False
+) -> pathlib.Path:
     """path as a Path if files can be written into it (created on writing if missing); ValueError
     naming what and why otherwise: it is a file, it cannot hold new files, or (must_be_empty) it
     holds files already. Creates nothing."""
@@ -60,7 +64,9 @@ def check_output_folder(path, what: str = "output folder", must_be_empty: bool =
     if must_be_empty and existing == path.absolute():
         entries = sorted(entry.name for entry in path.iterdir())
         if entries:
-            shown = ", ".join(entries[:3]) + (f" and {len(entries) - 3} more" if len(entries) > 3 else "")
+            shown = ", ".join(entries[:3]) + (
+                f" and {len(entries) - 3} more" if len(entries) > 3 else ""
+            )
             raise ValueError(f"{where} is not empty ({shown})")
     _probe_folder(existing, where)
     return path
@@ -73,7 +79,9 @@ def atomic_path(path):
     an exception removed. The folder of path is created if missing."""
     path = pathlib.Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    temporary = path.with_name(f".{path.stem}.{os.getpid()}-{uuid.uuid4().hex[:8]}.tmp{path.suffix}")
+    temporary = path.with_name(
+        f".{path.stem}.{os.getpid()}-{uuid.uuid4().hex[:8]}.tmp{path.suffix}"
+    )
     try:
         yield temporary
         with open(temporary, "rb+") as written:

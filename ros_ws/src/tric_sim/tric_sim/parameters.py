@@ -11,8 +11,13 @@ from dataclasses import dataclass
 
 from rcl_interfaces.msg import ParameterDescriptor
 
-_TYPE_NAMES = {bool: "true or false", int: "an integer", float: "a number", str: "a string",
-               list: "a list of strings"}
+_TYPE_NAMES = {
+    bool: "true or false",
+    int: "an integer",
+    float: "a number",
+    str: "a string",
+    list: "a list of strings",
+}
 
 
 @dataclass(frozen=True)
@@ -47,10 +52,14 @@ def declare(node, name: str, default, description: str, valid=None):
     and return its checked value: ValueError unless it has the default's type, is finite (floats)
     and is in valid (a Range, or a tuple of the allowed values)."""
     kind = type(default)
-    detail = f" ({valid})" if isinstance(valid, Range) else (f" (one of {', '.join(map(str, valid))})"
-                                                              if valid else "")
-    value = node.declare_parameter(name, default, ParameterDescriptor(
-        description=description + detail, dynamic_typing=True)).value
+    detail = (
+        f" ({valid})"
+        if isinstance(valid, Range)
+        else (f" (one of {', '.join(map(str, valid))})" if valid else "")
+    )
+    value = node.declare_parameter(
+        name, default, ParameterDescriptor(description=description + detail, dynamic_typing=True)
+    ).value
     checked = _typed(value, kind)
     if checked is None:
         raise ValueError(f"parameter {name} must be {_TYPE_NAMES[kind]}, got {value!r}")
@@ -59,7 +68,9 @@ def declare(node, name: str, default, description: str, valid=None):
     if isinstance(valid, Range) and checked not in valid:
         raise ValueError(f"parameter {name} must be {valid}, got {value!r}")
     if isinstance(valid, tuple) and checked not in valid:
-        raise ValueError(f"parameter {name} must be one of {', '.join(map(repr, valid))}, got {value!r}")
+        raise ValueError(
+            f"parameter {name} must be one of {', '.join(map(repr, valid))}, got {value!r}"
+        )
     return checked
 
 

@@ -11,6 +11,7 @@ import os
 
 import numpy as np
 
+
 @contextlib.contextmanager
 def _quiet_stdout():
     """Silence what PyBullet's C code prints on stdout (build time, URDF link merging)."""
@@ -31,9 +32,10 @@ def _quiet_stdout():
 with _quiet_stdout():
     import pybullet as pb
 
-from tric_sim import scene
-from tric_sim.robot_model import RobotModel
-from tric_sim.situations import Situation
+# below the silenced pybullet import (PyBullet prints its build time when imported)
+from tric_sim import scene  # noqa: E402
+from tric_sim.robot_model import RobotModel  # noqa: E402
+from tric_sim.situations import Situation  # noqa: E402
 
 COLORS = {
     "table": (0.82, 0.72, 0.55, 1.0),
@@ -66,12 +68,20 @@ class PhysicsWorld:
         gui: open PyBullet's GUI instead of the headless DIRECT mode.
     """
 
-    def __init__(self, robot: RobotModel, physics_rate_hz: float = 300.0,
-                 control_rate_hz: float = 100.0, solver_iterations: int = 10, gui: bool = False):
+    def __init__(
+        self,
+        robot: RobotModel,
+        physics_rate_hz: float = 300.0,
+        control_rate_hz: float = 100.0,
+        solver_iterations: int = 10,
+        gui: bool = False,
+    ):
         substeps = physics_rate_hz / control_rate_hz
         if physics_rate_hz < 240 or abs(substeps - round(substeps)) > 1e-9 or substeps < 1:
-            raise ValueError(f"physics_rate_hz ({physics_rate_hz}) must be >= 240 and an integer "
-                             f"multiple of control_rate_hz ({control_rate_hz})")
+            raise ValueError(
+                f"physics_rate_hz ({physics_rate_hz}) must be >= 240 and an integer "
+                f"multiple of control_rate_hz ({control_rate_hz})"
+            )
         self.robot = robot
         self.control_period = 1.0 / control_rate_hz
         self.control_period_ns = int(round(1e9 / control_rate_hz))
@@ -79,15 +89,24 @@ class PhysicsWorld:
         self.client = pb.connect(pb.GUI if gui else pb.DIRECT)
         pb.setGravity(0, 0, -9.81, physicsClientId=self.client)
         # One stepSimulation call per physics step: the joints' stops are enforced after each.
-        pb.setPhysicsEngineParameter(fixedTimeStep=self.control_period / self.substeps, numSubSteps=1,
-                                     numSolverIterations=solver_iterations,
-                                     contactBreakingThreshold=DISTANCE_CUTOFF,
-                                     deterministicOverlappingPairs=1, physicsClientId=self.client)
-        flags = (pb.URDF_MERGE_FIXED_LINKS | pb.URDF_USE_SELF_COLLISION
-                 | pb.URDF_USE_SELF_COLLISION_EXCLUDE_ALL_PARENTS | pb.URDF_USE_MATERIAL_COLORS_FROM_MTL)
+        pb.setPhysicsEngineParameter(
+            fixedTimeStep=self.control_period / self.substeps,
+            numSubSteps=1,
+            numSolverIterations=solver_iterations,
+            contactBreakingThreshold=DISTANCE_CUTOFF,
+            deterministicOverlappingPairs=1,
+            physicsClientId=self.client,
+        )
+        flags = (
+            pb.URDF_MERGE_FIXED_LINKS
+            | pb.URDF_USE_SELF_COLLISION
+            | pb.URDF_USE_SELF_COLLISION_EXCLUDE_ALL_PARENTS
+            | pb.URDF_USE_MATERIAL_COLORS_FROM_MTL
+        )
         with _quiet_stdout():
-            self.robot_id = pb.loadURDF(str(robot.urdf_path), useFixedBase=True, flags=flags,
-                                        physicsClientId=self.client)
+            self.robot_id = pb.loadURDF(
+                str(robot.urdf_path), useFixedBase=True, flags=flags, physicsClientId=self.client
+            )
         self.link_index = {}
         joint_index = {}
         for i in range(pb.getNumJoints(self.robot_id, physicsClientId=self.client)):
@@ -96,8 +115,10 @@ class PhysicsWorld:
             if info[2] == pb.JOINT_REVOLUTE:
                 joint_index[info[1].decode()] = i
         self.actuated = [joint_index[name] for name in robot.joint_names]
-        self.mimics = [(joint_index[m.name], robot.joint_names.index(m.source), m.multiplier, m.offset)
-                       for m in robot.mimic_joints]
+        self.mimics = [
+            (joint_index[m.name], robot.joint_names.index(m.source), m.multiplier, m.offset)
+            for m in robot.mimic_joints
+        ]
         self.all_joints = self.actuated + [m[0] for m in self.mimics]
         # mimic joint positions = _mimic_matrix @ q + _mimic_offset
         self._mimic_matrix = np.zeros((len(self.mimics), robot.n_joints))
@@ -109,9 +130,16 @@ class PhysicsWorld:
         self._position_gains = [POSITION_GAIN] * len(self.all_joints)
         self._velocity_gains = [VELOCITY_GAIN] * len(self.all_joints)
         for link in range(-1, pb.getNumJoints(self.robot_id, physicsClientId=self.client)):
-            pb.changeDynamics(self.robot_id, link, lateralFriction=LATERAL_FRICTION,
-                              spinningFriction=SPINNING_FRICTION, physicsClientId=self.client)
-        infos = [pb.getJointInfo(self.robot_id, i, physicsClientId=self.client) for i in self.all_joints]
+            pb.changeDynamics(
+                self.robot_id,
+                link,
+                lateralFriction=LATERAL_FRICTION,
+                spinningFriction=SPINNING_FRICTION,
+                physicsClientId=self.client,
+            )
+        infos = [
+            pb.getJointInfo(self.robot_id, i, physicsClientId=self.client) for i in self.all_joints
+        ]
         self._stop_low = np.array([info[8] for info in infos])
         self._stop_high = np.array([info[9] for info in infos])
         self._stop_names = [info[1].decode() for info in infos]
@@ -139,8 +167,13 @@ class PhysicsWorld:
         after every state of the previous one (subscribers tell the scenes apart by stamp).
         ValueError for an invalid or physically impossible situation (situations.check_scene)."""
         situation.validate(self.robot.n_joints, self.robot)
-        q0 = (self.robot.check_configuration(situation.initial_joint_positions, "initial_joint_positions")
-              if situation.initial_joint_positions else self.robot.home.copy())
+        q0 = (
+            self.robot.check_configuration(
+                situation.initial_joint_positions, "initial_joint_positions"
+            )
+            if situation.initial_joint_positions
+            else self.robot.home.copy()
+        )
         self.release_object()
         for body in self.bodies.values():
             pb.removeBody(body, physicsClientId=self.client)
@@ -152,16 +185,30 @@ class PhysicsWorld:
             self.bodies[body.name] = self._create_body(body, situation)
         if situation.object_kind in scene.OBJECT_MASS:
             position, orientation = situation.object_position, situation.object_orientation
-            self.fixture = pb.createConstraint(self.bodies["object"], -1, -1, -1, pb.JOINT_FIXED,
-                                               [0, 0, 0], [0, 0, 0], position, childFrameOrientation=orientation,
-                                               physicsClientId=self.client)
+            self.fixture = pb.createConstraint(
+                self.bodies["object"],
+                -1,
+                -1,
+                -1,
+                pb.JOINT_FIXED,
+                [0, 0, 0],
+                [0, 0, 0],
+                position,
+                childFrameOrientation=orientation,
+                physicsClientId=self.client,
+            )
             pb.changeConstraint(self.fixture, maxForce=1e4, physicsClientId=self.client)
         angles = self.robot.urdf_joint_positions(q0)
         for name, index in zip(self.robot.joint_names, self.actuated):
             pb.resetJointState(self.robot_id, index, angles[name], 0.0, physicsClientId=self.client)
         for index, source, multiplier, offset in self.mimics:
-            pb.resetJointState(self.robot_id, index, multiplier * q0[source] + offset, 0.0,
-                               physicsClientId=self.client)
+            pb.resetJointState(
+                self.robot_id,
+                index,
+                multiplier * q0[source] + offset,
+                0.0,
+                physicsClientId=self.client,
+            )
         self.situation = situation
         self.setpoint = q0.copy()
         self.command(q0)
@@ -175,31 +222,66 @@ class PhysicsWorld:
         if body.role == "box_body":
             return self._create_box_with_lid(body, situation, collision, visual)
         mass = scene.OBJECT_MASS[situation.object_kind] if body.role == "target" else 0.0
-        uid = pb.createMultiBody(mass, collision, visual, body.position, body.orientation,
-                                 physicsClientId=self.client)
-        pb.changeDynamics(uid, -1, lateralFriction=LATERAL_FRICTION, spinningFriction=SPINNING_FRICTION,
-                          rollingFriction=0.0005, physicsClientId=self.client)
+        uid = pb.createMultiBody(
+            mass, collision, visual, body.position, body.orientation, physicsClientId=self.client
+        )
+        pb.changeDynamics(
+            uid,
+            -1,
+            lateralFriction=LATERAL_FRICTION,
+            spinningFriction=SPINNING_FRICTION,
+            rollingFriction=0.0005,
+            physicsClientId=self.client,
+        )
         return uid
 
     def _create_box_with_lid(self, body, situation, collision, visual) -> int:
         side = situation.object_dimensions[0]
-        lid_collision, lid_visual = self._shape("box", scene.lid_extents(side), COLORS["lid"],
-                                                offset=scene.lid_geometry_offset(side).translation)
-        hinge_local = pb.multiplyTransforms(*pb.invertTransform(body.position, body.orientation),
-                                            *scene.pose_tuple(scene.hinge_placement(situation)))
+        lid_collision, lid_visual = self._shape(
+            "box",
+            scene.lid_extents(side),
+            COLORS["lid"],
+            offset=scene.lid_geometry_offset(side).translation,
+        )
+        hinge_local = pb.multiplyTransforms(
+            *pb.invertTransform(body.position, body.orientation),
+            *scene.pose_tuple(scene.hinge_placement(situation)),
+        )
         lid_com = scene.lid_geometry_offset(side).translation
         uid = pb.createMultiBody(
-            0.0, collision, visual, body.position, body.orientation,
-            linkMasses=[scene.LID_MASS], linkCollisionShapeIndices=[lid_collision],
-            linkVisualShapeIndices=[lid_visual], linkPositions=[hinge_local[0]],
-            linkOrientations=[hinge_local[1]], linkInertialFramePositions=[lid_com.tolist()],
-            linkInertialFrameOrientations=[[0, 0, 0, 1]], linkParentIndices=[0],
-            linkJointTypes=[pb.JOINT_REVOLUTE], linkJointAxis=[[0, -1, 0]],
-            physicsClientId=self.client)
-        pb.changeDynamics(uid, 0, lateralFriction=LATERAL_FRICTION, jointLowerLimit=LID_RANGE[0],
-                          jointUpperLimit=LID_RANGE[1], physicsClientId=self.client)
-        pb.setJointMotorControl2(uid, 0, pb.VELOCITY_CONTROL, targetVelocity=0.0,
-                                 force=scene.LID_HINGE_FRICTION, physicsClientId=self.client)
+            0.0,
+            collision,
+            visual,
+            body.position,
+            body.orientation,
+            linkMasses=[scene.LID_MASS],
+            linkCollisionShapeIndices=[lid_collision],
+            linkVisualShapeIndices=[lid_visual],
+            linkPositions=[hinge_local[0]],
+            linkOrientations=[hinge_local[1]],
+            linkInertialFramePositions=[lid_com.tolist()],
+            linkInertialFrameOrientations=[[0, 0, 0, 1]],
+            linkParentIndices=[0],
+            linkJointTypes=[pb.JOINT_REVOLUTE],
+            linkJointAxis=[[0, -1, 0]],
+            physicsClientId=self.client,
+        )
+        pb.changeDynamics(
+            uid,
+            0,
+            lateralFriction=LATERAL_FRICTION,
+            jointLowerLimit=LID_RANGE[0],
+            jointUpperLimit=LID_RANGE[1],
+            physicsClientId=self.client,
+        )
+        pb.setJointMotorControl2(
+            uid,
+            0,
+            pb.VELOCITY_CONTROL,
+            targetVelocity=0.0,
+            force=scene.LID_HINGE_FRICTION,
+            physicsClientId=self.client,
+        )
         # A multibody's links do not collide with their parent by default: the lid must rest on,
         # not sink into, the box.
         pb.setCollisionFilterPair(uid, uid, -1, 0, enableCollision=1, physicsClientId=self.client)
@@ -209,16 +291,23 @@ class PhysicsWorld:
         kwargs = {"physicsClientId": self.client}
         if shape == "box":
             half = [d / 2 for d in dimensions]
-            c = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=half, collisionFramePosition=offset, **kwargs)
-            v = pb.createVisualShape(pb.GEOM_BOX, halfExtents=half, rgbaColor=color,
-                                     visualFramePosition=offset, **kwargs)
+            c = pb.createCollisionShape(
+                pb.GEOM_BOX, halfExtents=half, collisionFramePosition=offset, **kwargs
+            )
+            v = pb.createVisualShape(
+                pb.GEOM_BOX, halfExtents=half, rgbaColor=color, visualFramePosition=offset, **kwargs
+            )
         elif shape == "sphere":
             c = pb.createCollisionShape(pb.GEOM_SPHERE, radius=dimensions[0], **kwargs)
-            v = pb.createVisualShape(pb.GEOM_SPHERE, radius=dimensions[0], rgbaColor=color, **kwargs)
+            v = pb.createVisualShape(
+                pb.GEOM_SPHERE, radius=dimensions[0], rgbaColor=color, **kwargs
+            )
         else:
             height, radius = dimensions
             c = pb.createCollisionShape(pb.GEOM_CYLINDER, radius=radius, height=height, **kwargs)
-            v = pb.createVisualShape(pb.GEOM_CYLINDER, radius=radius, length=height, rgbaColor=color, **kwargs)
+            v = pb.createVisualShape(
+                pb.GEOM_CYLINDER, radius=radius, length=height, rgbaColor=color, **kwargs
+            )
         return c, v
 
     def release_object(self) -> None:
@@ -239,13 +328,21 @@ class PhysicsWorld:
         max_step = self.robot.velocity_limits * self.control_period
         delta = np.clip(self.targets - self.setpoint, -max_step, max_step)
         self.setpoint = self.setpoint + delta
-        positions = np.concatenate([self.setpoint, self._mimic_matrix @ self.setpoint + self._mimic_offset])
+        positions = np.concatenate(
+            [self.setpoint, self._mimic_matrix @ self.setpoint + self._mimic_offset]
+        )
         velocities = np.concatenate([delta, self._mimic_matrix @ delta]) / self.control_period
-        pb.setJointMotorControlArray(self.robot_id, self.all_joints, pb.POSITION_CONTROL,
-                                     targetPositions=positions.tolist(),
-                                     targetVelocities=velocities.tolist(), forces=self._forces,
-                                     positionGains=self._position_gains,
-                                     velocityGains=self._velocity_gains, physicsClientId=self.client)
+        pb.setJointMotorControlArray(
+            self.robot_id,
+            self.all_joints,
+            pb.POSITION_CONTROL,
+            targetPositions=positions.tolist(),
+            targetVelocities=velocities.tolist(),
+            forces=self._forces,
+            positionGains=self._position_gains,
+            velocityGains=self._velocity_gains,
+            physicsClientId=self.client,
+        )
         for _ in range(self.substeps):
             pb.stepSimulation(physicsClientId=self.client)
             self._enforce_stops()
@@ -256,24 +353,40 @@ class PhysicsWorld:
     def _enforce_stops(self) -> None:
         """The joints' hard stops. PyBullet's joint-limit constraints are soft: measured, a constant
         3 N m on a finger's distal joint holds it 0.22 rad past its limit without any contact, and a
-        grasped object pushed distal joints up to 1 rad past (more solver iterations, a finer physics
-        step or a larger jointLimitForce only shrink that). A joint found past a limit after a physics
-        step is put back on it, and its velocity into the stop removed; the lid's hinge likewise."""
+        grasped object pushed distal joints up to 1 rad past (more solver iterations, a finer
+        physics step or a larger jointLimitForce only shrink that). A joint found past a limit after
+        a physics step is put back on it, and its velocity into the stop removed; the lid's hinge
+        likewise."""
         states = pb.getJointStates(self.robot_id, self.all_joints, physicsClientId=self.client)
         for k, (position, velocity, *_rest) in enumerate(states):
             if position < self._stop_low[k]:
-                pb.resetJointState(self.robot_id, self.all_joints[k], self._stop_low[k], max(velocity, 0.0),
-                                   physicsClientId=self.client)
+                pb.resetJointState(
+                    self.robot_id,
+                    self.all_joints[k],
+                    self._stop_low[k],
+                    max(velocity, 0.0),
+                    physicsClientId=self.client,
+                )
             elif position > self._stop_high[k]:
-                pb.resetJointState(self.robot_id, self.all_joints[k], self._stop_high[k], min(velocity, 0.0),
-                                   physicsClientId=self.client)
+                pb.resetJointState(
+                    self.robot_id,
+                    self.all_joints[k],
+                    self._stop_high[k],
+                    min(velocity, 0.0),
+                    physicsClientId=self.client,
+                )
         box = self._box()
         if box is not None:
             angle, velocity = pb.getJointState(box, 0, physicsClientId=self.client)[:2]
             if not LID_RANGE[0] <= angle <= LID_RANGE[1]:
                 low = angle < LID_RANGE[0]
-                pb.resetJointState(box, 0, LID_RANGE[0] if low else LID_RANGE[1],
-                                   max(velocity, 0.0) if low else min(velocity, 0.0), physicsClientId=self.client)
+                pb.resetJointState(
+                    box,
+                    0,
+                    LID_RANGE[0] if low else LID_RANGE[1],
+                    max(velocity, 0.0) if low else min(velocity, 0.0),
+                    physicsClientId=self.client,
+                )
 
     def _box(self):
         """The box's body id (its link 0 is the lid), or None in a scene without a box."""
@@ -315,12 +428,18 @@ class PhysicsWorld:
         for name, uid in self.bodies.items():
             if self.body_roles[name] == "table":
                 continue
-            position, orientation = pb.getBasePositionAndOrientation(uid, physicsClientId=self.client)
+            position, orientation = pb.getBasePositionAndOrientation(
+                uid, physicsClientId=self.client
+            )
             poses[name] = (tuple(position), tuple(orientation))
             if self.body_roles[name] == "box_body":
-                link = pb.getLinkState(uid, 0, computeForwardKinematics=True, physicsClientId=self.client)
+                link = pb.getLinkState(
+                    uid, 0, computeForwardKinematics=True, physicsClientId=self.client
+                )
                 poses["lid"] = (tuple(link[4]), tuple(link[5]))
-                edge = scene.se3(link[4], link[5]) * scene.lid_edge_offset(self.situation.object_dimensions[0])
+                edge = scene.se3(link[4], link[5]) * scene.lid_edge_offset(
+                    self.situation.object_dimensions[0]
+                )
                 poses["lid_edge"] = scene.pose_tuple(edge)
         return poses
 
@@ -335,8 +454,9 @@ class PhysicsWorld:
         """World placement (position, xyzw) of each robot link PyBullet simulates, by link name."""
         out = {}
         for name, index in self.link_index.items():
-            state = pb.getLinkState(self.robot_id, index, computeForwardKinematics=True,
-                                    physicsClientId=self.client)
+            state = pb.getLinkState(
+                self.robot_id, index, computeForwardKinematics=True, physicsClientId=self.client
+            )
             out[name] = (np.array(state[4]), np.array(state[5]))
         return out
 
@@ -348,7 +468,9 @@ class PhysicsWorld:
         for name, uid in self.bodies.items():
             if self.body_roles[name] not in scene.AVOIDED_ROLES:
                 continue
-            for point in pb.getContactPoints(self.robot_id, uid, linkIndexB=-1, physicsClientId=self.client):
+            for point in pb.getContactPoints(
+                self.robot_id, uid, linkIndexB=-1, physicsClientId=self.client
+            ):
                 if point[3] != -1:
                     best = min(best, point[8])
         return best
@@ -366,8 +488,9 @@ class PhysicsWorld:
 
     # --- pictures ------------------------------------------------------------------------------
 
-    def render(self, width: int = 640, height: int = 480, eye=None, target=None,
-               fov_deg: float = 50.0) -> np.ndarray:
+    def render(
+        self, width: int = 640, height: int = 480, eye=None, target=None, fov_deg: float = 50.0
+    ) -> np.ndarray:
         """An RGB image (height, width, 3) of the scene from eye looking at target (world, m),
         made by PyBullet's software renderer (no display needed)."""
         if eye is None or target is None or np.allclose(eye, target):
@@ -375,9 +498,18 @@ class PhysicsWorld:
             target = (0.5 * target + 0.5 * np.array([0.35, 0.0, 0.35])).tolist()
             eye = [target[0] + 0.55, target[1] - 1.25, target[2] + 0.65]
         view = pb.computeViewMatrix(list(eye), list(target), [0, 0, 1], physicsClientId=self.client)
-        projection = pb.computeProjectionMatrixFOV(fov_deg, width / height, 0.05, 5.0,
-                                                   physicsClientId=self.client)
-        image = pb.getCameraImage(width, height, view, projection, renderer=pb.ER_TINY_RENDERER,
-                                  lightDirection=[0.6, -0.4, 1.0], shadow=1, physicsClientId=self.client)
+        projection = pb.computeProjectionMatrixFOV(
+            fov_deg, width / height, 0.05, 5.0, physicsClientId=self.client
+        )
+        image = pb.getCameraImage(
+            width,
+            height,
+            view,
+            projection,
+            renderer=pb.ER_TINY_RENDERER,
+            lightDirection=[0.6, -0.4, 1.0],
+            shadow=1,
+            physicsClientId=self.client,
+        )
         rgba = np.reshape(np.asarray(image[2], dtype=np.uint8), (height, width, 4))
         return rgba[:, :, :3].copy()

@@ -1,8 +1,8 @@
 """The robot's kinematic and collision model, built once from the URDF and shared by everyone.
 
-The simulator (PyBullet) loads the very same URDF file. Pinocchio parses it with mimic joints, so the
-configuration q has the robot's 14 actuated degrees of freedom (7 arm + 7 hand) while the coupled
-knuckle of finger 3 follows finger 2's knuckle. Units: m, rad, s.
+The simulator (PyBullet) loads the very same URDF file. Pinocchio parses it with mimic joints, so
+the configuration q has the robot's 14 actuated degrees of freedom (7 arm + 7 hand) while the
+coupled knuckle of finger 3 follows finger 2's knuckle. Units: m, rad, s.
 """
 
 import copy
@@ -32,20 +32,29 @@ FINGER_BASES = ("finger_1_base", "finger_2_base", "finger_3_base")
 BASE = "base_link"
 
 ARM_JOINTS = tuple(f"arm_{i}_joint" for i in range(1, 8))
-HAND_JOINTS = ("finger_1_proximal_joint", "finger_1_distal_joint", "finger_2_knuckle_joint",
-               "finger_2_proximal_joint", "finger_2_distal_joint", "finger_3_proximal_joint",
-               "finger_3_distal_joint")
+HAND_JOINTS = (
+    "finger_1_proximal_joint",
+    "finger_1_distal_joint",
+    "finger_2_knuckle_joint",
+    "finger_2_proximal_joint",
+    "finger_2_distal_joint",
+    "finger_3_proximal_joint",
+    "finger_3_distal_joint",
+)
 
 #: Home configuration (rad), in the order of RobotModel.joint_names: the hand raised in front of the
 #: robot, above the objects' workspace (palm at about (0.30, 0, 0.75) m, facing forward and 45
 #: degrees down), the hand open with its fingers spread at 120 degrees (knuckle pi/3).
-HOME = np.array([0.0, -0.23, 0.0, 1.04, 0.0, 1.54, 0.0,
-                 -0.45, 0.35, np.pi / 3, -0.45, 0.35, -0.45, 0.35])
+HOME = np.array(
+    [0.0, -0.23, 0.0, 1.04, 0.0, 1.54, 0.0, -0.45, 0.35, np.pi / 3, -0.45, 0.35, -0.45, 0.35]
+)
 
 #: The rows of the spatial Jacobian (linear 0-2, angular 3-5) and their signs that give, for each
 #: axis a, [Jv_a, (e_x x Jw)_a, (e_y x Jw)_a, (e_z x Jw)_a] (RobotModel.point_jacobians).
 _CROSS_ROWS = np.array([[0, 0, 5, 4], [1, 5, 0, 3], [2, 4, 3, 0]])
-_CROSS_SIGNS = np.array([[1.0, 0.0, 1.0, -1.0], [1.0, -1.0, 0.0, 1.0], [1.0, 1.0, -1.0, 0.0]])[:, None, :]
+_CROSS_SIGNS = np.array([[1.0, 0.0, 1.0, -1.0], [1.0, -1.0, 0.0, 1.0], [1.0, 1.0, -1.0, 0.0]])[
+    :, None, :
+]
 
 
 @dataclass(frozen=True)
@@ -64,7 +73,11 @@ def _parse_axes(urdf_path: pathlib.Path) -> dict:
     for joint in ET.parse(urdf_path).getroot().iter("joint"):
         if joint.get("type") == "revolute":
             tag = joint.find("axis")
-            axis = np.array([float(v) for v in tag.get("xyz").split()]) if tag is not None else np.array([1.0, 0, 0])
+            axis = (
+                np.array([float(v) for v in tag.get("xyz").split()])
+                if tag is not None
+                else np.array([1.0, 0, 0])
+            )
             axes[joint.get("name")] = axis / np.linalg.norm(axis)
     return axes
 
@@ -75,8 +88,14 @@ def _parse_mimics(urdf_path: pathlib.Path) -> tuple:
     for joint in root.iter("joint"):
         tag = joint.find("mimic")
         if tag is not None:
-            mimics.append(MimicJoint(joint.get("name"), tag.get("joint"),
-                                     float(tag.get("multiplier", 1.0)), float(tag.get("offset", 0.0))))
+            mimics.append(
+                MimicJoint(
+                    joint.get("name"),
+                    tag.get("joint"),
+                    float(tag.get("multiplier", 1.0)),
+                    float(tag.get("offset", 0.0)),
+                )
+            )
     return tuple(mimics)
 
 
@@ -97,14 +116,18 @@ class RobotModel:
         self.urdf_path = pathlib.Path(urdf_path)
         self.model = pin.buildModelFromUrdf(str(self.urdf_path), mimic=True)
         self.data = self.model.createData()
-        self.collision_model = pin.buildGeomFromUrdf(self.model, str(self.urdf_path),
-                                                     pin.GeometryType.COLLISION)
+        self.collision_model = pin.buildGeomFromUrdf(
+            self.model, str(self.urdf_path), pin.GeometryType.COLLISION
+        )
         self._add_self_collision_pairs()
         if srdf_path is not None:
             pin.removeCollisionPairs(self.model, self.collision_model, str(srdf_path))
         self.collision_data = pin.GeometryData(self.collision_model)
-        self.joint_names = tuple(name for name, joint in zip(self.model.names[1:], self.model.joints[1:])
-                                 if joint.nq == 1)
+        self.joint_names = tuple(
+            name
+            for name, joint in zip(self.model.names[1:], self.model.joints[1:])
+            if joint.nq == 1
+        )
         assert len(self.joint_names) == self.model.nq, "one q entry per actuated joint"
         self.lower = self.model.lowerPositionLimit.copy()
         self.upper = self.model.upperPositionLimit.copy()
@@ -117,7 +140,8 @@ class RobotModel:
         self._chain = self._kinematic_chain()
         self.joint_supports, self.extended_to_q = self._jacobian_columns()
         columns = self.model.nvExtended
-        self._cross_index = _CROSS_ROWS[:, None, :] * columns + np.arange(columns)[:, None]   # (3, E, 4)
+        # (3, E, 4)
+        self._cross_index = _CROSS_ROWS[:, None, :] * columns + np.arange(columns)[:, None]
 
     def copy(self) -> "RobotModel":
         """The same model with its own Pinocchio data (for use from another thread)."""
@@ -131,7 +155,8 @@ class RobotModel:
         return self.model.nq
 
     def _add_self_collision_pairs(self):
-        """All pairs of robot geometries except those on the same or on adjacent (parent/child) joints."""
+        """All pairs of robot geometries except those on the same or on adjacent (parent/child)
+        joints."""
         geoms = self.collision_model.geometryObjects
         parents = self.model.parents
         for a in range(len(geoms)):
@@ -139,15 +164,16 @@ class RobotModel:
                 ja, jb = geoms[a].parentJoint, geoms[b].parentJoint
                 if ja == jb or parents[ja] == jb or parents[jb] == ja:
                     continue
-                # Siblings on the palm (finger chains' first links, the palm itself) touch by design.
+                # Siblings on the palm (finger chains' first links, the palm itself) touch by
+                # design.
                 if parents[ja] == parents[jb] and self.model.names[parents[ja]] == "arm_7_joint":
                     continue
                 self.collision_model.addCollisionPair(pin.CollisionPair(a, b))
 
     def _kinematic_chain(self) -> list:
-        """Per Pinocchio joint (in tree order): parent, fixed placement (R, or None for the identity,
-        and p), axis, and the q index, multiplier and offset that give its angle (mimic joints
-        follow their source)."""
+        """Per Pinocchio joint (in tree order): parent, fixed placement (R, or None for the
+        identity, and p), axis, and the q index, multiplier and offset that give its angle (mimic
+        joints follow their source)."""
         axes = _parse_axes(self.urdf_path)
         mimics = {m.name: m for m in self.mimic_joints}
         chain = []
@@ -156,19 +182,34 @@ class RobotModel:
             placement = self.model.jointPlacements[index]
             if name in mimics:
                 mimic = mimics[name]
-                source, multiplier, offset = self.joint_names.index(mimic.source), mimic.multiplier, mimic.offset
+                source, multiplier, offset = (
+                    self.joint_names.index(mimic.source),
+                    mimic.multiplier,
+                    mimic.offset,
+                )
             else:
                 source, multiplier, offset = self.joint_names.index(name), 1.0, 0.0
             rotation = placement.rotation.copy()
-            chain.append((index, self.model.parents[index], None if np.allclose(rotation, np.eye(3)) else rotation,
-                          placement.translation.copy(), axes[name], source, multiplier, offset))
+            chain.append(
+                (
+                    index,
+                    self.model.parents[index],
+                    None if np.allclose(rotation, np.eye(3)) else rotation,
+                    placement.translation.copy(),
+                    axes[name],
+                    source,
+                    multiplier,
+                    offset,
+                )
+            )
         return chain
 
     def _jacobian_columns(self) -> tuple:
-        """How to read data.J, the world-frame spatial Jacobian (6, E) that pin.computeJointJacobians
-        leaves: one column per moving joint, mimic joints included (E = model.nvExtended), each per
-        unit velocity of the q entry that drives it. Returns joint_supports (njoints, E), 1 where a
-        column moves the joint's body, and extended_to_q (E, n), which sums the columns into q's."""
+        """How to read data.J, the world-frame spatial Jacobian (6, E) that
+        pin.computeJointJacobians leaves: one column per moving joint, mimic joints included (E =
+        model.nvExtended), each per unit velocity of the q entry that drives it. Returns
+        joint_supports (njoints, E), 1 where a column moves the joint's body, and extended_to_q (E,
+        n), which sums the columns into q's."""
         model = self.model
         columns = model.idx_vExtendeds
         supports = np.zeros((model.njoints, model.nvExtended))
@@ -185,8 +226,9 @@ class RobotModel:
         lever = np.empty((4, len(points)))
         lever[0] = 1.0
         np.negative(points.T, out=lever[1:])
-        basis = self.data.J.take(self._cross_index) * _CROSS_SIGNS     # (3, E, 4): Jv, e_c x Jw
-        return (basis.reshape(-1, 4) @ lever).reshape(3, -1, len(points))   # Jv - sum_c p_c e_c x Jw
+        basis = self.data.J.take(self._cross_index) * _CROSS_SIGNS  # (3, E, 4): Jv, e_c x Jw
+        # Jv - sum_c p_c e_c x Jw
+        return (basis.reshape(-1, 4) @ lever).reshape(3, -1, len(points))
 
     def batch_joint_placements(self, configurations: np.ndarray) -> tuple:
         """Vectorized forward kinematics (the same as Pinocchio's) of configurations (B, n):
@@ -195,10 +237,21 @@ class RobotModel:
         batch = qs.shape[0]
         rotations = {0: np.broadcast_to(np.eye(3), (batch, 3, 3))}
         positions = {0: np.zeros((batch, 3))}
-        for index, parent, fixed_rotation, fixed_translation, axis, source, multiplier, offset in self._chain:
+        for (
+            index,
+            parent,
+            fixed_rotation,
+            fixed_translation,
+            axis,
+            source,
+            multiplier,
+            offset,
+        ) in self._chain:
             angle = multiplier * qs[:, source] + offset
             parent_rotation = rotations[parent]
-            base_rotation = parent_rotation if fixed_rotation is None else parent_rotation @ fixed_rotation
+            base_rotation = (
+                parent_rotation if fixed_rotation is None else parent_rotation @ fixed_rotation
+            )
             positions[index] = positions[parent] + parent_rotation @ fixed_translation
             rotations[index] = _rotate_about(base_rotation, axis, angle)
         return rotations, positions
@@ -226,16 +279,20 @@ class RobotModel:
         """q as a float array (n,), or ValueError saying what is wrong (size, NaN/inf, limits)."""
         q = np.asarray(q, dtype=float)
         if q.shape != (self.n_joints,):
-            raise ValueError(f"{what} must have {self.n_joints} joint positions, got shape {q.shape}")
+            raise ValueError(
+                f"{what} must have {self.n_joints} joint positions, got shape {q.shape}"
+            )
         if not np.all(np.isfinite(q)):
             bad = [self.joint_names[i] for i in np.flatnonzero(~np.isfinite(q))]
             raise ValueError(f"{what} has non-finite values at {', '.join(bad)}")
         outside = np.flatnonzero((q < self.lower - tolerance) | (q > self.upper + tolerance))
         if outside.size:
             i = outside[0]
-            raise ValueError(f"{what}: {self.joint_names[i]} = {q[i]:.4f} rad is outside its limits "
-                             f"[{self.lower[i]:.4f}, {self.upper[i]:.4f}]"
-                             + (f" (and {outside.size - 1} more)" if outside.size > 1 else ""))
+            raise ValueError(
+                f"{what}: {self.joint_names[i]} = {q[i]:.4f} rad is outside its limits "
+                f"[{self.lower[i]:.4f}, {self.upper[i]:.4f}]"
+                + (f" (and {outside.size - 1} more)" if outside.size > 1 else "")
+            )
         return q
 
     def forward(self, q) -> None:
@@ -253,8 +310,16 @@ class RobotModel:
             angles[mimic.name] = mimic.multiplier * angles[mimic.source] + mimic.offset
         return angles
 
-    def reach(self, q, frame: str, target: pin.SE3, iterations: int = 200,
-              joints=None, damping: float = 1e-3, tolerance: float = 1e-5) -> np.ndarray:
+    def reach(
+        self,
+        q,
+        frame: str,
+        target: pin.SE3,
+        iterations: int = 200,
+        joints=None,
+        damping: float = 1e-3,
+        tolerance: float = 1e-5,
+    ) -> np.ndarray:
         """Damped least-squares inverse kinematics: a configuration near q placing frame at target.
 
         Only the given joint indices move (default: the arm). Returns the best configuration found,
@@ -289,7 +354,9 @@ def _rotate_about(rotations: np.ndarray, axis: np.ndarray, angles: np.ndarray) -
         return out
     x, y, z = axis
     skew = np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
-    return rotations @ (np.eye(3) + sin[:, :, None] * skew + (1.0 - cos[:, :, None]) * (skew @ skew))
+    return rotations @ (
+        np.eye(3) + sin[:, :, None] * skew + (1.0 - cos[:, :, None]) * (skew @ skew)
+    )
 
 
 def write_srdf(samples: int = 20000, seed: int = 0, path: pathlib.Path = SRDF_PATH) -> int:
@@ -300,7 +367,9 @@ def write_srdf(samples: int = 20000, seed: int = 0, path: pathlib.Path = SRDF_PA
     rng = np.random.default_rng(seed)
     closest = np.full(len(geometry.collisionPairs), np.inf)
     for _ in range(samples):
-        pin.computeDistances(robot.model, robot.data, geometry, data, rng.uniform(robot.lower, robot.upper))
+        pin.computeDistances(
+            robot.model, robot.data, geometry, data, rng.uniform(robot.lower, robot.upper)
+        )
         closest = np.minimum(closest, [result.min_distance for result in data.distanceResults])
     links = {}
     for pair, distance in zip(geometry.collisionPairs, closest):
@@ -309,11 +378,15 @@ def write_srdf(samples: int = 20000, seed: int = 0, path: pathlib.Path = SRDF_PA
         links[(a, b)] = min(links.get((a, b), np.inf), distance)
     never = sorted(pair for pair, distance in links.items() if distance > NEVER_MARGIN)
     digest = hashlib.sha256(robot.urdf_path.read_bytes()).hexdigest()
-    lines = ['<?xml version="1.0"?>',
-             f"<!-- Generated by `python -m tric_sim.robot_model` for {robot.urdf_path.name} "
-             f"sha256={digest}: link pairs never closer than {NEVER_MARGIN} m over {samples} random "
-             "configurations (seed {seed}); their collisions are not checked. -->".replace("{seed}", str(seed)),
-             f'<robot name="{robot.model.name}">']
+    lines = [
+        '<?xml version="1.0"?>',
+        f"<!-- Generated by `python -m tric_sim.robot_model` for {robot.urdf_path.name} "
+        f"sha256={digest}: link pairs never closer than {NEVER_MARGIN} m over {samples} random "
+        "configurations (seed {seed}); their collisions are not checked. -->".replace(
+            "{seed}", str(seed)
+        ),
+        f'<robot name="{robot.model.name}">',
+    ]
     lines += [f'  <disable_collisions link1="{a}" link2="{b}" reason="Never"/>' for a, b in never]
     lines.append("</robot>")
     path.write_text("\n".join(lines) + "\n")

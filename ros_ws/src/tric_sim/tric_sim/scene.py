@@ -1,9 +1,9 @@
 """The bodies a situation consists of, as one geometric description for PyBullet and for coal.
 
-Every body is a solid primitive at a world pose. The box's lid is the one articulated body: its frame
-sits on the hinge axis (x from the hinge towards the free edge, z along the lid's normal, opening =
-positive rotation about -y), and its plate is offset from that frame by LID_GEOMETRY_OFFSET.
-Units: m, rad; quaternions xyzw.
+Every body is a solid primitive at a world pose. The box's lid is the one articulated body: its
+frame sits on the hinge axis (x from the hinge towards the free edge, z along the lid's normal,
+opening = positive rotation about -y), and its plate is offset from that frame by
+LID_GEOMETRY_OFFSET. Units: m, rad; quaternions xyzw.
 """
 
 from dataclasses import dataclass
@@ -18,7 +18,8 @@ TABLE_SIZE = (1.6, 1.6, 0.05)
 TABLE_POSITION = (0.4, 0.0, -0.025)
 
 #: Lid: a plate LID_THICKNESS thick, overhanging the box's front wall by LID_OVERHANG (the lip a
-#: finger reaches under) and its side walls by LID_SIDE_MARGIN each; it rests LID_GAP above the body.
+#: finger reaches under) and its side walls by LID_SIDE_MARGIN each; it rests LID_GAP above the
+#: body.
 LID_THICKNESS = 0.012
 LID_OVERHANG = 0.05
 LID_SIDE_MARGIN = 0.005
@@ -32,8 +33,8 @@ LID_OPEN_ANGLE = 0.3
 #: Masses of the grasp targets, kg.
 OBJECT_MASS = {"sphere": 0.1, "cylinder": 0.3}
 
-#: Body roles: "table", "obstacle" and "box_body" are avoided by every controller; "target" (the grasp
-#: object) and "lid" may be touched by the hand (TASK_CONTACTS says how).
+#: Body roles: "table", "obstacle" and "box_body" are avoided by every controller; "target" (the
+#: grasp object) and "lid" may be touched by the hand (TASK_CONTACTS says how).
 AVOIDED_ROLES = ("table", "obstacle", "box_body")
 
 
@@ -61,12 +62,12 @@ class Contact:
 #: cost rises at the end of a grasp, the fingers come to touch the grasp target (contact is the goal
 #: there) and may press into it a few millimetres, which makes the grip. The soft prior keeps them
 #: from jamming: 3 mm measured best on the sphere test set (1 cm left the fingers ~1 cm off the
-#: surface, grasp cost 0.085; without the prior the fingers jam: 0.40; 2 mm lost one of 8 grasps; 3 mm:
-#: 0.042 mean, 0.069 max over 15). The lid is there to be pushed open: the hand may press deeper and
-#: feels no soft prior (with both, measured on the first 12 test boxes: 0 opened, every episode stalled
-#: with a finger under the lip; without: 4), but only from beneath: from above, pressing can only shut
-#: the lid, and the hand keeps clear of it (measured without that rule: fingers pressing the closed
-#: lid's top, its hinge forced below 0).
+#: surface, grasp cost 0.085; without the prior the fingers jam: 0.40; 2 mm lost one of 8 grasps; 3
+#: mm: 0.042 mean, 0.069 max over 15). The lid is there to be pushed open: the hand may press deeper
+#: and feels no soft prior (with both, measured on the first 12 test boxes: 0 opened, every episode
+#: stalled with a finger under the lip; without: 4), but only from beneath: from above, pressing can
+#: only shut the lid, and the hand keeps clear of it (measured without that rule: fingers pressing
+#: the closed lid's top, its hinge forced below 0).
 TASK_CONTACTS = {
     "grasp": {"target": Contact(depth=0.005, cushion=0.003, cushion_weight=3.0)},
     "open_box": {"lid": Contact(depth=0.015, side=(0.0, 0.0, -1.0))},
@@ -79,8 +80,8 @@ class Body:
 
     shape "box": dimensions = full extents (x, y, z); "sphere": (radius,); "cylinder": (height,
     radius) with the axis along local z. position (3,) and orientation (xyzw) are the world pose of
-    the body's frame; for the lid that frame is the hinge frame at lid angle 0 and the plate is offset
-    from it by LID_GEOMETRY_OFFSET.
+    the body's frame; for the lid that frame is the hinge frame at lid angle 0 and the plate is
+    offset from it by LID_GEOMETRY_OFFSET.
     """
 
     name: str
@@ -109,8 +110,10 @@ def se3(position, orientation) -> pin.SE3:
 def pose_tuple(placement: pin.SE3) -> tuple:
     """(position, xyzw quaternion) of a placement, as tuples of floats."""
     q = pin.Quaternion(placement.rotation)
-    return (tuple(float(v) for v in placement.translation),
-            (float(q.x), float(q.y), float(q.z), float(q.w)))
+    return (
+        tuple(float(v) for v in placement.translation),
+        (float(q.x), float(q.y), float(q.z), float(q.w)),
+    )
 
 
 def lid_extents(side: float) -> tuple:
@@ -131,8 +134,8 @@ def lid_edge_offset(side: float) -> pin.SE3:
 
 
 def hinge_placement(situation: Situation) -> pin.SE3:
-    """World placement of the closed lid's hinge frame: on the body's top edge at local +x, x pointing
-    back over the box (towards local -x), z up."""
+    """World placement of the closed lid's hinge frame: on the body's top edge at local +x, x
+    pointing back over the box (towards local -x), z up."""
     side = situation.object_dimensions[0]
     body = se3(situation.object_position, situation.object_orientation)
     local = pin.SE3(pin.utils.rotate("z", np.pi), np.array([side / 2, 0.0, side / 2 + LID_GAP]))
@@ -149,21 +152,56 @@ def scene_bodies(situation: Situation) -> list:
     bodies = [Body("table", "table", "box", TABLE_SIZE, TABLE_POSITION, (0.0, 0.0, 0.0, 1.0))]
     if situation.object_kind == "box":
         side = situation.object_dimensions[0]
-        bodies.append(Body("object", "box_body", "box", (side, side, side),
-                           situation.object_position, situation.object_orientation))
+        bodies.append(
+            Body(
+                "object",
+                "box_body",
+                "box",
+                (side, side, side),
+                situation.object_position,
+                situation.object_orientation,
+            )
+        )
         position, orientation = pose_tuple(hinge_placement(situation))
-        bodies.append(Body("lid", "lid", "box", lid_extents(side), position, orientation,
-                           pose_tuple(lid_geometry_offset(side))))
+        bodies.append(
+            Body(
+                "lid",
+                "lid",
+                "box",
+                lid_extents(side),
+                position,
+                orientation,
+                pose_tuple(lid_geometry_offset(side)),
+            )
+        )
     else:
-        bodies.append(Body("object", "target", situation.object_kind, situation.object_dimensions,
-                           situation.object_position, situation.object_orientation))
+        bodies.append(
+            Body(
+                "object",
+                "target",
+                situation.object_kind,
+                situation.object_dimensions,
+                situation.object_position,
+                situation.object_orientation,
+            )
+        )
     for k, obstacle in enumerate(situation.obstacles):
-        bodies.append(Body(f"obstacle_{k}", "obstacle", obstacle.shape, obstacle.dimensions,
-                           obstacle.position, obstacle.orientation))
+        bodies.append(
+            Body(
+                f"obstacle_{k}",
+                "obstacle",
+                obstacle.shape,
+                obstacle.dimensions,
+                obstacle.position,
+                obstacle.orientation,
+            )
+        )
     return bodies
 
 
 def contacts(situation: Situation) -> dict:
     """The contacts the situation's task allows the hand, by scene body name (see TASK_CONTACTS)."""
     allowed = TASK_CONTACTS[situation.task]
-    return {body.name: allowed[body.role] for body in scene_bodies(situation) if body.role in allowed}
+    return {
+        body.name: allowed[body.role] for body in scene_bodies(situation) if body.role in allowed
+    }

@@ -14,18 +14,30 @@ import math
 
 from geometry_msgs.msg import Point, Pose, Quaternion, Transform, TransformStamped, Vector3
 from std_msgs.msg import ColorRGBA, String
-from tric_msgs.msg import ControllerStatus
 from visualization_msgs.msg import Marker, MarkerArray
 
+from tric_msgs.msg import ControllerStatus
 from tric_sim.messages import time_msg, time_ns
 from tric_sim.scene_view import Transforms
 
 MARKER_TYPES = {"box": Marker.CUBE, "sphere": Marker.SPHERE, "cylinder": Marker.CYLINDER}
 
 #: The fields of tric_msgs/ControllerStatus that status_fields copies (all but the header).
-STATUS_FIELDS = ("state", "model_path", "step", "value", "value_rate", "gradient_norm", "step_norm",
-                 "min_distance", "active_constraints", "tick_time_ms", "feature_names", "feature_values",
-                 "feature_gradients")
+STATUS_FIELDS = (
+    "state",
+    "model_path",
+    "step",
+    "value",
+    "value_rate",
+    "gradient_norm",
+    "step_norm",
+    "min_distance",
+    "active_constraints",
+    "tick_time_ms",
+    "feature_names",
+    "feature_values",
+    "feature_gradients",
+)
 
 
 def robot_description_msg(urdf: str) -> String:
@@ -36,10 +48,19 @@ def transform_msgs(transforms: Transforms, stamp_ns: int) -> list:
     """geometry_msgs/TransformStamped of every transform, stamped stamp_ns."""
     stamp = time_msg(stamp_ns)
     out = []
-    for parent, child, p, o in zip(transforms.parents, transforms.children, transforms.positions.tolist(),
-                                   transforms.orientations.tolist()):
-        msg = TransformStamped(child_frame_id=child, transform=Transform(
-            translation=Vector3(x=p[0], y=p[1], z=p[2]), rotation=Quaternion(x=o[0], y=o[1], z=o[2], w=o[3])))
+    for parent, child, p, o in zip(
+        transforms.parents,
+        transforms.children,
+        transforms.positions.tolist(),
+        transforms.orientations.tolist(),
+    ):
+        msg = TransformStamped(
+            child_frame_id=child,
+            transform=Transform(
+                translation=Vector3(x=p[0], y=p[1], z=p[2]),
+                rotation=Quaternion(x=o[0], y=o[1], z=o[2], w=o[3]),
+            ),
+        )
         msg.header.stamp, msg.header.frame_id = stamp, parent
         out.append(msg)
     return out
@@ -56,20 +77,35 @@ def marker_array(primitives, stamp_ns: int) -> MarkerArray:
         qx, qy, qz, qw = (float(v) for v in primitive.orientation)
         sx, sy, sz = (float(v) for v in primitive.size)
         r, g, b, a = (float(v) for v in primitive.color)
-        marker = Marker(ns=primitive.group, id=number, type=MARKER_TYPES[primitive.shape], action=Marker.ADD,
-                        pose=Pose(position=Point(x=x, y=y, z=z), orientation=Quaternion(x=qx, y=qy, z=qz, w=qw)),
-                        scale=Vector3(x=sx, y=sy, z=sz), color=ColorRGBA(r=r, g=g, b=b, a=a),
-                        frame_locked=True)
+        marker = Marker(
+            ns=primitive.group,
+            id=number,
+            type=MARKER_TYPES[primitive.shape],
+            action=Marker.ADD,
+            pose=Pose(
+                position=Point(x=x, y=y, z=z), orientation=Quaternion(x=qx, y=qy, z=qz, w=qw)
+            ),
+            scale=Vector3(x=sx, y=sy, z=sz),
+            color=ColorRGBA(r=r, g=g, b=b, a=a),
+            frame_locked=True,
+        )
         marker.header.stamp, marker.header.frame_id = stamp, primitive.frame
         markers.append(marker)
     return MarkerArray(markers=markers)
 
 
 def status_fields(msg: ControllerStatus) -> dict:
-    """A ControllerStatus as JSON-ready plain data: its fields by name (lists for arrays; NaN and inf,
-    which JSON lacks, as None) and "stamp_ns"."""
+    """A ControllerStatus as JSON-ready plain data: its fields by name (lists for arrays; NaN and
+    inf, which JSON lacks, as None) and "stamp_ns"."""
     fields = {name: getattr(msg, name) for name in STATUS_FIELDS}
-    for name in ("value", "value_rate", "gradient_norm", "step_norm", "min_distance", "tick_time_ms"):
+    for name in (
+        "value",
+        "value_rate",
+        "gradient_norm",
+        "step_norm",
+        "min_distance",
+        "tick_time_ms",
+    ):
         fields[name] = _finite_or_none(fields[name])
     for name in ("feature_values", "feature_gradients"):
         fields[name] = [_finite_or_none(v) for v in fields[name]]

@@ -1,6 +1,6 @@
-"""What a viewer draws: the robot's links and the scene's bodies as solid primitives in named frames,
-and the transforms between those frames. ROS-free and message-free: tric_sim.scene_messages makes
-RViz's messages of it (MarkerArray, tf) and tric_sim.foxglove_view Foxglove's.
+"""What a viewer draws: the robot's links and the scene's bodies as solid primitives in named
+frames, and the transforms between those frames. ROS-free and message-free: tric_sim.scene_messages
+makes RViz's messages of it (MarkerArray, tf) and tric_sim.foxglove_view Foxglove's.
 
 Frames (one tree, rooted at "world"):
 - every URDF link, with one transform per URDF joint from its parent link to its child link (the
@@ -36,9 +36,13 @@ BASE = "base_link"
 IDENTITY = (0.0, 0.0, 0.0, 1.0)
 
 #: Colours (rgba) of the scene's bodies by role.
-ROLE_COLORS = {"table": (0.55, 0.45, 0.35, 1.0), "target": (0.9, 0.3, 0.1, 1.0),
-               "box_body": (0.8, 0.65, 0.4, 1.0), "lid": (0.6, 0.45, 0.25, 1.0),
-               "obstacle": (0.8, 0.1, 0.1, 0.6)}
+ROLE_COLORS = {
+    "table": (0.55, 0.45, 0.35, 1.0),
+    "target": (0.9, 0.3, 0.1, 1.0),
+    "box_body": (0.8, 0.65, 0.4, 1.0),
+    "lid": (0.6, 0.45, 0.25, 1.0),
+    "obstacle": (0.8, 0.1, 0.1, 0.6),
+}
 LINK_COLOR = (0.6, 0.6, 0.65, 1.0)
 
 
@@ -95,24 +99,37 @@ class RobotView:
         moving = [j for j in joints if j.kind != "fixed"]
         if any(j.kind not in ("revolute", "continuous") for j in moving):
             raise ValueError("the viewer draws fixed, revolute and continuous joints only")
-        self.static = Transforms((WORLD,) + tuple(j.parent for j in fixed), (BASE,) + tuple(j.child for j in fixed),
-                                 np.array([(0.0, 0.0, 0.0)] + [j.position for j in fixed]),
-                                 np.array([IDENTITY] + [j.orientation for j in fixed]))
+        self.static = Transforms(
+            (WORLD,) + tuple(j.parent for j in fixed),
+            (BASE,) + tuple(j.child for j in fixed),
+            np.array([(0.0, 0.0, 0.0)] + [j.position for j in fixed]),
+            np.array([IDENTITY] + [j.orientation for j in fixed]),
+        )
         self._parents = tuple(j.parent for j in moving)
         self._children = tuple(j.child for j in moving)
         self._origins = np.array([j.position for j in moving])
         self._origin_rotations = np.array([j.orientation for j in moving])
         self._axes = np.array([j.axis for j in moving])
-        # each moving joint's angle = multiplier * q[source] + offset (mimic joints follow their source)
+        # each moving joint's angle = multiplier * q[source] + offset (mimic joints follow their
+        # source)
         mimics = {m.name: m for m in robot.mimic_joints}
-        self._sources = np.array([robot.joint_names.index(mimics[j.name].source if j.name in mimics else j.name)
-                                  for j in moving])
-        self._multipliers = np.array([mimics[j.name].multiplier if j.name in mimics else 1.0 for j in moving])
-        self._offsets = np.array([mimics[j.name].offset if j.name in mimics else 0.0 for j in moving])
+        self._sources = np.array(
+            [
+                robot.joint_names.index(mimics[j.name].source if j.name in mimics else j.name)
+                for j in moving
+            ]
+        )
+        self._multipliers = np.array(
+            [mimics[j.name].multiplier if j.name in mimics else 1.0 for j in moving]
+        )
+        self._offsets = np.array(
+            [mimics[j.name].offset if j.name in mimics else 0.0 for j in moving]
+        )
         self.primitives = _link_primitives(root)
 
     def transforms(self, q) -> Transforms:
-        """The moving joints' transforms (parent link -> child link) at joint positions q (n,), rad."""
+        """The moving joints' transforms (parent link -> child link) at joint positions q (n,),
+        rad."""
         angles = self._multipliers * np.asarray(q, dtype=float)[self._sources] + self._offsets
         half = 0.5 * angles
         turns = np.concatenate([self._axes * np.sin(half)[:, None], np.cos(half)[:, None]], axis=1)
@@ -121,22 +138,29 @@ class RobotView:
 
 
 def object_transforms(poses: dict) -> Transforms:
-    """"world" -> each object's frame, from /object_poses' {name: (position, xyzw)}."""
+    """ "world" -> each object's frame, from /object_poses' {name: (position, xyzw)}."""
     names = tuple(poses)
-    return Transforms((WORLD,) * len(names), names,
-                      np.array([poses[n][0] for n in names], dtype=float).reshape(-1, 3),
-                      np.array([poses[n][1] for n in names], dtype=float).reshape(-1, 4))
+    return Transforms(
+        (WORLD,) * len(names),
+        names,
+        np.array([poses[n][0] for n in names], dtype=float).reshape(-1, 3),
+        np.array([poses[n][1] for n in names], dtype=float).reshape(-1, 4),
+    )
 
 
 def initial_object_poses(situation: Situation) -> dict:
     """The objects' poses at the start of a situation, {name: (position, xyzw)}, as /object_poses
     names them (the table, which is static, is not one)."""
-    return {body.name: (tuple(body.position), tuple(body.orientation))
-            for body in scene.scene_bodies(situation) if body.role != "table"}
+    return {
+        body.name: (tuple(body.position), tuple(body.orientation))
+        for body in scene.scene_bodies(situation)
+        if body.role != "table"
+    }
 
 
 def scene_primitives(situation: Situation) -> list:
-    """The scene's bodies (table, object, lid, obstacles) as primitives; see the module docstring."""
+    """The scene's bodies (table, object, lid, obstacles) as primitives; see the module
+    docstring."""
     primitives = []
     for body in scene.scene_bodies(situation):
         position, orientation = (0.0, 0.0, 0.0), IDENTITY
@@ -144,12 +168,23 @@ def scene_primitives(situation: Situation) -> list:
             frame, position, orientation = WORLD, tuple(body.position), tuple(body.orientation)
         elif body.role == "lid":
             frame = body.name
-            position, orientation = scene.pose_tuple(scene.lid_geometry_offset(situation.object_dimensions[0]))
+            position, orientation = scene.pose_tuple(
+                scene.lid_geometry_offset(situation.object_dimensions[0])
+            )
         else:
             frame = body.name
-        primitives.append(Primitive(f"scene/{body.name}", "scene", frame, body.shape,
-                                    _extents(body.shape, body.dimensions), position, orientation,
-                                    ROLE_COLORS[body.role]))
+        primitives.append(
+            Primitive(
+                f"scene/{body.name}",
+                "scene",
+                frame,
+                body.shape,
+                _extents(body.shape, body.dimensions),
+                position,
+                orientation,
+                ROLE_COLORS[body.role],
+            )
+        )
     return primitives
 
 
@@ -159,7 +194,10 @@ def frame_placements(*transform_sets: Transforms) -> dict:
     parent_of = {}
     for transforms in transform_sets:
         for k, child in enumerate(transforms.children):
-            parent_of[child] = (transforms.parents[k], scene.se3(transforms.positions[k], transforms.orientations[k]))
+            parent_of[child] = (
+                transforms.parents[k],
+                scene.se3(transforms.positions[k], transforms.orientations[k]),
+            )
     placements = {WORLD: pin.SE3.Identity()}
 
     def resolve(frame):
@@ -182,10 +220,15 @@ def quaternion_product(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Hamilton products a b of xyzw quaternions (k, 4) (the rotation b, then a)."""
     ax, ay, az, aw = a.T
     bx, by, bz, bw = b.T
-    return np.stack([aw * bx + ax * bw + ay * bz - az * by,
-                     aw * by - ax * bz + ay * bw + az * bx,
-                     aw * bz + ax * by - ay * bx + az * bw,
-                     aw * bw - ax * bx - ay * by - az * bz], axis=1)
+    return np.stack(
+        [
+            aw * bx + ax * bw + ay * bz - az * by,
+            aw * by - ax * bz + ay * bw + az * bx,
+            aw * bz + ax * by - ay * bx + az * bw,
+            aw * bw - ax * bx - ay * by - az * bz,
+        ],
+        axis=1,
+    )
 
 
 def _extents(shape: str, dimensions) -> tuple:
@@ -212,19 +255,36 @@ def _origin(tag) -> tuple:
 def _parse_joint(tag) -> _Joint:
     position, orientation = _origin(tag.find("origin"))
     axis_tag = tag.find("axis")
-    axis = np.array([float(v) for v in axis_tag.get("xyz").split()]) if axis_tag is not None else np.array([1.0, 0, 0])
-    return _Joint(tag.get("name"), tag.get("type"), tag.find("parent").get("link"), tag.find("child").get("link"),
-                  position, orientation, axis / np.linalg.norm(axis))
+    axis = (
+        np.array([float(v) for v in axis_tag.get("xyz").split()])
+        if axis_tag is not None
+        else np.array([1.0, 0, 0])
+    )
+    return _Joint(
+        tag.get("name"),
+        tag.get("type"),
+        tag.find("parent").get("link"),
+        tag.find("child").get("link"),
+        position,
+        orientation,
+        axis / np.linalg.norm(axis),
+    )
 
 
 def _link_primitives(root) -> list:
-    """One primitive per <collision> element of every link, coloured as the link's visual material."""
-    materials = {m.get("name"): tuple(float(v) for v in m.find("color").get("rgba").split())
-                 for m in root.findall("material") if m.find("color") is not None}
+    """One primitive per <collision> element of every link, coloured as the link's visual
+    material."""
+    materials = {
+        m.get("name"): tuple(float(v) for v in m.find("color").get("rgba").split())
+        for m in root.findall("material")
+        if m.find("color") is not None
+    }
     primitives = []
     for link in root.iter("link"):
         material = link.find("visual/material")
-        color = materials.get(material.get("name"), LINK_COLOR) if material is not None else LINK_COLOR
+        color = (
+            materials.get(material.get("name"), LINK_COLOR) if material is not None else LINK_COLOR
+        )
         for k, collision in enumerate(link.findall("collision")):
             geometry = collision.find("geometry")[0]
             if geometry.tag == "box":
@@ -232,11 +292,26 @@ def _link_primitives(root) -> list:
             elif geometry.tag == "sphere":
                 shape, dimensions = "sphere", [float(geometry.get("radius"))]
             elif geometry.tag == "cylinder":
-                shape, dimensions = "cylinder", [float(geometry.get("length")), float(geometry.get("radius"))]
+                shape, dimensions = (
+                    "cylinder",
+                    [float(geometry.get("length")), float(geometry.get("radius"))],
+                )
             else:
-                raise ValueError(f"link {link.get('name')}: the viewer draws boxes, spheres and cylinders, "
-                                 f"not {geometry.tag}")
+                raise ValueError(
+                    f"link {link.get('name')}: the viewer draws boxes, spheres and cylinders, "
+                    f"not {geometry.tag}"
+                )
             position, orientation = _origin(collision.find("origin"))
-            primitives.append(Primitive(f"robot/{link.get('name')}/{k}", "robot", link.get("name"), shape,
-                                        _extents(shape, dimensions), position, orientation, color))
+            primitives.append(
+                Primitive(
+                    f"robot/{link.get('name')}/{k}",
+                    "robot",
+                    link.get("name"),
+                    shape,
+                    _extents(shape, dimensions),
+                    position,
+                    orientation,
+                    color,
+                )
+            )
     return primitives

@@ -43,18 +43,23 @@ def bounding_spheres(geometry) -> list:
         count = max(1, math.ceil(length / (2 * shape.radius)))
         half_piece = length / count / 2
         radius = math.hypot(shape.radius, half_piece)
-        return [(np.array([0.0, 0.0, -length / 2 + half_piece * (2 * k + 1)]), radius) for k in range(count)]
+        return [
+            (np.array([0.0, 0.0, -length / 2 + half_piece * (2 * k + 1)]), radius)
+            for k in range(count)
+        ]
     shape.computeLocalAABB()
     box = shape.aabb_local
     centre = (np.array(box.min_) + np.array(box.max_)) / 2
     return [(centre, float(np.linalg.norm(np.array(box.max_) - centre)))]
 
 
-def exact_distances(shape, rotations, positions, local: pin.SE3, body: scene.Body, placement: pin.SE3):
+def exact_distances(
+    shape, rotations, positions, local: pin.SE3, body: scene.Body, placement: pin.SE3
+):
     """Exact signed distances (B,) between a robot geometry (a coal shape on a joint at rotations
     (B, 3, 3) and positions (B, 3), placed at local in the joint's frame) and a scene body at
-    placement, where a closed form exists: a robot sphere against any body, a robot cylinder against a
-    spherical body (the distance to the other's surface); None otherwise."""
+    placement, where a closed form exists: a robot sphere against any body, a robot cylinder against
+    a spherical body (the distance to the other's surface); None otherwise."""
     centres = positions + rotations @ local.translation
     if isinstance(shape, coal.Sphere):
         return body_distance(body, placement, centres) - shape.radius
@@ -63,13 +68,16 @@ def exact_distances(shape, rotations, positions, local: pin.SE3, body: scene.Bod
         axes = rotations @ local.rotation
         relative = np.einsum("bji,bj->bi", axes, placement.translation - centres)
         cylinder = pin.SE3.Identity()
-        distance, _ = metrics.object_surface("cylinder", (2 * shape.halfLength, shape.radius), cylinder, relative)
+        distance, _ = metrics.object_surface(
+            "cylinder", (2 * shape.halfLength, shape.radius), cylinder, relative
+        )
         return distance - body.dimensions[0]
     return None
 
 
 def body_distance(body: scene.Body, placement: pin.SE3, points: np.ndarray) -> np.ndarray:
-    """Signed distance (k,) of points (k, 3) to a scene body's surface, the body's solid at placement."""
+    """Signed distance (k,) of points (k, 3) to a scene body's surface, the body's solid at
+    placement."""
     if body.shape == "sphere":
         offsets = points - placement.translation
         return np.sqrt(np.einsum("ka,ka->k", offsets, offsets)) - body.dimensions[0]
@@ -97,7 +105,7 @@ class Cylinder:
     def half_extent(self, directions: np.ndarray) -> np.ndarray:
         """Half the length of the cylinders' projections on unit directions (B, 3)."""
         along = np.abs(np.einsum("bi,bi->b", self.axes, directions))
-        return along * self.half_length + self.radius * np.sqrt(np.maximum(1.0 - along ** 2, 0.0))
+        return along * self.half_length + self.radius * np.sqrt(np.maximum(1.0 - along**2, 0.0))
 
     def separated_from(self, other) -> np.ndarray:
         """(B,) True where a separating axis proves the two solids apart: the cylinders' axes and,
@@ -125,7 +133,10 @@ class Box:
         self.half = np.asarray(extents) / 2
 
     def half_extent(self, directions: np.ndarray) -> np.ndarray:
-        return sum(np.abs(np.einsum("bi,bi->b", n, directions)) * h for n, h in zip(self.normals, self.half))
+        return sum(
+            np.abs(np.einsum("bi,bi->b", n, directions)) * h
+            for n, h in zip(self.normals, self.half)
+        )
 
     def axes_to_test(self) -> list:
         return list(self.normals)
@@ -137,5 +148,9 @@ def body_solid(body: scene.Body, placement: pin.SE3, count: int):
     if body.shape == "box":
         return Box(placement, body.dimensions, count)
     height, radius = body.dimensions
-    return Cylinder(np.broadcast_to(placement.translation, (count, 3)),
-                    np.broadcast_to(placement.rotation[:, 2], (count, 3)), height / 2, radius)
+    return Cylinder(
+        np.broadcast_to(placement.translation, (count, 3)),
+        np.broadcast_to(placement.rotation[:, 2], (count, 3)),
+        height / 2,
+        radius,
+    )

@@ -8,8 +8,8 @@ situation on /situation (latched) after every reset; takes position targets on /
 Modes (parameter `mode`):
 - "realtime": one control period per wall-clock period.
 - "lockstep": the period after the state stamped t is simulated as soon as a command stamped t (or
-  with a zero stamp) arrives, or after `lockstep_timeout_s` of wall time without one. Commanders copy
-  the stamp of the /joint_states message they answer into their command's header.
+  with a zero stamp) arrives, or after `lockstep_timeout_s` of wall time without one. Commanders
+  copy the stamp of the /joint_states message they answer into their command's header.
 
 Services: ~/reset_scene (tric_msgs/ResetScene), ~/evaluate_task (tric_msgs/EvaluateTask, the hidden
 metrics), ~/render_scene (tric_msgs/RenderScene, an RGB snapshot).
@@ -28,9 +28,10 @@ from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import Image, JointState
-from tric_msgs.msg import ObjectPoses, Situation as SituationMsg
-from tric_msgs.srv import EvaluateTask, RenderScene, ResetScene
 
+from tric_msgs.msg import ObjectPoses
+from tric_msgs.msg import Situation as SituationMsg
+from tric_msgs.srv import EvaluateTask, RenderScene, ResetScene
 from tric_sim import messages, metrics
 from tric_sim.lockstep import TopicPoller
 from tric_sim.node_main import run_node
@@ -43,9 +44,9 @@ from tric_sim.situations import find_situation
 STATE_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
 #: QoS of /situation: latched for late joiners.
 LATCHED_QOS = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
-#: lockstep_timeout_s for a simulator whose commanders run in the same process (the in-process tools):
-#: they answer every state, so a late answer means a busy machine, not a missing commander, and
-#: stepping without it would make the episode depend on the machine's load.
+#: lockstep_timeout_s for a simulator whose commanders run in the same process (the in-process
+#: tools): they answer every state, so a late answer means a busy machine, not a missing commander,
+#: and stepping without it would make the episode depend on the machine's load.
 IN_PROCESS_LOCKSTEP_TIMEOUT_S = 60.0
 
 
@@ -54,17 +55,37 @@ class SimulatorNode(Node):
 
     def __init__(self, **kwargs):
         super().__init__("simulator", **kwargs)
-        self.mode = declare(self, "mode", "realtime", "how the simulation advances", ("realtime", "lockstep"))
-        control_rate = declare(self, "control_rate_hz", 100.0, "control periods per second", Range(1.0, 1000.0))
-        physics_rate = declare(self, "physics_rate_hz", 300.0,
-                               "physics steps per second (a multiple of the control rate)", Range(240.0, 100000.0))
-        iterations = declare(self, "solver_iterations", 10, "constraint-solver iterations per step", Range(1, 1000))
+        self.mode = declare(
+            self, "mode", "realtime", "how the simulation advances", ("realtime", "lockstep")
+        )
+        control_rate = declare(
+            self, "control_rate_hz", 100.0, "control periods per second", Range(1.0, 1000.0)
+        )
+        physics_rate = declare(
+            self,
+            "physics_rate_hz",
+            300.0,
+            "physics steps per second (a multiple of the control rate)",
+            Range(240.0, 100000.0),
+        )
+        iterations = declare(
+            self, "solver_iterations", 10, "constraint-solver iterations per step", Range(1, 1000)
+        )
         gui = declare(self, "gui", False, "open the PyBullet GUI (needs a display)")
-        self.lockstep_timeout = declare(self, "lockstep_timeout_s", 1.0,
-                                        "lockstep: wall seconds to wait for a command before stepping anyway", POSITIVE)
+        self.lockstep_timeout = declare(
+            self,
+            "lockstep_timeout_s",
+            1.0,
+            "lockstep: wall seconds to wait for a command before stepping anyway",
+            POSITIVE,
+        )
         situation_name = declare(self, "situation", "sphere_test_00", "initial situation's name")
-        situations_file = declare(self, "situations_file", "",
-                                  "YAML/JSON situations file to find `situation` in; empty: built-in sets")
+        situations_file = declare(
+            self,
+            "situations_file",
+            "",
+            "YAML/JSON situations file to find `situation` in; empty: built-in sets",
+        )
 
         self.robot = RobotModel()
         self.world = PhysicsWorld(self.robot, physics_rate, control_rate, iterations, gui)
@@ -82,13 +103,19 @@ class SimulatorNode(Node):
         if self.mode == "lockstep":
             # Lockstep's hot path (command in, step, state out) runs in a thread of its own that
             # waits on /joint_command directly (see tric_sim.lockstep).
-            self._commands = TopicPoller(self.context, "simulator_lockstep",
-                                         {"command": (JointState, "/joint_command", STATE_QOS)})
+            self._commands = TopicPoller(
+                self.context,
+                "simulator_lockstep",
+                {"command": (JointState, "/joint_command", STATE_QOS)},
+            )
         else:
-            self.create_subscription(JointState, "/joint_command", self._on_command, STATE_QOS,
-                                     callback_group=group)
+            self.create_subscription(
+                JointState, "/joint_command", self._on_command, STATE_QOS, callback_group=group
+            )
         self.create_service(ResetScene, "~/reset_scene", self._on_reset, callback_group=group)
-        self.create_service(EvaluateTask, "~/evaluate_task", self._on_evaluate, callback_group=group)
+        self.create_service(
+            EvaluateTask, "~/evaluate_task", self._on_evaluate, callback_group=group
+        )
         self.create_service(RenderScene, "~/render_scene", self._on_render, callback_group=group)
 
         self.world.reset(find_situation(situation_name, situations_file or None))
@@ -100,12 +127,14 @@ class SimulatorNode(Node):
         if self.mode == "realtime":
             self.create_timer(self.world.control_period, self._on_timer, callback_group=group)
         else:
-            self._lockstep_thread = threading.Thread(target=self._lockstep_loop, daemon=True,
-                                                     name="simulator_lockstep")
+            self._lockstep_thread = threading.Thread(
+                target=self._lockstep_loop, daemon=True, name="simulator_lockstep"
+            )
             self._lockstep_thread.start()
         self.get_logger().info(
             f"simulating '{self.world.situation.name}' in {self.mode} mode: control "
-            f"{control_rate:g} Hz, physics {physics_rate:g} Hz ({self.world.substeps} substeps)")
+            f"{control_rate:g} Hz, physics {physics_rate:g} Hz ({self.world.substeps} substeps)"
+        )
 
     def destroy_node(self):
         self._stop.set()
@@ -168,8 +197,9 @@ class SimulatorNode(Node):
     def _refuse_or_apply(self, msg: JointState):
         error = self._apply_command(msg)
         if error:
-            self.get_logger().warning(f"refused /joint_command ({error}); joints hold",
-                                      throttle_duration_sec=1.0)
+            self.get_logger().warning(
+                f"refused /joint_command ({error}); joints hold", throttle_duration_sec=1.0
+            )
 
     def _apply_command(self, msg: JointState):
         """Set the targets named in msg; returns why the command was refused, or None."""
@@ -211,8 +241,9 @@ class SimulatorNode(Node):
         response.success, response.message = True, f"scene reset to '{situation.name}'"
         response.objects = messages.object_poses_msg(self.world.object_poses(), self.world.time_ns)
         positions, velocities = self.world.joint_state()
-        response.joint_state = messages.joint_state_msg(self.robot.joint_names, positions, velocities,
-                                                        self.world.time_ns)
+        response.joint_state = messages.joint_state_msg(
+            self.robot.joint_names, positions, velocities, self.world.time_ns
+        )
         return response
 
     def _on_evaluate(self, request, response):
@@ -233,7 +264,10 @@ class SimulatorNode(Node):
 
     def _on_render(self, request, response):
         if not (16 <= request.width <= 4096 and 16 <= request.height <= 4096):
-            response.success, response.message = False, "width and height must be in [16, 4096] pixels"
+            response.success, response.message = (
+                False,
+                "width and height must be in [16, 4096] pixels",
+            )
             return response
         if not 1.0 <= request.fov_deg <= 170.0:
             response.success, response.message = False, "fov_deg must be in [1, 170]"
@@ -245,8 +279,14 @@ class SimulatorNode(Node):
             return response
         with self._lock:
             rgb = self.world.render(request.width, request.height, eye, target, request.fov_deg)
-        response.image = Image(height=rgb.shape[0], width=rgb.shape[1], encoding="rgb8",
-                               is_bigendian=0, step=3 * rgb.shape[1], data=rgb.tobytes())
+        response.image = Image(
+            height=rgb.shape[0],
+            width=rgb.shape[1],
+            encoding="rgb8",
+            is_bigendian=0,
+            step=3 * rgb.shape[1],
+            data=rgb.tobytes(),
+        )
         response.image.header.stamp = messages.time_msg(self.world.time_ns)
         response.image.header.frame_id = "world"
         response.success, response.message = True, "rendered"

@@ -4,8 +4,8 @@
                   [--strip FRAMES]
 
 Each SITUATION is a name from the built-in data sets (sphere_train, sphere_test, cylinder_train,
-cylinder_test, obstacle_test, box_train, box_test) or from --situations-file; the robot stands in its
-initial configuration. Writes DIR/<name>.png. With --strip FRAMES, the situation's teacher
+cylinder_test, obstacle_test, box_train, box_test) or from --situations-file; the robot stands in
+its initial configuration. Writes DIR/<name>.png. With --strip FRAMES, the situation's teacher
 demonstrates it (directly on the physics, no ROS) and DIR/<name>_strip.png shows FRAMES moments of
 the demonstration side by side, with their times.
 """
@@ -28,7 +28,9 @@ from tric_sim.teachers import demonstrate  # noqa: E402
 STRIP_DURATION = {"grasp": 5.0, "open_box": 8.0}
 
 
-def demonstration_strip(world: PhysicsWorld, robot: RobotModel, situation, frames: int, size) -> plt.Figure:
+def demonstration_strip(
+    world: PhysicsWorld, robot: RobotModel, situation, frames: int, size
+) -> plt.Figure:
     """A figure of `frames` evenly spaced moments of the teacher's demonstration of situation."""
     duration = STRIP_DURATION[situation.task]
     periods = int(round(duration / world.control_period))
@@ -56,8 +58,13 @@ def main(argv=None) -> int:
     parser.add_argument("--out", default=".", help="output folder (default: .)")
     parser.add_argument("--situations-file", default=None, help="YAML/JSON file to find names in")
     parser.add_argument("--size", nargs=2, type=int, default=(640, 480), metavar=("W", "H"))
-    parser.add_argument("--strip", type=int, default=0, metavar="FRAMES",
-                        help="render FRAMES moments of the teacher's demonstration instead (2 to 12)")
+    parser.add_argument(
+        "--strip",
+        type=int,
+        default=0,
+        metavar="FRAMES",
+        help="render FRAMES moments of the teacher's demonstration instead (2 to 12)",
+    )
     args = parser.parse_args(argv)
     if args.strip and not 2 <= args.strip <= 12:
         parser.error("--strip takes 2 to 12 frames")

@@ -2,10 +2,10 @@
 
 For each goal it resets the simulator's scene to the goal's situation (/simulator/reset_scene),
 publishes EpisodeEvent START on /episode, drives the robot with the task's teacher (the phased grasp
-controller, or the box-opening planner) by answering every /joint_states with a /joint_command of the
-same stamp, publishes END, asks the simulator for the hidden metrics (/simulator/evaluate_task, with
-the lift test for grasps), publishes them as OUTCOME and returns them. One goal at a time; others
-are rejected while one runs.
+controller, or the box-opening planner) by answering every /joint_states with a /joint_command of
+the same stamp, publishes END, asks the simulator for the hidden metrics (/simulator/evaluate_task,
+with the lift test for grasps), publishes them as OUTCOME and returns them. One goal at a time;
+others are rejected while one runs.
 """
 
 import sys
@@ -15,10 +15,10 @@ from rclpy.action import ActionServer, CancelResponse, GoalResponse
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState
+
 from tric_msgs.action import Demonstrate
 from tric_msgs.msg import EpisodeEvent
 from tric_msgs.srv import EvaluateTask, ResetScene
-
 from tric_sim import messages
 from tric_sim.lockstep import StateStream, command_msg, run_in_thread
 from tric_sim.node_main import run_node
@@ -40,17 +40,30 @@ class TeacherNode(Node):
     def __init__(self, **kwargs):
         super().__init__("teacher", **kwargs)
         simulator = declare(self, "simulator", "/simulator", "the simulator node's name")
-        self.state_timeout = declare(self, "state_timeout_s", 10.0,
-                                     "wall seconds without joint states before a goal aborts", POSITIVE)
+        self.state_timeout = declare(
+            self,
+            "state_timeout_s",
+            10.0,
+            "wall seconds without joint states before a goal aborts",
+            POSITIVE,
+        )
         self.robot = RobotModel()
         self.command_pub = self.create_publisher(JointState, "/joint_command", STATE_QOS)
         self.episode_pub = self.create_publisher(EpisodeEvent, "/episode", EVENT_QOS)
         self.reset_client = self.create_client(ResetScene, f"{simulator}/reset_scene")
         self.evaluate_client = self.create_client(EvaluateTask, f"{simulator}/evaluate_task")
-        self.stream = StateStream(self.context, "teacher_state_stream", self.robot.joint_names, STATE_QOS)
+        self.stream = StateStream(
+            self.context, "teacher_state_stream", self.robot.joint_names, STATE_QOS
+        )
         self._busy = threading.Lock()
-        self._server = ActionServer(self, Demonstrate, "~/demonstrate", execute_callback=self._execute,
-                                    goal_callback=self._on_goal, cancel_callback=lambda _: CancelResponse.ACCEPT)
+        self._server = ActionServer(
+            self,
+            Demonstrate,
+            "~/demonstrate",
+            execute_callback=self._execute,
+            goal_callback=self._on_goal,
+            cancel_callback=lambda _: CancelResponse.ACCEPT,
+        )
 
     def destroy_node(self):
         self._server.destroy()
@@ -77,8 +90,11 @@ class TeacherNode(Node):
             return self._abort(goal_handle, result, f"bad situation: {error}")
         for client in (self.reset_client, self.evaluate_client):
             if not client.service_is_ready():
-                return self._abort(goal_handle, result, f"service {client.srv_name} is not available: "
-                                   "is the simulator running?")
+                return self._abort(
+                    goal_handle,
+                    result,
+                    f"service {client.srv_name} is not available: is the simulator running?",
+                )
         episode_id = goal.episode_id or situation.name
         duration = goal.duration if goal.duration > 0 else DEFAULT_DURATION[situation.task]
         reset = await self.reset_client.call_async(ResetScene.Request(situation=goal.situation))
@@ -89,7 +105,8 @@ class TeacherNode(Node):
         self.get_logger().info(f"demonstrating '{episode_id}' ({situation.task}, {duration:g} s)")
         try:
             steps, start_ns, end_ns, planning = await run_in_thread(
-                self, self._drive, goal_handle, situation, episode_id, q_start, reset_ns, duration)
+                self, self._drive, goal_handle, situation, episode_id, q_start, reset_ns, duration
+            )
         except Canceled:
             self._event(EpisodeEvent.ABORT, episode_id, reset_ns)
             goal_handle.canceled()
@@ -98,15 +115,21 @@ class TeacherNode(Node):
         except RuntimeError as error:
             self._event(EpisodeEvent.ABORT, episode_id, reset_ns)
             return self._abort(goal_handle, result, str(error))
-        except Exception as error:  # the teacher cannot handle this situation: an answer, not a traceback
+        # the teacher cannot handle this situation: an answer, not a traceback
+        except Exception as error:
             self._event(EpisodeEvent.ABORT, episode_id, reset_ns)
-            return self._abort(goal_handle, result, f"the teacher failed: {type(error).__name__}: {error}")
+            return self._abort(
+                goal_handle, result, f"the teacher failed: {type(error).__name__}: {error}"
+            )
         self._event(EpisodeEvent.END, episode_id, end_ns)
         evaluation = await self.evaluate_client.call_async(
-            EvaluateTask.Request(run_lift_test=situation.task == "grasp"))
+            EvaluateTask.Request(run_lift_test=situation.task == "grasp")
+        )
         self._event(EpisodeEvent.OUTCOME, episode_id, end_ns, metrics=evaluation.metrics)
         result.success, result.metrics = evaluation.success, evaluation.metrics
-        result.message = f"demonstrated '{episode_id}'" if evaluation.success else evaluation.message
+        result.message = (
+            f"demonstrated '{episode_id}'" if evaluation.success else evaluation.message
+        )
         result.steps, result.duration_s = steps, (end_ns - start_ns) / 1e9
         result.planning_time_s = planning
         goal_handle.succeed()
@@ -124,7 +147,9 @@ class TeacherNode(Node):
                 raise Canceled()
             state = self.stream.next_state(self.state_timeout, after_ns=last)
             if state is None:
-                raise RuntimeError(f"no joint states for {self.state_timeout:g} s: is the simulator running?")
+                raise RuntimeError(
+                    f"no joint states for {self.state_timeout:g} s: is the simulator running?"
+                )
             last, q = state
             if start_ns is None:
                 start_ns = last
@@ -138,8 +163,11 @@ class TeacherNode(Node):
             self.command_pub.publish(command_msg(self.robot.joint_names, target, last))
             steps += 1
             if steps % 25 == 0:
-                goal_handle.publish_feedback(Demonstrate.Feedback(
-                    phase=teacher.phase, step=steps, fraction=min(elapsed_ns / duration_ns, 1.0)))
+                goal_handle.publish_feedback(
+                    Demonstrate.Feedback(
+                        phase=teacher.phase, step=steps, fraction=min(elapsed_ns / duration_ns, 1.0)
+                    )
+                )
 
     def _event(self, kind, episode_id, stamp_ns, situation=None, metrics=None):
         msg = EpisodeEvent(event=kind, episode_id=episode_id, source="teacher")

@@ -1,4 +1,5 @@
-"""The teachers: expert controllers that know the task and the world, and whose motions TRIC watches.
+"""The teachers: expert controllers that know the task and the world, and whose motions TRIC
+watches.
 
 GraspTeacher is a phased reactive grasp controller in the spirit of Dragiev et al. (2011), the
 paper's sphere and cylinder teacher: each phase servos its own task variables through differential
@@ -38,18 +39,19 @@ GRASP_GAP = {"sphere": 0.025, "cylinder": 0.035}
 PREGRASP_DISTANCE = {"sphere": 0.10, "cylinder": 0.14}
 #: Hand pre-shapes: (knuckle, proximal, distal) in rad. Spheres: the three fingers spread at 120
 #: degrees; cylinders: fingers 2 and 3 side by side, facing the thumb, opened wide enough that the
-#: proximal links clear the cylinder until the palm is in place (see docs/decisions/cylinder-teacher.md).
+#: proximal links clear the cylinder until the palm is in place (see
+#: docs/decisions/cylinder-teacher.md).
 PRESHAPE = {"sphere": (math.pi / 3, -0.45, 0.35), "cylinder": (0.0, -0.9, 0.6)}
-#: The palm pose servo descends the pose error E = |dx|^2 + ORIENTATION_LENGTH^2 |drot|^2 (m^2) along
-#: its joint-space gradient, with steps that make E fall at SERVO_RATE (1/s): exponentially, as long
-#: as the joints' velocity limits allow.
+#: The palm pose servo descends the pose error E = |dx|^2 + ORIENTATION_LENGTH^2 |drot|^2 (m^2)
+#: along its joint-space gradient, with steps that make E fall at SERVO_RATE (1/s): exponentially,
+#: as long as the joints' velocity limits allow.
 SERVO_RATE = 6.0
 ORIENTATION_LENGTH = 0.3
 #: Phase tolerances: palm position (m) and orientation (rad) error to leave reach / approach.
 REACH_TOLERANCE = (0.015, 0.08)
 APPROACH_TOLERANCE = (0.004, 0.04)
-#: Finger closing: joint speed (rad/s), contact distance (m), and how far past contact the targets go
-#: to squeeze (rad).
+#: Finger closing: joint speed (rad/s), contact distance (m), and how far past contact the targets
+#: go to squeeze (rad).
 CLOSING_SPEED = 1.5
 CONTACT_DISTANCE = 0.002
 SQUEEZE = 0.12
@@ -58,18 +60,27 @@ TABLE_CLEARANCE = 0.03
 CLEARANCE_FRAMES = (PALM, *FINGERTIPS)
 #: While reaching, these hand points keep OBJECT_CLEARANCE (m, beyond their own radius) from the
 #: object, so that the hand goes around it to the pre-grasp pose.
-HAND_POINTS = ((PALM, 0.0), ("finger_1_tip", 0.014), ("finger_2_tip", 0.014), ("finger_3_tip", 0.014),
-               ("finger_1_distal_link", 0.016), ("finger_2_distal_link", 0.016),
-               ("finger_3_distal_link", 0.016), ("palm_link", 0.06))
+HAND_POINTS = (
+    (PALM, 0.0),
+    ("finger_1_tip", 0.014),
+    ("finger_2_tip", 0.014),
+    ("finger_3_tip", 0.014),
+    ("finger_1_distal_link", 0.016),
+    ("finger_2_distal_link", 0.016),
+    ("finger_3_distal_link", 0.016),
+    ("palm_link", 0.06),
+)
 OBJECT_CLEARANCE = 0.015
 #: Velocity-damper rate: the fraction of the remaining margin a point may close per period.
 DAMPER_RATE = 0.5
 #: The reference may lead the measured arm joints by at most this (rad); when the arm is held back
 #: (contact), the reference is pulled back so the teacher stays reactive.
 MAX_REFERENCE_LEAD = 0.1
-FINGER_JOINTS = (("finger_1_proximal_joint", "finger_1_distal_joint"),
-                 ("finger_2_proximal_joint", "finger_2_distal_joint"),
-                 ("finger_3_proximal_joint", "finger_3_distal_joint"))
+FINGER_JOINTS = (
+    ("finger_1_proximal_joint", "finger_1_distal_joint"),
+    ("finger_2_proximal_joint", "finger_2_distal_joint"),
+    ("finger_3_proximal_joint", "finger_3_distal_joint"),
+)
 PROXIMAL_LINKS = ("finger_1_proximal_link", "finger_2_proximal_link", "finger_3_proximal_link")
 
 
@@ -85,14 +96,16 @@ def approach_direction(centre: np.ndarray) -> np.ndarray:
     from the robot in azimuth, tilted down so the wrist ends COMFORTABLE_WRIST_DISTANCE from the
     shoulder."""
     azimuth = math.atan2(centre[1], centre[0])
-    candidates = [np.array([math.cos(t) * math.cos(azimuth), math.cos(t) * math.sin(azimuth), -math.sin(t)])
-                  for t in np.radians(np.arange(10.0, 81.0, 1.0))]
+    candidates = [
+        np.array([math.cos(t) * math.cos(azimuth), math.cos(t) * math.sin(azimuth), -math.sin(t)])
+        for t in np.radians(np.arange(10.0, 81.0, 1.0))
+    ]
     return min(candidates, key=lambda n: _wrist_discomfort(centre, n))
 
 
-#: A cylinder's approach from the robot's left (+y) costs this much more per unit of y, m: an upright
-#: cylinder in front of the robot has two mirror approaches of equal comfort, and the demonstrations
-#: should not flip between them (docs/decisions/cylinder-teacher.md).
+#: A cylinder's approach from the robot's left (+y) costs this much more per unit of y, m: an
+#: upright cylinder in front of the robot has two mirror approaches of equal comfort, and the
+#: demonstrations should not flip between them (docs/decisions/cylinder-teacher.md).
 SIDE_PREFERENCE = 0.02
 
 
@@ -116,8 +129,11 @@ def cylinder_grasp_point(centre: np.ndarray, axis: np.ndarray, height: float):
                 n = math.cos(angle) * e1 + math.sin(angle) * e2
                 if n @ outward < least_outward or n[2] > 0.1:
                     continue
-                cost = (_wrist_discomfort(point, n) + 0.05 * abs(offset) / height
-                        + SIDE_PREFERENCE * max(float(n[1]), 0.0))
+                cost = (
+                    _wrist_discomfort(point, n)
+                    + 0.05 * abs(offset) / height
+                    + SIDE_PREFERENCE * max(float(n[1]), 0.0)
+                )
                 if cost < best_cost:
                     best, best_cost = (point, n), cost
         if best is not None:
@@ -138,8 +154,8 @@ def frame_from(normal: np.ndarray, x_hint: np.ndarray) -> np.ndarray:
 class PoseServo:
     """The arm's motion towards a palm pose: each call returns joint increments (7,) along the
     steepest descent of the pose error in joint space, at bounded speed, within joint limits, above
-    the table and (while reaching) clear of the object. Moving down a gradient in joint space is what
-    TRIC assumes of a teacher (paper Sec. 3.2.3 and Proposition 1)."""
+    the table and (while reaching) clear of the object. Moving down a gradient in joint space is
+    what TRIC assumes of a teacher (paper Sec. 3.2.3 and Proposition 1)."""
 
     def __init__(self, robot: RobotModel, period: float):
         self.robot, self.period = robot, period
@@ -147,7 +163,9 @@ class PoseServo:
         self.clearance_frames = [robot.frame_id(f) for f in CLEARANCE_FRAMES]
         self.hand_points = [(robot.frame_id(f), radius) for f, radius in HAND_POINTS]
         n = len(robot.arm_indices)
-        self.qp = proxsuite.proxqp.dense.QP(n, 0, len(self.clearance_frames) + len(self.hand_points), True)
+        self.qp = proxsuite.proxqp.dense.QP(
+            n, 0, len(self.clearance_frames) + len(self.hand_points), True
+        )
         self.qp.settings.eps_abs = 1e-7
         self.qp.settings.max_iter = 200  # an infeasible step (conflicting dampers) returns its best
         self.qp.settings.verbose = False
@@ -162,11 +180,16 @@ class PoseServo:
         current = robot.data.oMf[self.palm]
         position_error = target.translation - current.translation
         rotation_error = pin.log3(target.rotation @ current.rotation.T)  # world frame
-        jac = pin.getFrameJacobian(robot.model, robot.data, self.palm, pin.LOCAL_WORLD_ALIGNED)[:, arm]
+        jac = pin.getFrameJacobian(robot.model, robot.data, self.palm, pin.LOCAL_WORLD_ALIGNED)[
+            :, arm
+        ]
         # steepest descent of the weighted pose error in joint space (transpose-Jacobian control),
         # its speed capped by the joints' velocity limits
-        error = np.concatenate([position_error, ORIENTATION_LENGTH ** 2 * rotation_error])
-        cost = position_error @ position_error + ORIENTATION_LENGTH ** 2 * rotation_error @ rotation_error
+        error = np.concatenate([position_error, ORIENTATION_LENGTH**2 * rotation_error])
+        cost = (
+            position_error @ position_error
+            + ORIENTATION_LENGTH**2 * rotation_error @ rotation_error
+        )
         descent = jac.T @ error  # -1/2 of the gradient of the cost
         # step length: the cost falls by SERVO_RATE * period of itself (to first order)
         desired = descent * (SERVO_RATE * self.period * cost / max(2.0 * descent @ descent, 1e-18))
@@ -177,16 +200,22 @@ class PoseServo:
         rows, lower = [], []
         for fid in self.clearance_frames:
             z = robot.data.oMf[fid].translation[2]
-            rows.append(pin.getFrameJacobian(robot.model, robot.data, fid, pin.LOCAL_WORLD_ALIGNED)[2, arm])
-            lower.append(0.5 * (TABLE_CLEARANCE - z))  # velocity damper: approach the floor gradually
+            rows.append(
+                pin.getFrameJacobian(robot.model, robot.data, fid, pin.LOCAL_WORLD_ALIGNED)[2, arm]
+            )
+            # velocity damper: approach the floor gradually
+            lower.append(0.5 * (TABLE_CLEARANCE - z))
         for fid, radius in self.hand_points:
-            jac_point = pin.getFrameJacobian(robot.model, robot.data, fid, pin.LOCAL_WORLD_ALIGNED)[:3, arm]
+            jac_point = pin.getFrameJacobian(robot.model, robot.data, fid, pin.LOCAL_WORLD_ALIGNED)[
+                :3, arm
+            ]
             if avoid is None:
                 rows.append(np.zeros(len(arm)))
                 lower.append(-1e20)
                 continue
-            distance, normal = metrics.object_surface(avoid[0], avoid[1], avoid[2],
-                                                      robot.data.oMf[fid].translation[None, :])
+            distance, normal = metrics.object_surface(
+                avoid[0], avoid[1], avoid[2], robot.data.oMf[fid].translation[None, :]
+            )
             rows.append(normal[0] @ jac_point)
             lower.append(DAMPER_RATE * (OBJECT_CLEARANCE - (distance[0] - radius)))
         rows, lower = np.array(rows), np.array(lower)
@@ -196,7 +225,9 @@ class PoseServo:
         box_low = np.minimum(box_low, 0.0)
         box_high = np.maximum(box_high, 0.0)
         if self.initialized:
-            self.qp.update(H=hessian, g=gradient, C=rows, l=lower, u=upper, l_box=box_low, u_box=box_high)
+            self.qp.update(
+                H=hessian, g=gradient, C=rows, l=lower, u=upper, l_box=box_low, u_box=box_high
+            )
         else:
             self.qp.init(hessian, gradient, None, None, rows, lower, upper, box_low, box_high)
             self.initialized = True
@@ -216,7 +247,9 @@ class GraspTeacher:
 
     def __init__(self, robot: RobotModel, situation: Situation, period: float = 0.01):
         if situation.task != "grasp":
-            raise ValueError(f"GraspTeacher grasps spheres and cylinders, not task '{situation.task}'")
+            raise ValueError(
+                f"GraspTeacher grasps spheres and cylinders, not task '{situation.task}'"
+            )
         self.robot, self.situation, self.period = robot, situation, period
         self.kind = situation.object_kind
         self.servo = PoseServo(robot, period)
@@ -232,7 +265,8 @@ class GraspTeacher:
     def _poses(self, object_pose, q: np.ndarray):
         """Grasp and pre-grasp palm poses for the object at object_pose. The palm's roll about its
         approach axis is free for a sphere (and two-fold for a cylinder): the teacher takes the one
-        whose inverse-kinematics solution stays nearest the home posture, within the joint limits."""
+        whose inverse-kinematics solution stays nearest the home posture, within the joint
+        limits."""
         centre = np.asarray(object_pose[0], dtype=float)
         placement = scene.se3(*object_pose)
         if self.kind == "cylinder":
@@ -247,8 +281,10 @@ class GraspTeacher:
             base = frame_from(n, np.array([0.0, 0.0, -1.0]))
             rotations = [base @ pin.utils.rotate("z", a) for a in np.radians(np.arange(0, 360, 30))]
         position = centre - n * (radius + GRASP_GAP[self.kind])
-        grasp = min((pin.SE3(rotation, position) for rotation in rotations),
-                    key=lambda pose: self._posture_cost(q, pose))
+        grasp = min(
+            (pin.SE3(rotation, position) for rotation in rotations),
+            key=lambda pose: self._posture_cost(q, pose),
+        )
         pregrasp = pin.SE3(grasp.rotation, grasp.translation - n * PREGRASP_DISTANCE[self.kind])
         return grasp, pregrasp
 
@@ -259,9 +295,14 @@ class GraspTeacher:
         solution = robot.reach(q, PALM, pose, iterations=150)
         robot.forward(solution)
         error = np.linalg.norm(pin.log6(robot.frame_placement(PALM).actInv(pose)).vector)
-        margin = np.min(np.minimum(solution[arm] - robot.lower[arm], robot.upper[arm] - solution[arm]))
-        return (float(np.linalg.norm(solution[arm] - robot.home[arm])) + 10.0 * error
-                + 10.0 * max(0.0, 0.2 - margin))
+        margin = np.min(
+            np.minimum(solution[arm] - robot.lower[arm], robot.upper[arm] - solution[arm])
+        )
+        return (
+            float(np.linalg.norm(solution[arm] - robot.home[arm]))
+            + 10.0 * error
+            + 10.0 * max(0.0, 0.2 - margin)
+        )
 
     # --- control -------------------------------------------------------------------------------
 
@@ -288,11 +329,17 @@ class GraspTeacher:
             position_error = np.linalg.norm(error.translation)
             angle_error = np.linalg.norm(pin.log3(error.rotation))
             tolerance = REACH_TOLERANCE if self.phase == "reach" else APPROACH_TOLERANCE
-            if position_error < tolerance[0] and angle_error < tolerance[1] and self._preshaped(reference):
+            if (
+                position_error < tolerance[0]
+                and angle_error < tolerance[1]
+                and self._preshaped(reference)
+            ):
                 self.phase = "approach" if self.phase == "reach" else "close"
         else:
             self._close(reference, object_pose)
-        return self.robot.check_configuration(np.clip(reference, self.robot.lower, self.robot.upper))
+        return self.robot.check_configuration(
+            np.clip(reference, self.robot.lower, self.robot.upper)
+        )
 
     def _preshape(self, reference):
         knuckle, proximal, distal = PRESHAPE[self.kind]
@@ -306,8 +353,9 @@ class GraspTeacher:
 
     def _preshaped(self, reference) -> bool:
         knuckle, proximal, _ = PRESHAPE[self.kind]
-        return (abs(reference[self.knuckle] - knuckle) < 1e-3
-                and all(abs(reference[prox] - proximal) < 1e-3 for prox, _ in self.fingers))
+        return abs(reference[self.knuckle] - knuckle) < 1e-3 and all(
+            abs(reference[prox] - proximal) < 1e-3 for prox, _ in self.fingers
+        )
 
     def _close(self, reference, object_pose):
         """Flex each finger (proximal and distal together) until its links touch, then squeeze."""
@@ -318,9 +366,12 @@ class GraspTeacher:
         for k, (prox, dist) in enumerate(self.fingers):
             if self.finger_state[k] != "closing":
                 continue
-            distal = self._link_distance(metrics.DISTAL_LINKS[k], FINGERTIPS[k], placement, dims,
-                                         metrics.DISTAL_RADIUS)
-            proximal = self._link_distance(PROXIMAL_LINKS[k], metrics.DISTAL_LINKS[k], placement, dims, 0.016)
+            distal = self._link_distance(
+                metrics.DISTAL_LINKS[k], FINGERTIPS[k], placement, dims, metrics.DISTAL_RADIUS
+            )
+            proximal = self._link_distance(
+                PROXIMAL_LINKS[k], metrics.DISTAL_LINKS[k], placement, dims, 0.016
+            )
             if distal <= CONTACT_DISTANCE or reference[dist] >= self.robot.upper[dist] - 0.05:
                 reference[prox] = min(reference[prox] + SQUEEZE, self.robot.upper[prox])
                 reference[dist] = min(reference[dist] + SQUEEZE, self.robot.upper[dist])
@@ -353,7 +404,8 @@ def make_teacher(robot: RobotModel, situation: Situation, q_start, period: float
 
 def demonstrate(world, robot: RobotModel, situation: Situation, duration: float, on_period=None):
     """Run the situation's teacher on a PhysicsWorld directly (no ROS) for duration simulated
-    seconds; on_period(world, teacher, k) is called after each control period. Returns the teacher."""
+    seconds; on_period(world, teacher, k) is called after each control period. Returns the
+    teacher."""
     world.reset(situation)
     q, _ = world.joint_state()
     teacher = make_teacher(robot, situation, q, world.control_period)

@@ -3,11 +3,11 @@ RViz, foxglove_bridge and Foxglove. A thin shell around tric_sim.scene_view (wha
 tric_sim.scene_messages (as ROS messages) and tric_sim.foxglove_view (as a Foxglove server).
 
 Subscribes /situation (tric_msgs/Situation, latched), and, keeping only the newest message of each,
-/joint_states, /object_poses and the controller's status (`status_topic`, tric_msgs/ControllerStatus).
-Publishes:
+/joint_states, /object_poses and the controller's status (`status_topic`,
+tric_msgs/ControllerStatus). Publishes:
 - /robot_description (std_msgs/String, the URDF, latched) and /scene_markers
-  (visualization_msgs/MarkerArray: the robot's collision primitives in namespace "robot", the scene's
-  bodies in "scene"; latched, re-sent when the situation changes);
+  (visualization_msgs/MarkerArray: the robot's collision primitives in namespace "robot", the
+  scene's bodies in "scene"; latched, re-sent when the situation changes);
 - /tf_static (latched) and, `rate_hz` times per wall-clock second while joint states come, /tf
   (tf2_msgs/TFMessage: every URDF joint, and "world" -> each object of /object_poses), stamped with
   the joint state's time. tf2_msgs is not on PyPI: in the pip environment the frames go over the
@@ -18,23 +18,24 @@ Publishes:
   (tric_sim.foxglove_view: /scene, /tf, /controller/status). In-process tools pass one server to
   the node instead (view=), so that it lives as long as the tool's run.
 
-Parameters: rate_hz (30, in [1, 200]), foxglove (true), foxglove_host ("127.0.0.1": this machine only;
-"0.0.0.0" for every interface), foxglove_port (8765; 0: a free port, logged), status_topic
+Parameters: rate_hz (30, in [1, 200]), foxglove (true), foxglove_host ("127.0.0.1": this machine
+only; "0.0.0.0" for every interface), foxglove_port (8765; 0: a free port, logged), status_topic
 ("/controller/status").
 """
 
 import math
 import sys
 
+from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
-from rcl_interfaces.msg import ParameterDescriptor
 from sensor_msgs.msg import JointState
 from std_msgs.msg import String
-from tric_msgs.msg import ControllerStatus, ObjectPoses, Situation as SituationMsg
 from visualization_msgs.msg import MarkerArray
 
+from tric_msgs.msg import ControllerStatus, ObjectPoses
+from tric_msgs.msg import Situation as SituationMsg
 from tric_sim import messages, scene_messages, scene_view
 from tric_sim.lockstep import TopicPoller
 from tric_sim.node_main import run_node
@@ -56,11 +57,21 @@ class VisualizerNode(Node):
 
     def __init__(self, view=None, **kwargs):
         super().__init__("visualizer", **kwargs)
-        rate = self._parameter("rate_hz", 30.0, "wall-clock updates per second of /tf and the Foxglove view")
-        serve = self._parameter("foxglove", True, "serve a Foxglove WebSocket (ignored when a tool passes one)")
-        host = self._parameter("foxglove_host", "127.0.0.1", "address the Foxglove server listens on")
-        port = self._parameter("foxglove_port", 8765, "TCP port of the Foxglove server (0: a free one)")
-        status_topic = self._parameter("status_topic", "/controller/status", "the controller's status topic")
+        rate = self._parameter(
+            "rate_hz", 30.0, "wall-clock updates per second of /tf and the Foxglove view"
+        )
+        serve = self._parameter(
+            "foxglove", True, "serve a Foxglove WebSocket (ignored when a tool passes one)"
+        )
+        host = self._parameter(
+            "foxglove_host", "127.0.0.1", "address the Foxglove server listens on"
+        )
+        port = self._parameter(
+            "foxglove_port", 8765, "TCP port of the Foxglove server (0: a free one)"
+        )
+        status_topic = self._parameter(
+            "status_topic", "/controller/status", "the controller's status topic"
+        )
         if not (math.isfinite(rate) and 1.0 <= rate <= 200.0):
             raise ValueError(f"parameter rate_hz must be in [1, 200], got {rate:g}")
         if not 0 <= port <= 65535:
@@ -71,7 +82,9 @@ class VisualizerNode(Node):
         self._stamp_ns = 0
         self._owned_view = None
         if view is None and serve:
-            from tric_sim.foxglove_view import FoxgloveView  # only now: nothing of foxglove when it is off
+            from tric_sim.foxglove_view import (
+                FoxgloveView,  # only now: nothing of foxglove when it is off
+            )
 
             view = self._owned_view = FoxgloveView(host, port)  # ValueError: the port is taken
         self.view = view
@@ -82,23 +95,35 @@ class VisualizerNode(Node):
         if TFMessage is not None:
             self.tf_pub = self.create_publisher(TFMessage, "/tf", QoSProfile(depth=100))
             self.tf_static_pub = self.create_publisher(TFMessage, "/tf_static", LATCHED_QOS)
-            self.tf_static_pub.publish(TFMessage(transforms=scene_messages.transform_msgs(self.robot_view.static, 0)))
+            self.tf_static_pub.publish(
+                TFMessage(transforms=scene_messages.transform_msgs(self.robot_view.static, 0))
+            )
         self.description_pub.publish(scene_messages.robot_description_msg(self.robot_view.urdf))
         self._show_scene()
         self.create_subscription(SituationMsg, "/situation", self._on_situation, LATCHED_QOS)
-        self._streams = TopicPoller(self.context, "visualizer_streams", {
-            "state": (JointState, "/joint_states", NEWEST_QOS), "poses": (ObjectPoses, "/object_poses", NEWEST_QOS),
-            "status": (ControllerStatus, status_topic, NEWEST_QOS)})
+        self._streams = TopicPoller(
+            self.context,
+            "visualizer_streams",
+            {
+                "state": (JointState, "/joint_states", NEWEST_QOS),
+                "poses": (ObjectPoses, "/object_poses", NEWEST_QOS),
+                "status": (ControllerStatus, status_topic, NEWEST_QOS),
+            },
+        )
         self.create_timer(1.0 / rate, self._on_timer, clock=Clock(clock_type=ClockType.STEADY_TIME))
-        topics = "/robot_description, /scene_markers" + (", /tf" if self.tf_pub is not None else
-                                                          " (no /tf: tf2_msgs is not installed)")
-        self.get_logger().info(f"visualizing at {rate:g} Hz on {topics}"
-                               + (f"; Foxglove server on {view.url}" if self._owned_view is not None else ""))
+        topics = "/robot_description, /scene_markers" + (
+            ", /tf" if self.tf_pub is not None else " (no /tf: tf2_msgs is not installed)"
+        )
+        self.get_logger().info(
+            f"visualizing at {rate:g} Hz on {topics}"
+            + (f"; Foxglove server on {view.url}" if self._owned_view is not None else "")
+        )
 
     def _parameter(self, name, default, description):
         """Declare a parameter; its value, of the default's type, or ValueError."""
         value = self.declare_parameter(
-            name, default, ParameterDescriptor(description=description, dynamic_typing=True)).value
+            name, default, ParameterDescriptor(description=description, dynamic_typing=True)
+        ).value
         if type(value) is not type(default) and not (type(default) is float and type(value) is int):
             raise ValueError(f"parameter {name} must be a {type(default).__name__}, got {value!r}")
         return type(default)(value)
@@ -134,33 +159,53 @@ class VisualizerNode(Node):
             try:
                 self._poses = messages.object_poses_from_msg(newest["poses"])
             except ValueError as error:
-                self.get_logger().warning(f"ignored /object_poses: {error}", throttle_duration_sec=5.0)
+                self.get_logger().warning(
+                    f"ignored /object_poses: {error}", throttle_duration_sec=5.0
+                )
         if "state" in newest:
             try:
-                q = messages.joint_positions_from_msg(newest["state"], self.robot_view.robot.joint_names)
+                q = messages.joint_positions_from_msg(
+                    newest["state"], self.robot_view.robot.joint_names
+                )
             except ValueError as error:
-                self.get_logger().warning(f"ignored /joint_states: {error}", throttle_duration_sec=5.0)
+                self.get_logger().warning(
+                    f"ignored /joint_states: {error}", throttle_duration_sec=5.0
+                )
             else:
                 self._stamp_ns = messages.time_ns(newest["state"].header.stamp)
                 self._show_frames(q)
         if "status" in newest and self.view is not None:
             status = newest["status"]
-            self.view.show_status(scene_messages.status_fields(status), messages.time_ns(status.header.stamp))
+            self.view.show_status(
+                scene_messages.status_fields(status), messages.time_ns(status.header.stamp)
+            )
 
     def _show_frames(self, q):
         moving = [self.robot_view.transforms(q), scene_view.object_transforms(self._poses)]
         if self.tf_pub is not None:
-            self.tf_pub.publish(TFMessage(transforms=[
-                msg for transforms in moving for msg in scene_messages.transform_msgs(transforms, self._stamp_ns)]))
+            self.tf_pub.publish(
+                TFMessage(
+                    transforms=[
+                        msg
+                        for transforms in moving
+                        for msg in scene_messages.transform_msgs(transforms, self._stamp_ns)
+                    ]
+                )
+            )
         if self.view is not None:
             self.view.show_transforms([self.robot_view.static] + moving, self._stamp_ns)
 
 
 def add_view_arguments(parser) -> None:
     """--viz and --viz-port of the in-process tools (tric-record, tric-eval, tric-demo)."""
-    parser.add_argument("--viz", action="store_true",
-                        help="watch the run live in Foxglove: serve a Foxglove WebSocket on this machine")
-    parser.add_argument("--viz-port", type=int, default=8765, help="TCP port of --viz's server (default 8765)")
+    parser.add_argument(
+        "--viz",
+        action="store_true",
+        help="watch the run live in Foxglove: serve a Foxglove WebSocket on this machine",
+    )
+    parser.add_argument(
+        "--viz-port", type=int, default=8765, help="TCP port of --viz's server (default 8765)"
+    )
 
 
 def open_view(args, prog: str):
@@ -173,8 +218,11 @@ def open_view(args, prog: str):
     from tric_sim.foxglove_view import FoxgloveView
 
     view = FoxgloveView(port=args.viz_port)
-    print(f"{prog}: live view on {view.url} (Foxglove: Open connection > Foxglove WebSocket; "
-          "layout: docs/foxglove_layout.json)", file=sys.stderr)
+    print(
+        f"{prog}: live view on {view.url} (Foxglove: Open connection > Foxglove WebSocket; "
+        "layout: docs/foxglove_layout.json)",
+        file=sys.stderr,
+    )
     return view
 
 

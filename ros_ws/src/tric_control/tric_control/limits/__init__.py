@@ -10,5 +10,14 @@ from tric_control.limits.domain_damper import DomainDamper
 from tric_control.limits.joint_limits import JointLimits
 from tric_control.limits.soft_contact import SoftContact
 
-__all__ = ["UNBOUNDED_BELOW", "Limit", "StepState", "damper_bounds", "CollisionDamper", "ContactRules",
-           "DomainDamper", "JointLimits", "SoftContact"]
+__all__ = [
+    "UNBOUNDED_BELOW",
+    "Limit",
+    "StepState",
+    "damper_bounds",
+    "CollisionDamper",
+    "ContactRules",
+    "DomainDamper",
+    "JointLimits",
+    "SoftContact",
+]

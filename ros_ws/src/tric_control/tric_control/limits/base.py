@@ -6,10 +6,10 @@ The step dq (n,) solves
     min 1/2 dq^T H dq + c^T dq    s.t.  lower <= C dq,   low <= dq <= high
 
 and each limit adds to it in one or more ways: a cost (add_cost: terms added to H and c in place), a
-box (bound: low and high tightened in place), inequality rows (constrain: a fixed number of rows of C
-and of lower, written in place; rows it has no use for this tick are padded with 0 >= UNBOUNDED_BELOW,
-so that the QP keeps its size and proxsuite its workspace), and names for what binds the step
-(active). Units: rad, m, s.
+box (bound: low and high tightened in place), inequality rows (constrain: a fixed number of rows of
+C and of lower, written in place; rows it has no use for this tick are padded with 0 >=
+UNBOUNDED_BELOW, so that the QP keeps its size and proxsuite its workspace), and names for what
+binds the step (active). Units: rad, m, s.
 """
 
 from dataclasses import dataclass
@@ -63,8 +63,9 @@ class Limit:
         return []
 
 
-def damper_bounds(rows: np.ndarray, margins: np.ndarray, gain: float, max_step: np.ndarray,
-                  out: np.ndarray) -> None:
+def damper_bounds(
+    rows: np.ndarray, margins: np.ndarray, gain: float, max_step: np.ndarray, out: np.ndarray
+) -> None:
     """Velocity dampers rows @ dq >= -gain * margin for margins (k,) that must stay >= 0, with rows
     (k, n) their gradients: each margin may fall by at most the fraction gain of itself per tick.
     A damper never asks for more than half of what a step within max_step (n,) can give. Writes the

@@ -10,14 +10,18 @@ from tric_control.limits.contact_rules import ContactRules
 class CollisionDamper(Limit):
     """For the `rows` closest pairs (state.closest), n^T J dq >= -damping * (d - safety): no pair
     closes faster than the fraction damping of its remaining margin per tick. The safety distance
-    (m) is `safety` against the scene, `self_safety` between the robot's own links, and -depth for the
-    hand against a body whose contact (the task's tric_sim.scene.Contact, read through rules) it holds
-    at the moment: there the hand may press that deep. A pair is active (named "<robot
+    (m) is `safety` against the scene, `self_safety` between the robot's own links, and -depth for
+    the hand against a body whose contact (the task's tric_sim.scene.Contact, read through rules) it
+    holds at the moment: there the hand may press that deep. A pair is active (named "<robot
     geometry>/<other>") when its row binds the step."""
 
-    def __init__(self, rules: ContactRules, rows: int, safety: float, self_safety: float, damping: float):
+    def __init__(
+        self, rules: ContactRules, rows: int, safety: float, self_safety: float, damping: float
+    ):
         if not (rows >= 0 and 0 < damping <= 1):
-            raise ValueError(f"the collision damper needs rows >= 0 and damping in (0, 1], got {rows}, {damping}")
+            raise ValueError(
+                f"the collision damper needs rows >= 0 and damping in (0, 1], got {rows}, {damping}"
+            )
         self.rules = rules
         self.rows, self.safety, self.self_safety, self.damping = rows, safety, self_safety, damping
         self._used = 0
@@ -32,7 +36,8 @@ class CollisionDamper(Limit):
         if not used:
             return
         rules, bodies, distances = self.rules, closest.bodies[:used], closest.distances[:used]
-        if closest.body_names is not self._names:   # safety by body, the last for pairs within the robot
+        # safety by body, the last for pairs within the robot
+        if closest.body_names is not self._names:
             self._names = closest.body_names
             self._safety = np.array([self.safety] * len(self._names) + [self.self_safety])
         margins = self._margins[:used]
@@ -44,4 +49,4 @@ class CollisionDamper(Limit):
         damper_bounds(rows[:used], margins, self.damping, state.max_step, lower[:used])
 
     def active(self, state: StepState, step: np.ndarray, binding: np.ndarray) -> list:
-        return state.closest.names(np.flatnonzero(binding[:self._used])) if self._used else []
+        return state.closest.names(np.flatnonzero(binding[: self._used])) if self._used else []

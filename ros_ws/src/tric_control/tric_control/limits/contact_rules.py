@@ -11,14 +11,14 @@ class ContactRules:
     moves away from the body has a non-negative component along the side (body frame).
 
     Limits that share one ContactRules (CollisionDamper, SoftContact) share its answer for a tick.
-    Per-body tables (for the bodies of the last Closest seen; entry -1: pairs within the robot, which
-    hold no contact): allowed, depth, cushion (-inf: none) and cushion_weight (B + 1,)."""
+    Per-body tables (for the bodies of the last Closest seen; entry -1: pairs within the robot,
+    which hold no contact): allowed, depth, cushion (-inf: none) and cushion_weight (B + 1,)."""
 
     def __init__(self, contacts: dict):
         self.contacts = dict(contacts)
         self.widest_cushion = max((rule.cushion for rule in self.contacts.values()), default=0.0)
-        self._names = None     # the body names the tables were made for
-        self._closest = None   # the Closest of the last answer
+        self._names = None  # the body names the tables were made for
+        self._closest = None  # the Closest of the last answer
         self._held = None
 
     def _tables(self, body_names: tuple) -> None:
@@ -26,12 +26,19 @@ class ContactRules:
         rules = [self.contacts.get(name) for name in body_names] + [None]
         self.allowed = np.array([rule is not None for rule in rules])
         self.depth = np.array([rule.depth if rule else 0.0 for rule in rules])
-        self.cushion = np.array([rule.cushion if rule and rule.cushion > 0 else -np.inf for rule in rules])
+        self.cushion = np.array(
+            [rule.cushion if rule and rule.cushion > 0 else -np.inf for rule in rules]
+        )
         self.cushion_weight = np.array([rule.cushion_weight if rule else 0.0 for rule in rules])
         self.sided = np.array([bool(rule and rule.side is not None) for rule in rules])
         self._any_sided = bool(self.sided.any())
-        self._sides = np.array([rule.side if rule and rule.side is not None else (0.0, 0.0, 0.0)
-                                for rule in rules[:-1]], dtype=float).reshape(-1, 3)
+        self._sides = np.array(
+            [
+                rule.side if rule and rule.side is not None else (0.0, 0.0, 0.0)
+                for rule in rules[:-1]
+            ],
+            dtype=float,
+        ).reshape(-1, 3)
         self._world_sides = np.zeros((len(rules), 3))
 
     def held(self, closest) -> np.ndarray:

@@ -16,7 +16,9 @@ class DomainDamper(Limit):
 
     def __init__(self, rows: int, damping: float):
         if not (rows >= 0 and 0 < damping <= 1):
-            raise ValueError(f"the domain damper needs rows >= 0 and damping in (0, 1], got {rows}, {damping}")
+            raise ValueError(
+                f"the domain damper needs rows >= 0 and damping in (0, 1], got {rows}, {damping}"
+            )
         self.rows, self.damping = rows, damping
         self._used = 0
 
@@ -27,8 +29,14 @@ class DomainDamper(Limit):
         lower[used:] = UNBOUNDED_BELOW
         if used:
             rows[:used] = objective.domain_rows[:used]
-            damper_bounds(rows[:used], objective.domain_margins[:used], self.damping, state.max_step, lower[:used])
+            damper_bounds(
+                rows[:used],
+                objective.domain_margins[:used],
+                self.damping,
+                state.max_step,
+                lower[:used],
+            )
 
     def active(self, state: StepState, step: np.ndarray, binding: np.ndarray) -> list:
         names = state.objective.domain_names
-        return [f"feature_range:{names[k]}" for k in np.flatnonzero(binding[:self._used])]
+        return [f"feature_range:{names[k]}" for k in np.flatnonzero(binding[: self._used])]

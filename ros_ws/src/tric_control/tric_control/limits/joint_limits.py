@@ -11,9 +11,10 @@ REACHED = 1e-9
 
 class JointLimits(Limit):
     """The box low <= dq <= high of a step from the reference: within [lower + margin, upper -
-    margin] (rad, the robot's limits) and within the step bound max_step (n,) of each joint. It always
-    holds dq = 0 (from a reference outside the margin, the step may stay there but not go further).
-    A joint is active where the step sits on a position bound tighter than its step bound."""
+    margin] (rad, the robot's limits) and within the step bound max_step (n,) of each joint. It
+    always holds dq = 0 (from a reference outside the margin, the step may stay there but not go
+    further). A joint is active where the step sits on a position bound tighter than its step
+    bound."""
 
     def __init__(self, lower: np.ndarray, upper: np.ndarray, joint_names, margin: float):
         if not margin >= 0:
@@ -21,14 +22,17 @@ class JointLimits(Limit):
         self.lowest, self.highest = np.asarray(lower) + margin, np.asarray(upper) - margin
         self.joint_names = list(joint_names)
         self._low, self._high = np.empty(len(self.lowest)), np.empty(len(self.lowest))
-        self._near = False   # whether a position bound was tighter than the step bound at the last tick
+        # whether a position bound was tighter than the step bound at the last tick
+        self._near = False
 
     def bound(self, state: StepState, low: np.ndarray, high: np.ndarray) -> None:
         mine_low, mine_high, max_step = self._low, self._high, state.max_step
         np.subtract(self.lowest, state.reference, out=mine_low)
         np.subtract(self.highest, state.reference, out=mine_high)
         # a position bound is tighter than the step bound: the joint is within one step of it
-        self._near = bool(np.count_nonzero(mine_low > -max_step) or np.count_nonzero(mine_high < max_step))
+        self._near = bool(
+            np.count_nonzero(mine_low > -max_step) or np.count_nonzero(mine_high < max_step)
+        )
         if self._near:
             np.maximum(mine_low, -max_step, out=mine_low)
             np.minimum(mine_high, max_step, out=mine_high)
@@ -42,6 +46,7 @@ class JointLimits(Limit):
         if not self._near:
             return []
         low, high, max_step = state.low, state.high, state.max_step
-        hit = ((step <= low + REACHED) & (low > -max_step + REACHED)
-               | (step >= high - REACHED) & (high < max_step - REACHED))
+        hit = (step <= low + REACHED) & (low > -max_step + REACHED) | (step >= high - REACHED) & (
+            high < max_step - REACHED
+        )
         return [f"joint_limit:{self.joint_names[i]}" for i in np.flatnonzero(hit)]
