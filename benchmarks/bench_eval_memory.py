@@ -19,13 +19,13 @@ import sys
 import tempfile
 import time
 
-from tric_control.evaluate_cli import Evaluator
+from tric_control.graph_evaluation import Evaluator
 from tric_learning import model_file
-from tric_learning.record_cli import private_domain_id
 from tric_learning.recording import load_dataset
 from tric_learning.training import TrainingConfig, train
 from tric_sim import situations
 from tric_sim.robot_model import RobotModel
+from tric_sim.ros_util import private_domain_id
 
 BAGS = pathlib.Path(__file__).resolve().parent.parent / "bags" / "sphere"
 EPISODES = 100

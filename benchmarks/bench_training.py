@@ -14,11 +14,12 @@ import sys
 import tempfile
 import time
 
-from tric_learning.record_cli import demonstrate_all, private_domain_id
+from tric_learning.demonstrations import demonstrate_all
 from tric_learning.recording import load_dataset
 from tric_learning.training import TrainingConfig, train
 from tric_sim import situations
 from tric_sim.robot_model import RobotModel
+from tric_sim.ros_util import private_domain_id
 
 BAGS = pathlib.Path(__file__).resolve().parent.parent / "bags" / "sphere"
 

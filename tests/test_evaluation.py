@@ -9,7 +9,7 @@ import pathlib
 import pytest
 
 from conftest import record_fields
-from tric_control import evaluate_cli
+from tric_control import evaluate_cli, graph_evaluation
 from tric_control.evaluation import EpisodeRecord, report, summarize, table, write_json
 from tric_learning.training import TrainingConfig, train_from_bags
 from tric_sim import situations
@@ -110,7 +110,7 @@ def test_bad_arguments_are_refused(tmp_path, capsys):
         evaluate_cli.main(["--teacher", "sphere_test", "--jobs", "0"])
     assert refused.value.code == 2 and "--jobs must be in [1, 64]" in capsys.readouterr().err
     with pytest.raises(ValueError, match="jobs must be at least 1"):
-        evaluate_cli.evaluate(situations.sphere_grid()[:1], None, jobs=0, progress=False)
+        graph_evaluation.evaluate(situations.sphere_grid()[:1], None, jobs=0, progress=False)
 
 
 def test_output_paths_and_impossible_situations_are_refused_before_the_first_episode(
@@ -180,14 +180,14 @@ def test_parallel_evaluation_gives_the_serial_records(tmp_path):
     model = train_from_bags(
         sorted(BAGS.glob("*.mcap"))[::9], tmp_path / "quick.safetensors", quick, RobotModel()
     ).path
-    serial = evaluate_cli.evaluate(chosen, model, max_steps=150, progress=False)
-    parallel = evaluate_cli.evaluate(chosen, model, max_steps=150, progress=False, jobs=2)
+    serial = graph_evaluation.evaluate(chosen, model, max_steps=150, progress=False)
+    parallel = graph_evaluation.evaluate(chosen, model, max_steps=150, progress=False, jobs=2)
     assert [r.situation for r in parallel] == [s.name for s in chosen]
     assert all(r.agent == "tric" and r.outcome != "failed" for r in serial)
     assert [record_fields(r) for r in parallel] == [record_fields(r) for r in serial]
     # raised in a worker
     with pytest.raises(ValueError, match="missing.safetensors does not exist"):
-        evaluate_cli.evaluate(
+        graph_evaluation.evaluate(
             chosen, tmp_path / "missing.safetensors", max_steps=150, progress=False, jobs=2
         )
 

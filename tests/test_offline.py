@@ -8,7 +8,7 @@ import pytest
 
 from conftest import REFERENCE_BAGS as BAGS
 from conftest import record_fields
-from tric_control import evaluate_cli
+from tric_control import evaluate_cli, graph_evaluation
 from tric_control.offline import evaluate_offline
 from tric_learning.training import TrainingConfig, train_from_bags
 from tric_sim import situations
@@ -33,14 +33,14 @@ def test_offline_and_node_episodes_agree_on_three_spheres_and_a_box(models):
     bit."""
     spheres = situations.dataset("sphere_test")[:3]
     offline = evaluate_offline(spheres, str(models["grasp"]), progress=False)
-    nodes = evaluate_cli.evaluate(spheres, models["grasp"], progress=False)
+    nodes = graph_evaluation.evaluate(spheres, models["grasp"], progress=False)
     assert [record_fields(r) for r in offline] == [record_fields(r) for r in nodes]
     # both paths name the failure class; a collision is one, even of a good grasp
     for record in offline:
         assert (record.failure == "") == (record.success and not record.collided)
     boxes = situations.dataset("box_train")[:1]
     [box_offline] = evaluate_offline(boxes, str(models["open_box"]), 1200, progress=False)
-    [box_nodes] = evaluate_cli.evaluate(boxes, models["open_box"], 1200, progress=False)
+    [box_nodes] = graph_evaluation.evaluate(boxes, models["open_box"], 1200, progress=False)
     assert record_fields(box_offline) == record_fields(box_nodes)
     assert (box_offline.failure == "") == (box_offline.success and not box_offline.collided)
     # design.md 6: no joint more than 0.01 rad past a limit
@@ -60,7 +60,7 @@ def test_both_paths_name_the_failure_of_an_episode_cut_short(tmp_path):
     ).path
     sphere = situations.dataset("sphere_test")[:1]
     [offline] = evaluate_offline(sphere, str(model), max_steps=5, progress=False)
-    [nodes] = evaluate_cli.evaluate(sphere, model, max_steps=5, progress=False)
+    [nodes] = graph_evaluation.evaluate(sphere, model, max_steps=5, progress=False)
     assert record_fields(offline) == record_fields(nodes)
     assert offline.failure == "palm off target" and not offline.success
 

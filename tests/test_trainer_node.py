@@ -13,10 +13,10 @@ from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 
 from conftest import HANG_S, call, wait_for
-from tric_learning import analysis, train_cli, trainer_node
+from tric_learning import analysis, analyze_cli, train_cli, trainer_node
+from tric_learning.demonstrations import demonstrate_all
 from tric_learning.features import FeatureDefinition
 from tric_learning.model_file import ModelFile, value_function
-from tric_learning.record_cli import demonstrate_all
 from tric_learning.trainer_node import TrainerNode, training_config
 from tric_learning.training import TrainingConfig
 from tric_msgs.msg import TrainingProgress
@@ -331,7 +331,9 @@ def test_tric_train_refuses_bad_input_with_one_line(bag_dir, tmp_path, capsys, a
 def test_tric_analyze_writes_its_figures(cli_run, bag_dir, tmp_path, capsys):
     _, _, model = cli_run
     assert (
-        analysis.main([str(model), str(bag_dir), "--out", str(tmp_path / "figures"), "--top", "12"])
+        analyze_cli.main(
+            [str(model), str(bag_dir), "--out", str(tmp_path / "figures"), "--top", "12"]
+        )
         == 0
     )
     for name in (
@@ -346,7 +348,7 @@ def test_tric_analyze_writes_its_figures(cli_run, bag_dir, tmp_path, capsys):
         "f decreases on" in printed and "mean cosine" in printed and "selected features" in printed
     )
     assert (
-        analysis.main(
+        analyze_cli.main(
             [str(tmp_path / "none.safetensors"), str(bag_dir), "--out", str(tmp_path / "x")]
         )
         == 2

@@ -24,7 +24,7 @@ setup(
             "tric-record = tric_learning.record_cli:main",
             "trainer = tric_learning.trainer_node:main",
             "tric-train = tric_learning.train_cli:main",
-            "tric-analyze = tric_learning.analysis:main",
+            "tric-analyze = tric_learning.analyze_cli:main",
         ]
     },
 )

@@ -60,7 +60,6 @@ import time
 from rclpy.action import ActionServer, CancelResponse, GoalResponse
 from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
-from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.task import Future
 from sensor_msgs.msg import JointState
 
@@ -77,23 +76,15 @@ from tric_msgs.srv import LoadModel
 from tric_sim import messages
 from tric_sim.collision import Proximity
 from tric_sim.lockstep import StateStream, command_msg, run_in_thread
-from tric_sim.node_main import run_node
 from tric_sim.parameters import AT_LEAST_ONE, POSITIVE, Range, declare
 from tric_sim.robot_model import RobotModel
+from tric_sim.ros_util import EVENT_QOS, LATCHED_QOS, STATE_QOS, Canceled, run_node
 
-STATE_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
-EVENT_QOS = QoSProfile(depth=20, reliability=ReliabilityPolicy.RELIABLE)
-#: /situation as the simulator publishes it: latched for late joiners.
-LATCHED_QOS = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 MODES = ("lockstep", "realtime")
 FEEDBACK_EVERY = 10
 #: Wall seconds between checks of cancel requests and the state timeout (lockstep waits, realtime
 #: watchdog).
 POLL_S = 0.05
-
-
-class Canceled(Exception):
-    """The goal was canceled during the episode."""
 
 
 class Loaded:

@@ -39,12 +39,14 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from tqdm import tqdm  # noqa: E402
 
-from tric_control.evaluate_cli import evaluate  # noqa: E402
-from tric_control.evaluation import GOOD_GRASP, report, summarize, write_json  # noqa: E402
-from tric_learning.record_cli import demonstrate_all, private_domain_id  # noqa: E402
+from tric_control.evaluation import report, summarize, write_json  # noqa: E402
+from tric_control.graph_evaluation import evaluate  # noqa: E402
+from tric_learning.demonstrations import demonstrate_all  # noqa: E402
 from tric_learning.training import TrainingConfig, train_from_bags  # noqa: E402
+from tric_sim.metrics import GOOD_GRASP  # noqa: E402
 from tric_sim.output_files import atomic_path, check_output_folder  # noqa: E402
 from tric_sim.robot_model import RobotModel  # noqa: E402
+from tric_sim.ros_util import private_domain_id  # noqa: E402
 from tric_sim.situations import dataset  # noqa: E402
 from tric_sim.visualizer_node import add_view_arguments, open_view  # noqa: E402
 

@@ -15,12 +15,8 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
+from tric_sim.metrics import GOOD_GRASP, LID_OPEN_ANGLE
 from tric_sim.output_files import write_text_atomic
-
-#: A grasp is good below this cost (the paper's convention); a box is open beyond this lid angle,
-#: rad.
-GOOD_GRASP = 0.25
-OPEN_LID = 0.3
 
 
 @dataclass
@@ -87,7 +83,7 @@ def summarize(records) -> dict:
         "grasp_cost_max": _max(r.grasp_cost for r in grasps),
         "good_grasps": sum(r.grasp_cost < GOOD_GRASP for r in grasps),
         "lift_passed": sum(r.lift_passed is True for r in grasps),
-        "boxes_opened": sum(r.lid_angle > OPEN_LID for r in boxes),
+        "boxes_opened": sum(r.lid_angle > LID_OPEN_ANGLE for r in boxes),
         "lid_angle_mean": _mean(r.lid_angle for r in boxes),
         "collisions": sum(bool(r.collided) for r in records),
         "min_distance": float(min(distances)) if distances else math.nan,

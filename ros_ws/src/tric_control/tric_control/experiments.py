@@ -21,7 +21,8 @@ NAME (default: all, in this order):
 
 Models are trained on the reference bags in bags/ (kept in DIR/models and re-used when present).
 Every evaluation runs --jobs (default: the number of CPUs) graphs of simulator, teacher and
-controller nodes at once, each in a process and DDS domain of its own (tric_control.evaluate_cli).
+controller nodes at once, each in a process and DDS domain of its own
+(tric_control.graph_evaluation).
 Each experiment writes DIR/<name>.json and its PNG(s) and prints its table and a discussion composed
 from its numbers; DIR/REPORT.md is then rewritten from every experiment's JSON found in DIR, each
 table beside the paper's numbers and followed by its discussion.
@@ -42,12 +43,12 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from tric_control.demo_cli import MARGIN_TO_TEACHER, PAPER_TEACHER, PAPER_TRIC  # noqa: E402
-from tric_control.evaluate_cli import evaluate  # noqa: E402
-from tric_control.evaluation import GOOD_GRASP, report, summarize, write_json  # noqa: E402
+from tric_control.evaluation import report, summarize, write_json  # noqa: E402
+from tric_control.graph_evaluation import evaluate  # noqa: E402
 from tric_learning import analysis, dpl, model_file  # noqa: E402
 from tric_learning.dataset import Dataset  # noqa: E402
+from tric_learning.demonstrations import demonstrate_all  # noqa: E402
 from tric_learning.model_file import ModelFile  # noqa: E402
-from tric_learning.record_cli import demonstrate_all, private_domain_id  # noqa: E402
 from tric_learning.recording import load_dataset  # noqa: E402
 from tric_learning.training import (  # noqa: E402
     SELECTED_FRACTION,
@@ -56,8 +57,10 @@ from tric_learning.training import (  # noqa: E402
     train_from_bags,
 )
 from tric_sim import situations  # noqa: E402
+from tric_sim.metrics import GOOD_GRASP  # noqa: E402
 from tric_sim.output_files import atomic_path, check_output_folder, write_text_atomic  # noqa: E402
 from tric_sim.robot_model import RobotModel  # noqa: E402
+from tric_sim.ros_util import private_domain_id  # noqa: E402
 
 BAGS = pathlib.Path("bags")
 #: Fig. 8: the noisy samples M swept at all the demonstrations, the demonstrations N swept at the

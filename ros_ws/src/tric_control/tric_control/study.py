@@ -38,13 +38,14 @@ import time
 import numpy as np
 
 from tric_control.episode import DEFAULT_MAX_STEPS
-from tric_control.evaluation import GOOD_GRASP, OPEN_LID, write_json
+from tric_control.evaluation import write_json
 from tric_control.hard_negatives import train_with_hard_negatives
 from tric_control.motion_rate import MAX_LEAD
 from tric_control.offline import evaluate_offline
 from tric_learning import analysis, model_file
 from tric_learning.recording import bag_paths, load_dataset
 from tric_learning.training import TrainingConfig, train
+from tric_sim.metrics import GOOD_GRASP, LID_OPEN_ANGLE
 from tric_sim.robot_model import RobotModel
 from tric_sim.situations import dataset
 
@@ -129,7 +130,7 @@ def measure_set(records) -> dict:
         }
     return {
         "episodes": len(records),
-        "opened": sum(r.lid_angle > OPEN_LID for r in records),
+        "opened": sum(r.lid_angle > LID_OPEN_ANGLE for r in records),
         "lid_mean": float(np.mean([r.lid_angle for r in records])),
         "collisions": sum(bool(r.collided) for r in records),
         "overshoot": max(r.max_joint_overshoot for r in records),

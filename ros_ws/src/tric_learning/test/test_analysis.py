@@ -10,7 +10,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from tric_learning import analysis
+from tric_learning import analysis, analyze_cli
 from tric_learning.dataset import Dataset, Demo
 from tric_learning.features import FeatureDefinition
 from tric_learning.value_function import Scaling, ValueFunction
@@ -351,7 +351,7 @@ def test_feature_over_time_picks_the_ranked_feature():
 
 def test_the_command_refuses_a_feature_rank_before_any_work(tmp_path, capsys):
     assert (
-        analysis.main(
+        analyze_cli.main(
             ["model.safetensors", "bags", "--out", str(tmp_path / "x"), "--feature-rank", "0"]
         )
         == 2

@@ -34,7 +34,7 @@ from tric_learning.features import FeatureDefinition
 from tric_learning.model_file import ModelFile
 from tric_learning.recording import bag_paths, load_dataset
 from tric_learning.training import BagTraining, deterministic_torch, model_output_path
-from tric_learning.value_function import Scaling
+from tric_learning.value_function import Scaling, sigmoid
 from tric_sim.robot_model import RobotModel
 
 DPL_KINDS = ("dpl_joint", "dpl_finger")
@@ -88,7 +88,7 @@ class DplPolicy:
     def predict(self, y: np.ndarray) -> np.ndarray:
         """The predicted step (..., m) per sample period at raw features y (..., d)."""
         u = self.scaling.transform(y)
-        return _sigmoid(u @ self.w1.T + self.b1) @ self.w2.T + self.b2
+        return sigmoid(u @ self.w1.T + self.b1) @ self.w2.T + self.b2
 
 
 @dataclass
@@ -324,7 +324,7 @@ class _Regression:
         # each unit's transition through the middle of the data: no unit starts saturated
         b1 = -w1 @ inputs.mean(axis=0)
         w2 = rng.normal(0.0, 1.0 / np.sqrt(k), (m, k))
-        b2 = targets.mean(axis=0) - w2 @ _sigmoid(b1 + w1 @ inputs.mean(axis=0))
+        b2 = targets.mean(axis=0) - w2 @ sigmoid(b1 + w1 @ inputs.mean(axis=0))
         self.shapes = [(k, s), (k,), (m, k), (m,)]
         self.theta = torch.tensor(
             np.concatenate([w1.ravel(), b1, w2.ravel(), b2]), requires_grad=True
@@ -382,7 +382,3 @@ class _Regression:
         losses = {"total": float(error + config.l2 * penalty), "l2": float(penalty)}
         weights = [t.detach().numpy().copy() for t in self._split(self.theta)]
         return weights, losses, int(iterations)
-
-
-def _sigmoid(x):
-    return 0.5 * (1.0 + np.tanh(0.5 * x))

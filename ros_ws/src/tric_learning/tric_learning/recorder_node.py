@@ -37,14 +37,14 @@ from tric_learning.recording import SAMPLE_PERIOD, BagRecorder
 from tric_msgs.msg import ControllerStatus, EpisodeEvent, ObjectPoses
 from tric_sim import messages
 from tric_sim.lockstep import TopicPoller
-from tric_sim.node_main import run_node
 from tric_sim.output_files import check_output_folder
 from tric_sim.parameters import POSITIVE, declare
 from tric_sim.robot_model import RobotModel
+from tric_sim.ros_util import EVENT_QOS, run_node
 
-#: Deep enough to hold a whole 5 s episode at 100 Hz should the recording thread fall behind.
-STATE_QOS = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
-EVENT_QOS = QoSProfile(depth=20, reliability=ReliabilityPolicy.RELIABLE)
+#: The recorded state topics: deep enough to hold a whole 5 s episode at 100 Hz should the
+#: recording thread fall behind.
+RECORDED_STATE_QOS = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
 #: States kept from before an episode's START (its first states may arrive before the event).
 BACKLOG = 20
 
@@ -89,12 +89,12 @@ class RecorderNode(Node):
         self._backlog = deque(maxlen=BACKLOG)
         self._stop = threading.Event()
         streams = {
-            "state": (JointState, "/joint_states", STATE_QOS),
-            "poses": (ObjectPoses, "/object_poses", STATE_QOS),
+            "state": (JointState, "/joint_states", RECORDED_STATE_QOS),
+            "poses": (ObjectPoses, "/object_poses", RECORDED_STATE_QOS),
             "event": (EpisodeEvent, "/episode", EVENT_QOS),
         }
         if self.status_topic:
-            streams["status"] = (ControllerStatus, self.status_topic, STATE_QOS)
+            streams["status"] = (ControllerStatus, self.status_topic, RECORDED_STATE_QOS)
         self._poller = TopicPoller(self.context, "recorder_streams", streams)
         self._thread = threading.Thread(target=self._stream, daemon=True, name="recorder_streams")
         self._thread.start()

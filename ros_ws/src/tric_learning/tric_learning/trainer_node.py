@@ -49,9 +49,9 @@ from tric_msgs.msg import TrainingProgress
 from tric_msgs.srv import Train
 from tric_sim import messages
 from tric_sim.lockstep import run_in_thread
-from tric_sim.node_main import run_node
 from tric_sim.parameters import NOT_NEGATIVE, declare
 from tric_sim.robot_model import RobotModel
+from tric_sim.ros_util import run_node
 
 #: Overall progress spanned by each stage of a training: (start, end) fractions.
 STAGE_SPANS = {

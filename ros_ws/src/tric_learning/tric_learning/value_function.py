@@ -75,7 +75,7 @@ class ValueFunction:
         u = self.scaling.transform(y)
         value = u @ self.w3
         if self.hidden_units:
-            value = value + _sigmoid(u @ self.w1.T) @ self.w2
+            value = value + sigmoid(u @ self.w1.T) @ self.w2
         return value
 
     def gradient(self, y: np.ndarray):
@@ -90,7 +90,7 @@ class ValueFunction:
         value = float(u @ self.w3)
         if not self.hidden_units:
             return value, self.w3.copy()
-        z = _sigmoid(self.w1 @ u)
+        z = sigmoid(self.w1 @ u)
         value += float(z @ self.w2)
         return value, self.w3 + self.w1.T @ (self.w2 * z * (1.0 - z))
 
@@ -102,5 +102,6 @@ class ValueFunction:
         return score
 
 
-def _sigmoid(x):
+def sigmoid(x):
+    """The logistic function 1 / (1 + exp(-x)), elementwise, written with tanh (no overflow)."""
     return 0.5 * (1.0 + np.tanh(0.5 * x))

@@ -54,7 +54,7 @@ def test_lid_rests_closed_and_opens_when_pushed_up(world):
             lid, 0, [0, 0, 8.0], free_edge.tolist(), pb.WORLD_FRAME, physicsClientId=world.client
         )
         world.step()
-    assert world.lid_angle() > scene.LID_OPEN_ANGLE
+    assert world.lid_angle() > metrics.LID_OPEN_ANGLE
     position, _ = world.object_poses()["lid"]
     assert np.allclose(position, hinge.translation, atol=1e-3)  # the hinge does not move
 

@@ -51,7 +51,10 @@ FINGER_CONTACT_TOLERANCE = 0.03
 PALM_DISTANCE_OK = 0.05
 PALM_DISTANCE_TOLERANCE = 0.08
 PALM_ALIGNMENT_TOLERANCE = math.radians(60)
+#: A grasp is good below this cost (the paper's convention).
 GOOD_GRASP = 0.25
+#: A box is counted as opened when its lid angle exceeds this (Sec. 5.3.5), rad.
+LID_OPEN_ANGLE = 0.3
 #: Distal link geometry (see the URDF): a segment from the distal joint to the tip centre, radius.
 DISTAL_LINKS = ("finger_1_distal_link", "finger_2_distal_link", "finger_3_distal_link")
 DISTAL_RADIUS = 0.014
@@ -212,7 +215,7 @@ def box_failure(
     "lid_edge": the lip; name -> (position, xyzw)), the lid angle and whether the robot collided."""
     if collided:
         return "collision"
-    if lid_angle > scene.LID_OPEN_ANGLE:
+    if lid_angle > LID_OPEN_ANGLE:
         return ""
     robot.forward(q)
     tips = np.array([robot.frame_placement(tip).translation for tip in LID_FINGERTIPS])
@@ -279,7 +282,7 @@ def evaluate(world, robot: RobotModel, run_lift_test: bool = False) -> TaskMetri
     q, _ = world.joint_state()
     if situation.task == "open_box":
         metrics.lid_angle = world.lid_angle()
-        metrics.success = metrics.lid_angle > scene.LID_OPEN_ANGLE
+        metrics.success = metrics.lid_angle > LID_OPEN_ANGLE
         metrics.failure = box_failure(
             robot,
             q,

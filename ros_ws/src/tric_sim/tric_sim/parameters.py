@@ -3,7 +3,8 @@
 Every node declares its parameters through declare(): the value must have the default's type (an
 integer is taken for a float, an integral float for an integer), a float must be finite, and the
 value must lie in the parameter's Range or be one of its choices. Anything else is a ValueError
-naming the parameter, which tric_sim.node_main turns into one line on stderr and exit status 2.
+naming the parameter, which tric_sim.ros_util.run_node turns into one line on stderr and exit
+status 2.
 """
 
 import math

@@ -27,8 +27,6 @@ LID_GAP = 0.001
 LID_MASS = 0.25
 #: Hinge friction torque, N m (applied by the simulator as a velocity motor with this force).
 LID_HINGE_FRICTION = 0.05
-#: A box is counted as opened when its lid angle exceeds this (Sec. 5.3.5), rad.
-LID_OPEN_ANGLE = 0.3
 
 #: Masses of the grasp targets, kg.
 OBJECT_MASS = {"sphere": 0.1, "cylinder": 0.3}

@@ -25,7 +25,6 @@ import numpy as np
 from rclpy.callback_groups import MutuallyExclusiveCallbackGroup
 from rclpy.event_handler import PublisherEventCallbacks
 from rclpy.node import Node
-from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import Image, JointState
 
@@ -34,16 +33,12 @@ from tric_msgs.msg import Situation as SituationMsg
 from tric_msgs.srv import EvaluateTask, RenderScene, ResetScene
 from tric_sim import messages, metrics
 from tric_sim.lockstep import TopicPoller
-from tric_sim.node_main import run_node
 from tric_sim.parameters import POSITIVE, Range, declare
 from tric_sim.physics import PhysicsWorld
 from tric_sim.robot_model import RobotModel
+from tric_sim.ros_util import LATCHED_QOS, STATE_QOS, run_node
 from tric_sim.situations import find_situation
 
-#: QoS of the periodic state topics: reliable, shallow.
-STATE_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
-#: QoS of /situation: latched for late joiners.
-LATCHED_QOS = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 #: lockstep_timeout_s for a simulator whose commanders run in the same process (the in-process
 #: tools): they answer every state, so a late answer means a busy machine, not a missing commander,
 #: and stepping without it would make the episode depend on the machine's load.

@@ -13,7 +13,6 @@ import threading
 
 from rclpy.action import ActionServer, CancelResponse, GoalResponse
 from rclpy.node import Node
-from rclpy.qos import QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState
 
 from tric_msgs.action import Demonstrate
@@ -21,17 +20,10 @@ from tric_msgs.msg import EpisodeEvent
 from tric_msgs.srv import EvaluateTask, ResetScene
 from tric_sim import messages
 from tric_sim.lockstep import StateStream, command_msg, run_in_thread
-from tric_sim.node_main import run_node
 from tric_sim.parameters import POSITIVE, declare
 from tric_sim.robot_model import RobotModel
+from tric_sim.ros_util import EVENT_QOS, STATE_QOS, Canceled, run_node
 from tric_sim.teachers import DEFAULT_DURATION, make_teacher
-
-STATE_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
-EVENT_QOS = QoSProfile(depth=20, reliability=ReliabilityPolicy.RELIABLE)
-
-
-class Canceled(Exception):
-    """The goal was canceled while the teacher drove the robot."""
 
 
 class TeacherNode(Node):

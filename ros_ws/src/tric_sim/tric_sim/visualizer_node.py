@@ -23,13 +23,11 @@ only; "0.0.0.0" for every interface), foxglove_port (8765; 0: a free port, logge
 ("/controller/status").
 """
 
-import math
 import sys
 
-from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
-from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.qos import QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState
 from std_msgs.msg import String
 from visualization_msgs.msg import MarkerArray
@@ -38,15 +36,15 @@ from tric_msgs.msg import ControllerStatus, ObjectPoses
 from tric_msgs.msg import Situation as SituationMsg
 from tric_sim import messages, scene_messages, scene_view
 from tric_sim.lockstep import TopicPoller
-from tric_sim.node_main import run_node
+from tric_sim.parameters import Range, declare
 from tric_sim.robot_model import RobotModel
+from tric_sim.ros_util import LATCHED_QOS, run_node
 
 try:
     from tf2_msgs.msg import TFMessage
 except ImportError:  # the pip environment: tf2_msgs is not on PyPI
     TFMessage = None
 
-LATCHED_QOS = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 #: The streams are read at rate_hz: only their newest message matters.
 NEWEST_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE)
 
@@ -57,25 +55,27 @@ class VisualizerNode(Node):
 
     def __init__(self, view=None, **kwargs):
         super().__init__("visualizer", **kwargs)
-        rate = self._parameter(
-            "rate_hz", 30.0, "wall-clock updates per second of /tf and the Foxglove view"
+        rate = declare(
+            self,
+            "rate_hz",
+            30.0,
+            "wall-clock updates per second of /tf and the Foxglove view",
+            Range(1.0, 200.0),
         )
-        serve = self._parameter(
-            "foxglove", True, "serve a Foxglove WebSocket (ignored when a tool passes one)"
+        serve = declare(
+            self, "foxglove", True, "serve a Foxglove WebSocket (ignored when a tool passes one)"
         )
-        host = self._parameter(
-            "foxglove_host", "127.0.0.1", "address the Foxglove server listens on"
+        host = declare(self, "foxglove_host", "127.0.0.1", "address the Foxglove server listens on")
+        port = declare(
+            self,
+            "foxglove_port",
+            8765,
+            "TCP port of the Foxglove server (0: a free one)",
+            Range(0, 65535),
         )
-        port = self._parameter(
-            "foxglove_port", 8765, "TCP port of the Foxglove server (0: a free one)"
+        status_topic = declare(
+            self, "status_topic", "/controller/status", "the controller's status topic"
         )
-        status_topic = self._parameter(
-            "status_topic", "/controller/status", "the controller's status topic"
-        )
-        if not (math.isfinite(rate) and 1.0 <= rate <= 200.0):
-            raise ValueError(f"parameter rate_hz must be in [1, 200], got {rate:g}")
-        if not 0 <= port <= 65535:
-            raise ValueError(f"parameter foxglove_port must be in [0, 65535], got {port}")
         self.robot_view = scene_view.RobotView(RobotModel())
         self.situation = None
         self._poses = {}
@@ -118,15 +118,6 @@ class VisualizerNode(Node):
             f"visualizing at {rate:g} Hz on {topics}"
             + (f"; Foxglove server on {view.url}" if self._owned_view is not None else "")
         )
-
-    def _parameter(self, name, default, description):
-        """Declare a parameter; its value, of the default's type, or ValueError."""
-        value = self.declare_parameter(
-            name, default, ParameterDescriptor(description=description, dynamic_typing=True)
-        ).value
-        if type(value) is not type(default) and not (type(default) is float and type(value) is int):
-            raise ValueError(f"parameter {name} must be a {type(default).__name__}, got {value!r}")
-        return type(default)(value)
 
     def destroy_node(self):
         self._streams.destroy()

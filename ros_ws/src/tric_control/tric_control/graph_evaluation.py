@@ -1,0 +1,423 @@
+"""Evaluation episodes through the real nodes: the simulator (lockstep), the teacher, the
+controller and (to record) the recorder in one in-process graph on a DDS domain of its own. For
+each situation: reset the scene, let the teacher demonstrate it or the controller run the loaded
+model for one episode, then judge the final state with the hidden metrics (with the lift test for
+grasps). evaluate() runs several such graphs at once, each in a spawned worker process."""
+
+import concurrent.futures
+import math
+import multiprocessing
+import multiprocessing.util
+import os
+import pathlib
+import time
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+from rclpy.action import ActionClient  # noqa: E402
+from rclpy.node import Node  # noqa: E402
+from rclpy.parameter import Parameter  # noqa: E402
+from tqdm import tqdm  # noqa: E402
+
+from tric_control.controller_node import ControllerNode  # noqa: E402
+from tric_control.evaluation import EpisodeRecord  # noqa: E402
+from tric_control.objectives import RUNNABLE_KINDS  # noqa: E402
+from tric_learning.recorder_node import RecorderNode  # noqa: E402
+from tric_msgs.action import Demonstrate, Execute  # noqa: E402
+from tric_msgs.msg import EpisodeEvent  # noqa: E402
+from tric_msgs.srv import EvaluateTask, LoadModel, RenderScene, ResetScene  # noqa: E402
+from tric_sim import messages  # noqa: E402
+from tric_sim.output_files import atomic_path  # noqa: E402
+from tric_sim.ros_util import EVENT_QOS, InProcessGraph, wait  # noqa: E402
+from tric_sim.simulator_node import IN_PROCESS_LOCKSTEP_TIMEOUT_S, SimulatorNode  # noqa: E402
+from tric_sim.teacher_node import TeacherNode  # noqa: E402
+from tric_sim.visualizer_node import VisualizerNode  # noqa: E402
+
+#: Wall seconds to wait for a service answer, and for an episode to end.
+SERVICE_TIMEOUT = 60.0
+EPISODE_TIMEOUT = 900.0
+#: The last DDS domain id (Fast DDS: its ports must stay below 65536).
+MAX_DOMAIN_ID = 232
+#: Wall seconds to wait for the recorder to close an episode's bag (--record).
+BAG_TIMEOUT = 30.0
+
+
+class Evaluator:
+    """The evaluation graph: simulator, teacher, controller and a client node, spun in-process.
+
+    model: a model file for the controller, or None to evaluate the teacher; domain_id: the DDS
+    domain of the graph (None: the environment's); view: a FoxgloveView to show the episodes in
+    (None: no visualizer); record: a folder for one bag per episode (None: no recorder)."""
+
+    def __init__(
+        self,
+        task: str,
+        model: str = None,
+        max_steps: int = 0,
+        domain_id: int = None,
+        view=None,
+        record=None,
+    ):
+        self.task, self.model, self.max_steps = task, model, max_steps
+        self.graph = InProcessGraph(domain_id)
+        self.recorder = None
+        try:
+            self.graph.add(
+                SimulatorNode(
+                    context=self.graph.context,
+                    parameter_overrides=[
+                        Parameter("mode", value="lockstep"),
+                        Parameter("lockstep_timeout_s", value=IN_PROCESS_LOCKSTEP_TIMEOUT_S),
+                    ],
+                )
+            )
+            if view is not None:
+                self.graph.add(VisualizerNode(view=view, context=self.graph.context))
+            if record is not None:
+                self.recorder = self.graph.add(
+                    RecorderNode(
+                        context=self.graph.context,
+                        parameter_overrides=[
+                            Parameter("output_dir", value=str(record)),
+                            Parameter(
+                                "sources",
+                                value=["teacher"] if model is None else list(RUNNABLE_KINDS),
+                            ),
+                            Parameter(
+                                "status_topic", value="" if model is None else "/controller/status"
+                            ),
+                        ],
+                    )
+                )
+            if model is None:
+                self.graph.add(TeacherNode(context=self.graph.context))
+            else:
+                self.controller = self.graph.add(
+                    ControllerNode(
+                        context=self.graph.context,
+                        parameter_overrides=[
+                            Parameter("task", value=task),
+                            Parameter("mode", value="lockstep"),
+                        ],
+                    )
+                )
+            self.client = self.graph.add(Node("tric_eval", context=self.graph.context))
+            if self.recorder is not None and model is not None:
+                # the evaluator publishes each controller episode's OUTCOME, stamped as its END
+                self._end_stamps = {}
+                self.client.create_subscription(
+                    EpisodeEvent, "/episode", self._on_episode_event, EVENT_QOS
+                )
+                self.outcome_pub = self.client.create_publisher(EpisodeEvent, "/episode", EVENT_QOS)
+            self.graph.start()
+            self.reset_scene = self._service(ResetScene, "/simulator/reset_scene")
+            self.evaluate_task = self._service(EvaluateTask, "/simulator/evaluate_task")
+            self.render_scene = self._service(RenderScene, "/simulator/render_scene")
+            if model is None:
+                self.action = self._action(Demonstrate, "/teacher/demonstrate")
+            else:
+                self.action = self._action(Execute, "/controller/execute")
+                loaded = self._call(
+                    self._service(LoadModel, "/controller/load_model"),
+                    LoadModel.Request(model_path=str(model)),
+                    "loading the model",
+                )
+                if not loaded.success:
+                    raise ValueError(loaded.message)
+        except BaseException:
+            self.graph.close()
+            raise
+
+    @property
+    def agent(self) -> str:
+        return "teacher" if self.model is None else self.controller.model.kind
+
+    def close(self):
+        self.graph.close()
+
+    def _service(self, srv_type, name):
+        client = self.client.create_client(srv_type, name)
+        if not client.wait_for_service(timeout_sec=30.0):
+            raise RuntimeError(f"service {name} did not come up")
+        return client
+
+    def _action(self, action_type, name):
+        client = ActionClient(self.client, action_type, name)
+        if not client.wait_for_server(timeout_sec=30.0):
+            raise RuntimeError(f"action {name} did not come up")
+        return client
+
+    def _call(self, client, request, what: str):
+        return wait(client.call_async(request), SERVICE_TIMEOUT, what)
+
+    def _run_goal(self, goal, what: str):
+        handle = wait(self.action.send_goal_async(goal), SERVICE_TIMEOUT, f"{what} to be accepted")
+        if not handle.accepted:
+            raise RuntimeError(f"{what} was refused")
+        return wait(handle.get_result_async(), EPISODE_TIMEOUT, what).result
+
+    def run(self, situation, snapshot: pathlib.Path = None) -> EpisodeRecord:
+        """One episode of the agent on situation, judged by the hidden metrics."""
+        started = time.monotonic()
+        grasp = situation.task == "grasp"
+        record = dict(
+            situation=situation.name,
+            task=situation.task,
+            agent=self.agent,
+            success=False,
+            grasp_cost=math.nan,
+            lift_passed=None,
+            lid_angle=math.nan,
+            min_distance=math.nan,
+            collided=False,
+            min_joint_margin=math.nan,
+            steps=0,
+        )
+        situation_msg = messages.situation_to_msg(situation)
+        bags_before = len(self.recorder.finished) if self.recorder is not None else 0
+        if self.model is None:
+            result = self._run_goal(
+                Demonstrate.Goal(situation=situation_msg, episode_id=situation.name),
+                f"the demonstration of '{situation.name}'",
+            )
+            if not result.metrics.task:  # the teacher could not run it (no metrics were computed)
+                return EpisodeRecord(
+                    **record,
+                    wall_time_s=time.monotonic() - started,
+                    outcome="failed",
+                    message=result.message,
+                )
+            metrics, steps, outcome = result.metrics, result.steps, "demonstrated"
+        else:
+            reset = self._call(
+                self.reset_scene, ResetScene.Request(situation=situation_msg), "the scene reset"
+            )
+            if not reset.success:
+                return EpisodeRecord(
+                    **record,
+                    wall_time_s=time.monotonic() - started,
+                    outcome="failed",
+                    message=reset.message,
+                )
+            self._wait_for_scene(situation)
+            result = self._run_goal(
+                Execute.Goal(max_steps=self.max_steps, episode_id=situation.name),
+                f"the episode on '{situation.name}'",
+            )
+            if result.outcome == "failed":
+                return EpisodeRecord(
+                    **record,
+                    wall_time_s=time.monotonic() - started,
+                    outcome="failed",
+                    message=result.message,
+                )
+            if snapshot is not None:
+                self._snapshot(snapshot / f"{situation.name}.png")
+            evaluation = self._call(
+                self.evaluate_task, EvaluateTask.Request(run_lift_test=grasp), "the metrics"
+            )
+            metrics, steps, outcome = evaluation.metrics, result.steps, result.outcome
+            record["min_joint_margin"] = result.min_joint_limit_margin
+            if self.recorder is not None:
+                self._publish_outcome(situation.name, metrics)
+        if self.recorder is not None:
+            self._wait_for_bag(situation.name, bags_before)
+        if snapshot is not None and self.model is None:
+            # after the lift test: the teacher judges itself
+            self._snapshot(snapshot / f"{situation.name}.png")
+        record.update(
+            success=bool(metrics.success),
+            min_distance=metrics.min_distance,
+            collided=bool(metrics.collided),
+            steps=int(steps),
+            max_joint_overshoot=float(metrics.max_joint_overshoot),
+            failure=metrics.failure,
+        )
+        if grasp:
+            record.update(grasp_cost=metrics.grasp_cost, lift_passed=bool(metrics.lift_passed))
+        else:
+            record["lid_angle"] = metrics.lid_angle
+        return EpisodeRecord(**record, wall_time_s=time.monotonic() - started, outcome=outcome)
+
+    def _on_episode_event(self, event: EpisodeEvent):
+        if event.event == EpisodeEvent.END:
+            self._end_stamps[event.episode_id] = event.header.stamp
+
+    def _publish_outcome(self, episode_id: str, metrics):
+        """--record: the OUTCOME of a controller episode (the recorder then closes its bag)."""
+        deadline = time.monotonic() + SERVICE_TIMEOUT
+        while episode_id not in self._end_stamps:
+            if time.monotonic() > deadline:
+                raise RuntimeError(f"the controller's END of '{episode_id}' never arrived")
+            time.sleep(0.002)
+        event = EpisodeEvent(
+            event=EpisodeEvent.OUTCOME, episode_id=episode_id, source=self.agent, metrics=metrics
+        )
+        event.header.stamp = self._end_stamps.pop(episode_id)
+        self.outcome_pub.publish(event)
+
+    def _wait_for_bag(self, episode_id: str, bags_before: int):
+        """--record: wait until the recorder has closed the episode's bag (one more than
+        bags_before); RuntimeError if it does not."""
+        deadline = time.monotonic() + BAG_TIMEOUT
+        while len(self.recorder.finished) <= bags_before:
+            if time.monotonic() > deadline:
+                raise RuntimeError(
+                    f"the recorder did not finish the bag of '{episode_id}' "
+                    f"within {BAG_TIMEOUT:g} s"
+                )
+            time.sleep(0.01)
+
+    def _wait_for_scene(self, situation):
+        """Wait until the controller has taken the new scene from /situation (latched,
+        asynchronous)."""
+        deadline = time.monotonic() + SERVICE_TIMEOUT
+        while True:
+            scene = self.controller.scene
+            if scene is not None and scene.situation == situation:
+                return
+            if time.monotonic() > deadline:
+                raise RuntimeError(
+                    f"the controller never received the situation '{situation.name}'"
+                )
+            time.sleep(0.002)
+
+    def _snapshot(self, path: pathlib.Path):
+        answer = self._call(
+            self.render_scene, RenderScene.Request(width=480, height=360), "a snapshot"
+        )
+        if answer.success:
+            image = np.frombuffer(bytes(answer.image.data), dtype=np.uint8)
+            with atomic_path(path) as temporary:
+                plt.imsave(temporary, image.reshape(answer.image.height, answer.image.width, 3))
+
+
+def evaluate(
+    situations,
+    model=None,
+    max_steps: int = 0,
+    snapshots=None,
+    progress=True,
+    desc="evaluating",
+    domain_id: int = None,
+    jobs: int = 1,
+    view=None,
+    record=None,
+):
+    """Run the agent (model file, or the teacher if None) on every situation; [EpisodeRecord] in the
+    situations' order. jobs > 1: that many worker processes (spawned), each with its own Evaluator
+    on DDS domain domain_id + k (domain_id None: the environment's ROS_DOMAIN_ID, else 0).
+    view: a FoxgloveView to show the run in (jobs 1 only); record: a folder for one bag per
+    episode."""
+    tasks = {s.task for s in situations}
+    if len(tasks) != 1:
+        raise ValueError(
+            f"the situations mix tasks ({', '.join(sorted(tasks))}): evaluate one task at a time"
+        )
+    if jobs < 1:
+        raise ValueError(f"jobs must be at least 1, not {jobs}")
+    if view is not None and min(jobs, len(situations)) > 1:
+        raise ValueError("a live view shows one evaluation graph: use --jobs 1 with --viz")
+    task = tasks.pop()
+    snapshot = pathlib.Path(snapshots) if snapshots else None
+    bar = tqdm(total=len(situations), desc=desc, unit="episode", disable=not progress)
+    try:
+        if min(jobs, len(situations)) == 1:
+            return _evaluate_here(
+                situations, task, model, max_steps, snapshot, domain_id, bar, view, record
+            )
+        return _evaluate_in_workers(
+            situations,
+            task,
+            model,
+            max_steps,
+            snapshot,
+            domain_id,
+            min(jobs, len(situations)),
+            bar,
+            record,
+        )
+    finally:
+        bar.close()
+
+
+def _evaluate_here(
+    situations, task, model, max_steps, snapshot, domain_id, bar, view, record
+) -> list:
+    """Every situation in turn on one Evaluator in this process."""
+    evaluator = Evaluator(task, model, max_steps, domain_id, view, record)
+    records = []
+    try:
+        for situation in situations:
+            bar.set_postfix_str(situation.name)
+            records.append(evaluator.run(situation, snapshot))
+            bar.update()
+    finally:
+        evaluator.close()
+    return records
+
+
+def _evaluate_in_workers(
+    situations, task, model, max_steps, snapshot, domain_id, jobs, bar, record
+) -> list:
+    """The situations shared out over jobs spawned workers (see _start_worker), one at a time."""
+    base = int(os.environ.get("ROS_DOMAIN_ID", "0")) if domain_id is None else domain_id
+    if not 0 <= base <= MAX_DOMAIN_ID - jobs + 1:
+        raise ValueError(
+            f"{jobs} workers from DDS domain {base} on would pass the last domain {MAX_DOMAIN_ID}"
+        )
+    # never fork a process that may hold rclpy's threads
+    spawn = multiprocessing.get_context("spawn")
+    domain_ids = spawn.Queue()
+    for offset in range(jobs):
+        domain_ids.put(base + offset)
+    records = [None] * len(situations)
+    with concurrent.futures.ProcessPoolExecutor(
+        jobs,
+        mp_context=spawn,
+        initializer=_start_worker,
+        initargs=(task, model, max_steps, domain_ids, record),
+    ) as pool:
+        futures = {
+            pool.submit(_run_in_worker, situation, snapshot): k
+            for k, situation in enumerate(situations)
+        }
+        try:
+            for future in concurrent.futures.as_completed(futures):
+                records[futures[future]] = future.result()
+                bar.set_postfix_str(situations[futures[future]].name)
+                bar.update()
+        except BaseException:
+            pool.shutdown(wait=True, cancel_futures=True)
+            raise
+    return records
+
+
+#: A worker process's Evaluator, or the error that building it raised (re-raised by each of its
+#: runs).
+_worker = {}
+
+
+def _start_worker(task, model, max_steps, domain_ids, record):
+    """Worker initializer: build this process's Evaluator on the next free domain; closed at
+    exit."""
+    try:
+        evaluator = Evaluator(
+            task, model, max_steps, domain_ids.get(timeout=SERVICE_TIMEOUT), record=record
+        )
+    # an initializer's exception would only break the pool, without its message
+    except Exception as error:
+        _worker["error"] = error
+        return
+    _worker["evaluator"] = evaluator
+    multiprocessing.util.Finalize(None, evaluator.close, exitpriority=10)
+
+
+def _run_in_worker(situation, snapshot) -> EpisodeRecord:
+    """One episode on this worker's Evaluator; its construction's error, if it failed."""
+    if "error" in _worker:
+        raise _worker["error"]
+    return _worker["evaluator"].run(situation, snapshot)

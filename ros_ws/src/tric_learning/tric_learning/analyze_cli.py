@@ -1,0 +1,89 @@
+"""tric-analyze: the paper's analyses of a trained TRIC model, as PNGs (Fig. 12, 13, 14a, 14b, 15,
+16 and 17a-c).
+
+    tric-analyze MODEL BAGS... [--out DIR] [--top N] [--feature-rank N]
+
+Writes the figures of tric_learning.analysis into DIR for the demonstrations in BAGS (bags or
+folders of bags, the training ones or others of the same feature definition). Prints the share of
+demonstration steps along which f decreases, the mean cosine and the top features. Exit status 0,
+or 2 with one line on stderr when the model or a bag is refused.
+"""
+
+import argparse
+import pathlib
+import sys
+
+from tric_learning.analysis import (
+    DEFAULT_FEATURE_RANK,
+    key_numbers,
+    ranked_feature,
+    write_figures,
+)
+from tric_learning.model_file import ModelFile, value_function
+from tric_learning.recording import load_dataset
+from tric_learning.training import MIN_STEP
+from tric_sim.output_files import check_output_folder
+from tric_sim.robot_model import RobotModel
+
+PROG = "tric-analyze"
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(prog=PROG, description=__doc__.splitlines()[0])
+    parser.add_argument("model", metavar="MODEL", help="a TRIC model file (.safetensors)")
+    parser.add_argument("bags", nargs="+", metavar="BAGS", help="MCAP bags, or folders of them")
+    parser.add_argument(
+        "--out", default="analysis", metavar="DIR", help="folder for the PNGs (default: analysis)"
+    )
+    parser.add_argument(
+        "--top",
+        type=int,
+        default=20,
+        help="features named in Fig. 16 and shown in Fig. 17a (default %(default)s)",
+    )
+    parser.add_argument(
+        "--feature-rank",
+        type=int,
+        default=DEFAULT_FEATURE_RANK,
+        metavar="N",
+        help="the feature of Fig. 17b/c: the N-th by score (default %(default)s, the paper's)",
+    )
+    args = parser.parse_args(argv)
+    try:
+        if args.top < 1:
+            raise ValueError("--top must be at least 1")
+        if args.feature_rank < 1:
+            raise ValueError("--feature-rank must be at least 1")
+        check_output_folder(args.out, "--out folder")
+        robot = RobotModel()
+        dataset = load_dataset(args.bags, robot)
+        model = value_function(ModelFile.load(args.model, expected=dataset.definition))
+        # refused before any figure
+        ranked_feature(model, dataset.definition.feature_names, args.feature_rank)
+        paths = write_figures(
+            model, dataset, pathlib.Path(args.out), args.top, args.feature_rank, robot
+        )
+    except (ValueError, OSError) as error:
+        print(f"{PROG}: {error}", file=sys.stderr)
+        return 2
+    numbers = key_numbers(model, dataset, args.top)
+    print(
+        f"f decreases on {numbers['decreasing_share_all_steps']:.1%} of the steps of "
+        f"{numbers['demos']} demonstrations ({numbers['decreasing_share_moving_steps']:.1%} of "
+        f"the steps that move by >= {MIN_STEP} rad)"
+    )
+    print(
+        f"mean cosine of grad_q (f o phi) and the step: {numbers['mean_cosine_moving_steps']:.3f} "
+        f"over the steps that move ({numbers['mean_cosine_all_steps']:.3f} over all)"
+    )
+    print(f"selected features: {numbers['selected_features']} of {numbers['kept_features']} kept")
+    print(
+        "top features: "
+        + ", ".join(f"{t['name']} {t['score']:.3g}" for t in numbers["top_features"][:5])
+    )
+    print(f"wrote {', '.join(str(path) for path in paths)}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
