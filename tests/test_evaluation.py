@@ -193,7 +193,7 @@ def test_parallel_evaluation_gives_the_serial_records(tmp_path):
 
 
 def test_experiment_report_from_hand_made_results(tmp_path, capsys):
-    from tric_control import experiments
+    from tric_control.experiments import cli, report
 
     (tmp_path / "table3.json").write_text(
         json.dumps(
@@ -217,14 +217,14 @@ def test_experiment_report_from_hand_made_results(tmp_path, capsys):
             }
         )
     )
-    text = experiments.write_report(tmp_path).read_text()
+    text = report.write_report(tmp_path).read_text()
     assert "## table3: Cylinders" in text and "teacher 0.064" in text
     assert "Paper: teacher 0.07.\n\nOur teacher matches.\n\n![table3](table3.png)" in text
     assert "![analysis](analysis/a.png)\n![analysis](analysis/b.png)" in text
     assert text.index("## table3") < text.index("## analysis")  # the order of EXPERIMENTS
     assert "## fig9" not in text  # not run: not reported
     with pytest.raises(SystemExit) as refused:
-        experiments.main(["table9", "--out", str(tmp_path)])
+        cli.main(["table9", "--out", str(tmp_path)])
     assert refused.value.code == 2 and "unknown experiment(s) table9" in capsys.readouterr().err
 
 
@@ -241,7 +241,7 @@ def grasp_row(mean, good=15, lift=15, collisions=0, std=0.01, episodes=15):
 
 
 def seeded(*rows):
-    """A seeded grasp row (experiments._seeded_grasp_row's shape) from one grasp_row per seed."""
+    """A seeded grasp row (experiments.rows.seeded_grasp_row's shape), one grasp_row per seed."""
     means = [row["cost_mean"] for row in rows]
     return {
         "seeds": dict(enumerate(rows)),
@@ -256,9 +256,9 @@ def seeded(*rows):
 
 
 def test_discussions_follow_the_numbers():
-    from tric_control import experiments
+    from tric_control.experiments import fig8, table1, table3, table4
 
-    close = experiments._table1_discussion(
+    close = table1.discussion(
         {
             "teacher": grasp_row(0.02),
             "TRIC K = 30": seeded(grasp_row(0.04), grasp_row(0.045), grasp_row(0.03)),
@@ -269,7 +269,7 @@ def test_discussions_follow_the_numbers():
         and "the gaps +0.020/+0.025/+0.010" in close
     )
     assert "Every seed reproduces the paper's result" in close
-    far = experiments._table1_discussion(
+    far = table1.discussion(
         {
             "teacher": grasp_row(0.02),
             "TRIC K = 30": seeded(
@@ -283,7 +283,7 @@ def test_discussions_follow_the_numbers():
         """Rows of every Fig. 8 setting: costs[(N, M)] for the default variant, 0.1 more for the
         others."""
         rows = {}
-        for k, variant in enumerate(experiments.FIG8_VARIANTS):
+        for k, variant in enumerate(fig8.FIG8_VARIANTS):
             for (demos, samples), cost in costs.items():
                 good = few_good if (demos, k) == (3, 0) else 15
                 rows[f"{variant} {demos} {samples}"] = dict(
@@ -295,13 +295,13 @@ def test_discussions_follow_the_numbers():
         return rows
 
     like_paper = {(27, 5): 0.3, (27, 20): 0.05, (27, 60): 0.05, (3, 60): 0.06, (9, 60): 0.05}
-    text = experiments._fig8_discussion(fig8_rows(like_paper), 27, 60)
+    text = fig8.discussion(fig8_rows(like_paper), 27, 60)
     assert (
         text.count("as in the paper") == 3 and "consistent with the paper's saturation" in text
     ), text
     assert "L_n only and L_g only are clearly worse" in text
     unlike = {**like_paper, (3, 60): 0.6, (27, 20): 0.2}
-    text = experiments._fig8_discussion(fig8_rows(unlike, few_good=4), 27, 60)
+    text = fig8.discussion(fig8_rows(unlike, few_good=4), 27, 60)
     assert (
         "a few demonstrations are not enough" in text and "N matters as much as M or more" in text
     )
@@ -317,13 +317,13 @@ def test_discussions_follow_the_numbers():
             grasp_row(0.11, good=9, lift=9, episodes=10),
         ),
     }
-    text = experiments._table3_discussion(cylinders)
+    text = table3.discussion(cylinders)
     assert (
         "Every seed meets the design's targets" in text
         and "K = 30 beats K = 0 with every seed" in text
     )
     cylinders["TRIC K = 30"]["seeds"][1] = grasp_row(0.35, good=7, lift=4, episodes=10)
-    text = experiments._table3_discussion(cylinders)
+    text = table3.discussion(cylinders)
     assert (
         "seed 1 miss the design's targets" in text
         and "K = 30 beats K = 0 with seeds 0, 2 only" in text
@@ -341,19 +341,19 @@ def test_discussions_follow_the_numbers():
         rows["teacher"] = {"opened": [25], "episodes": 25}
         return rows
 
-    text = experiments._table4_discussion(boxes([24, 23, 25], [2, 1, 3], [9, 8, 7]))
+    text = table4.discussion(boxes([24, 23, 25], [2, 1, 3], [9, 8, 7]))
     assert "TRIC 24/23/25 (mean 24.0, min 23, max 25) (the paper 24)" in text
     assert (
         "TRIC opens at least 23 with every seed" in text
         and "Both DPL variants open fewer boxes" in text
     )
-    text = experiments._table4_discussion(boxes([24, 12, 25], [2, 13, 3], [9, 8, 7]))
+    text = table4.discussion(boxes([24, 12, 25], [2, 13, 3], [9, 8, 7]))
     assert "TRIC misses the design's 23 with 1 of 3 seeds (at worst 12)" in text
     assert "A DPL variant opens as many as 13 with one seed" in text
 
 
 def test_analysis_discussion_judges_every_task_and_seed():
-    from tric_control import experiments
+    from tric_control.experiments import model_analysis
 
     def numbers(cosine, falls):
         return {
@@ -376,7 +376,7 @@ def test_analysis_discussion_judges_every_task_and_seed():
         "cylinder": {0: numbers(-0.6, 0.9), 1: numbers(-0.6, 0.9), 2: numbers(-0.6, 0.9)},
         "box": {0: numbers(-0.81, 1.0), 1: numbers(-0.81, 1.0), 2: numbers(-0.81, 1.0)},
     }
-    text = experiments._analysis_discussion(rows)
+    text = model_analysis.discussion(rows)
     assert "sphere: mean cosine -0.850/-0.820/-0.700" in text and "2 of 3 seeds meet" in text
     assert "cylinder: mean cosine" in text and "0 of 3 seeds meet" in text and "box:" in text
     assert (

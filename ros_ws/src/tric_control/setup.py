@@ -22,7 +22,7 @@ setup(
             "controller = tric_control.controller_node:main",
             "tric-eval = tric_control.evaluate_cli:main",
             "tric-demo = tric_control.demo_cli:main",
-            "tric-experiments = tric_control.experiments:main",
+            "tric-experiments = tric_control.experiments.cli:main",
             "tric-study = tric_control.study:main",
         ]
     },

@@ -40,6 +40,8 @@ import numpy as np  # noqa: E402
 from tqdm import tqdm  # noqa: E402
 
 from tric_control.evaluation import report, summarize, write_json  # noqa: E402
+from tric_control.experiments.paper import PAPER_TEACHER, PAPER_TRIC  # noqa: E402
+from tric_control.experiments.targets import MARGIN_TO_TEACHER  # noqa: E402
 from tric_control.graph_evaluation import evaluate  # noqa: E402
 from tric_learning.demonstrations import demonstrate_all  # noqa: E402
 from tric_learning.training import TrainingConfig, train_from_bags  # noqa: E402
@@ -49,11 +51,6 @@ from tric_sim.robot_model import RobotModel  # noqa: E402
 from tric_sim.ros_util import private_domain_id  # noqa: E402
 from tric_sim.situations import dataset  # noqa: E402
 from tric_sim.visualizer_node import add_view_arguments, open_view  # noqa: E402
-
-#: Paper Table 1 (mean grasp cost on the 15 test situations) and the margin TRIC must keep to our
-#: teacher.
-PAPER_TEACHER, PAPER_TRIC = 0.06, 0.08
-MARGIN_TO_TEACHER = 0.03
 
 
 def record(out: pathlib.Path, domain_id: int, view=None) -> pathlib.Path:

@@ -1,0 +1,109 @@
+"""tric-experiments: the paper's experiments, each one command, through the real nodes.
+
+    tric-experiments [NAME ...] [--out DIR] [--situations N] [--jobs N]
+
+NAME (default: all, in this order):
+  table1    spheres: the teacher and TRIC (K = 30) on the 15 sphere test situations (paper Table 1).
+  fig8      TRIC's grasp cost on the first 10 sphere test situations against the noisy samples M
+            (5, 20, 60 at N = 27) and the training demonstrations N (3, 9, 27 at M = 60, a seeded
+            subset of bags/sphere), for the losses alpha_n L_n + alpha_g L_g with (alpha_n, alpha_g)
+            = (1, a), (1, 0), (0, a), a the default alpha_g (paper Fig. 8): 15 models.
+  table2    DPL's training and test errors |u - pi(y)| per joint (rad), beside |u| (paper Table 2);
+            the test set is the 15 sphere test situations demonstrated by the teacher.
+  fig9      TRIC and DPL grasp cost on the training situations with the sphere moved by Gaussian
+            noise of 0, 2 and 4 cm per axis (paper Fig. 9; --situations each, default 30).
+  table3    cylinders: the teacher, TRIC K = 0 and TRIC K = 30 (paper Table 3).
+  exp4      the sphere model facing an obstacle in the approach path, never seen in training.
+  table4    boxes opened out of 25: TRIC, DPL in joint space, DPL in finger space, the teacher.
+  analysis  the sphere, cylinder and box models on their demonstrations (paper Fig. 12-17), three
+            seeds each: f along every demo, the cosines of L_g, the collision prior, kernel PCA,
+            the feature scores and the mean gradients df/dy by step.
+
+Models are trained on the reference bags in bags/ (kept in DIR/models and re-used when present).
+Every evaluation runs --jobs (default: the number of CPUs) graphs of simulator, teacher and
+controller nodes at once, each in a process and DDS domain of its own
+(tric_control.graph_evaluation).
+Each experiment writes DIR/<name>.json and its PNG(s) and prints its table and a discussion composed
+from its numbers; DIR/REPORT.md is then rewritten from every experiment's JSON found in DIR, each
+table beside the paper's numbers and followed by its discussion.
+"""
+
+import argparse
+import os
+import sys
+import time
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+
+from tric_control.evaluation import write_json  # noqa: E402
+from tric_control.experiments import EXPERIMENTS  # noqa: E402
+from tric_control.experiments.report import write_report  # noqa: E402
+from tric_control.experiments.runner import Runner  # noqa: E402
+from tric_sim.output_files import atomic_path, check_output_folder  # noqa: E402
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(prog="tric-experiments", description=__doc__.splitlines()[0])
+    parser.add_argument(
+        "names",
+        nargs="*",
+        metavar="NAME",
+        help=f"experiments to run (default: all of {', '.join(EXPERIMENTS)})",
+    )
+    parser.add_argument("--out", default="results", help="results folder (default: results)")
+    parser.add_argument(
+        "--situations", type=int, default=30, help="situations per shift in fig9 (default 30)"
+    )
+    parser.add_argument(
+        "--jobs",
+        type=int,
+        default=os.cpu_count() or 1,
+        help="evaluation graphs run at once, each in a process of its own (default: the CPUs, "
+        "%(default)s)",
+    )
+    args = parser.parse_args(argv)
+    if not 1 <= args.situations <= 300:
+        parser.error("--situations must be in [1, 300]")
+    if not 1 <= args.jobs <= 64:
+        parser.error("--jobs must be in [1, 64]")
+    unknown = [name for name in args.names if name not in EXPERIMENTS]
+    if unknown:
+        parser.error(
+            f"unknown experiment(s) {', '.join(unknown)} (known: {', '.join(EXPERIMENTS)})"
+        )
+    try:
+        out = check_output_folder(args.out, "--out folder")
+    except ValueError as error:
+        print(f"tric-experiments: {error}", file=sys.stderr)
+        return 2
+    runner = Runner(out, args.jobs)
+    for name in args.names or list(EXPERIMENTS):
+        print(f"\n=== {name}: {EXPERIMENTS[name].TITLE}", flush=True)
+        started = time.monotonic()
+        try:
+            options = {"count": args.situations} if name == "fig9" else {}
+            result = EXPERIMENTS[name].run(runner, **options)
+        except (ValueError, RuntimeError) as error:
+            print(f"tric-experiments: {name}: {error}", file=sys.stderr)
+            return 2
+        # one matplotlib figure, for out/<name>.png; else the experiment wrote its "figures"
+        if "figure" in result:
+            result["figure"].tight_layout()
+            with atomic_path(out / f"{name}.png") as temporary:
+                result["figure"].savefig(temporary, dpi=110)
+            plt.close(result.pop("figure"))
+        result.update(date=time.strftime("%Y-%m-%d %H:%M"), wall_s=time.monotonic() - started)
+        write_json(out / f"{name}.json", result)
+        print(result["table"])
+        print(f"paper: {result['paper']}")
+        print(f"discussion: {result['discussion']}")
+        print(f"({name}: {result['wall_s']:.0f} s)", flush=True)
+    print(f"\nwrote {write_report(out)}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

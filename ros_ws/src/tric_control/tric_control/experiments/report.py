@@ -1,0 +1,40 @@
+"""The report: DIR/REPORT.md from every experiment's JSON in DIR."""
+
+import json
+import pathlib
+
+from tric_control.experiments import EXPERIMENTS
+from tric_sim.output_files import write_text_atomic
+
+
+def write_report(out: pathlib.Path) -> pathlib.Path:
+    """out/REPORT.md from every experiment JSON in out, in the order of EXPERIMENTS."""
+    lines = [
+        "# TRIC experiments",
+        "",
+        "Written by `tric-experiments` from the JSON files beside this report; each table is ours,",
+        "the paper's numbers follow it, then a discussion composed from our numbers.",
+        "",
+    ]
+    for name in EXPERIMENTS:
+        path = out / f"{name}.json"
+        if not path.is_file():
+            continue
+        data = json.loads(path.read_text())
+        lines += [
+            f"## {name}: {EXPERIMENTS[name].TITLE}",
+            "",
+            "```",
+            data["table"],
+            "```",
+            "",
+            f"Paper: {data['paper']}.",
+            "",
+        ]
+        if data.get("discussion"):
+            lines += [data["discussion"], ""]
+        lines += [f"![{name}]({figure})" for figure in data.get("figures", [f"{name}.png"])]
+        lines += ["", f"Run {data['date']} in {data['wall_s']:.0f} s.", ""]
+    path = out / "REPORT.md"
+    write_text_atomic(path, "\n".join(lines))
+    return path

@@ -1,0 +1,76 @@
+"""The experiments' runner: trains (or re-uses) their models under DIR/models and evaluates
+them through the real nodes."""
+
+import pathlib
+
+from tric_control.graph_evaluation import evaluate
+from tric_learning import dpl, model_file
+from tric_learning.dataset import Dataset
+from tric_learning.training import TrainingConfig, train, train_from_bags
+from tric_sim.robot_model import RobotModel
+from tric_sim.ros_util import private_domain_id
+
+BAGS = pathlib.Path("bags")
+
+
+#: The training seeds of every model of Tables 1, 3, 4 and Exp. 4 (a seed draws the noisy samples
+#: and the initial weights): a result holds over all of them, not for one draw.
+SEEDS = (0, 1, 2)
+
+
+class Runner:
+    """Trains (or re-uses) models under out/models and runs evaluations with `jobs` worker graphs,
+    on private DDS domains from its own one up."""
+
+    def __init__(self, out: pathlib.Path, jobs: int = 1):
+        self.out = out
+        self.jobs = jobs
+        self.robot = RobotModel()
+        self.domain_id = private_domain_id()
+        (out / "models").mkdir(parents=True, exist_ok=True)
+
+    def model(
+        self, name: str, bags: str, kind: str = "tric", hidden_units: int = 30, seed: int = 0
+    ) -> pathlib.Path:
+        """The model file out/models/<name>_s<seed>.safetensors, trained on bags/<bags> if it is
+        missing (TRIC: with the defaults but hidden_units; the seed draws the noisy samples and the
+        initial weights, or DPL's initial weights)."""
+        path = self.out / "models" / f"{name}_s{seed}.safetensors"
+        if not path.is_file():
+            print(f"training {name} (seed {seed}) on {BAGS / bags}", flush=True)
+            if kind == "tric":
+                train_from_bags(
+                    [BAGS / bags],
+                    path,
+                    TrainingConfig(hidden_units=hidden_units, seed=seed),
+                    self.robot,
+                )
+            else:
+                dpl.train_dpl_from_bags(
+                    [BAGS / bags], path, dpl.DplConfig(seed=seed), self.robot, kind=kind
+                )
+        return path
+
+    def over_seeds(self, tests, label: str, max_steps: int = 0, **model) -> dict:
+        """{seed: [EpisodeRecord]} of the model (Runner.model's arguments) trained with each of
+        SEEDS."""
+        return {
+            seed: self.evaluate(
+                tests, self.model(**model, seed=seed), f"{label}, seed {seed}", max_steps
+            )
+            for seed in SEEDS
+        }
+
+    def trained(self, name: str, dataset: Dataset, config: TrainingConfig) -> pathlib.Path:
+        """The TRIC model file out/models/<name>.safetensors, trained on dataset with config if it
+        is missing."""
+        path = self.out / "models" / f"{name}.safetensors"
+        if not path.is_file():
+            print(f"training {name} on {len(dataset.demos)} demonstrations", flush=True)
+            model_file.from_training(train(dataset, self.robot, config), dataset).save(path)
+        return path
+
+    def evaluate(self, chosen, model, desc: str, max_steps: int = 0):
+        return evaluate(
+            chosen, model, max_steps, domain_id=self.domain_id, desc=desc, jobs=self.jobs
+        )
