@@ -1,8 +1,8 @@
-"""The value function and its training without ROS (tric_learning.value_function, samples,
-training): gradients against finite differences, each loss term on a hand-made case, the loss's
-gradient in the weights (gradcheck), L-BFGS lowering the loss, d_curve on a known polyline, refused
-hyper-parameters, determinism from a seed, and a training on grid demonstrations whose value
-function explains them (decreases along them, gradients against their steps: the design's goals)."""
+"""The value function's training without ROS (tric_learning.samples, training): each loss term on
+a hand-made case, the loss's gradient in the weights (gradcheck), L-BFGS lowering the loss, d_curve
+on a known polyline, refused hyper-parameters, determinism from a seed, and a training on grid
+demonstrations whose value function explains them (decreases along them, gradients against their
+steps: the design's goals)."""
 
 import math
 
@@ -12,13 +12,12 @@ import torch
 
 from tric_learning.analysis import cosines_along_demos, decreasing_shares, ranked_features
 from tric_learning.dataset import Dataset, Demo
-from tric_learning.features import FeatureDefinition, FeatureMap
 from tric_learning.recording import record_offline
 from tric_learning.samples import NoisySamples, d_curve
 from tric_learning.training import MIN_STEP, TrainingConfig, _Problem, train
-from tric_learning.value_function import Scaling, ValueFunction
+from tric_learning.value_function import Scaling
 from tric_sim import situations
-from tric_sim.robot_model import HOME, RobotModel
+from tric_sim.robot_model import RobotModel
 
 #: Landmarks of the hand whose distance to the object the paper found among the top features.
 HAND = (
@@ -46,57 +45,6 @@ def grid_dataset(robot):
 @pytest.fixture(scope="module")
 def grid_training(robot, grid_dataset):
     return train(grid_dataset, robot, TrainingConfig())
-
-
-def random_value_function(rng, scaling: Scaling, hidden_units: int) -> ValueFunction:
-    s = len(scaling.kept)
-    return ValueFunction(
-        scaling,
-        rng.normal(0, 2, (hidden_units, s)),
-        rng.normal(0, 1, hidden_units),
-        rng.normal(0, 1, s),
-    )
-
-
-def central_difference(function, x: np.ndarray, step: float) -> np.ndarray:
-    """d function / dx (x.shape) by central differences."""
-    gradient = np.zeros_like(x)
-    for k in range(len(x)):
-        offset = np.zeros_like(x)
-        offset[k] = step
-        gradient[k] = (function(x + offset) - function(x - offset)) / (2 * step)
-    return gradient
-
-
-@pytest.mark.parametrize("hidden_units", [0, 4])
-def test_value_gradient_matches_finite_differences(hidden_units):
-    rng = np.random.default_rng(3)
-    scaling = Scaling(
-        kept=np.array([0, 2, 3, 6]), low=rng.uniform(-1, 0, 4), high=rng.uniform(0.5, 2, 4), size=8
-    )
-    model = random_value_function(rng, scaling, hidden_units)
-    y = rng.uniform(-1, 2, 8)
-    value, gradient = model.gradient(y)
-    assert value == pytest.approx(float(model.value(y)), abs=1e-12)
-    assert gradient.shape == (8,) and np.all(gradient[[1, 4, 5, 7]] == 0)
-    np.testing.assert_allclose(
-        gradient, central_difference(model.value, y, 1e-6), rtol=1e-6, atol=1e-8
-    )
-
-
-def test_gradient_of_value_over_features_matches_finite_differences(robot):
-    """grad_q (f o phi) = (df/dy)(dphi/dq) (Eq. 10) with the analytic feature Jacobian."""
-    rng = np.random.default_rng(4)
-    feature_map = FeatureMap(FeatureDefinition.for_task("grasp", robot), robot)
-    poses = {"object": (np.array([0.55, 0.1, 0.85]), np.array([0.0, 0.0, 0.0, 1.0]))}
-    around = HOME + rng.normal(0, 0.2, (50, robot.n_joints))
-    scaling = Scaling.fit(np.array([feature_map(q, poses) for q in around]), 0.995)
-    model = random_value_function(rng, scaling, 6)
-    q = HOME + rng.normal(0, 0.1, robot.n_joints)
-    y, jacobian = feature_map.with_jacobian(q, poses)
-    analytic = model.gradient(y)[1] @ jacobian
-    numeric = central_difference(lambda x: float(model.value(feature_map(x, poses))), q, 1e-6)
-    np.testing.assert_allclose(analytic, numeric, rtol=1e-5, atol=1e-6 * np.abs(numeric).max())
 
 
 def test_loss_terms_on_a_hand_made_case():

@@ -1,9 +1,9 @@
 """Collision checking (tric_sim.collision). Proximity, the controller's collision queries: it finds
 every pair within reach although it sends only some pairs to coal each call (checked against all
 pairs, computed directly, along walks with jumps and moving bodies), the rows of the pairs within
-the robot are the gradients of their distances, and the task's contacts come with the scene.
-SceneCollision, the training's batch check: its mask is the one coal's distances of every pair give,
-on colliding and free configurations. Units: m, rad."""
+the robot are the gradients of their distances. SceneCollision, the training's batch check: its
+mask is the one coal's distances of every pair give, on colliding and free configurations, and on
+an empty batch. Units: m, rad."""
 
 import coal
 import numpy as np
@@ -11,7 +11,7 @@ import pinocchio as pin
 import pytest
 
 from tric_sim import scene, situations
-from tric_sim.collision import CONTACT_TOLERANCE, Proximity, SceneCollision
+from tric_sim.collision import Proximity, SceneCollision
 from tric_sim.robot_model import RobotModel
 
 INFLUENCE = 0.05
@@ -108,22 +108,6 @@ def test_a_configuration_that_is_not_finite_forgets_nothing(robot):
     closest = proximity.near(q, {}, INFLUENCE)
     assert sorted(closest.pairs.tolist()) == sorted(all_close_pairs(proximity, robot, q, INFLUENCE))
     assert len(closest)
-
-
-def test_the_task_s_contacts_come_with_the_scene(robot):
-    """The grasp target and the lid are the bodies the hand may press (scene.TASK_CONTACTS); the
-    training's collision check lets every robot geometry into them by CONTACT_TOLERANCE."""
-    sphere, box = situations.dataset("sphere_test")[0], situations.dataset("box_test")[0]
-    assert scene.contacts(sphere) == {"object": scene.TASK_CONTACTS["grasp"]["target"]}
-    assert scene.contacts(box) == {"lid": scene.TASK_CONTACTS["open_box"]["lid"]}
-    for situation in (sphere, box):
-        proximity = Proximity(robot, situation)
-        assert proximity.contacts == scene.contacts(situation)
-        allowance = dict(zip(proximity.body_names, proximity.scene.allowance))
-        assert allowance == {
-            name: CONTACT_TOLERANCE if name in proximity.contacts else 0.0
-            for name in proximity.body_names
-        }
 
 
 # --- SceneCollision.collision_free, against coal on every pair -----------------------------------
@@ -240,3 +224,11 @@ def test_self_collision_rows_are_the_gradients_of_the_distances(robot):
             assert not closest.hand[k]
             checked += 1
     assert checked >= 5
+
+
+def test_scene_collision_of_home_and_of_an_empty_batch(robot):
+    situation = situations.sphere_grid()[13]
+    collision = SceneCollision(robot, situation)
+    poses = {"object": (situation.object_position, situation.object_orientation)}
+    assert collision.collision_free(np.zeros((0, robot.n_joints)), poses).shape == (0,)
+    assert collision.collision_free(robot.home[None], poses).tolist() == [True]

@@ -101,13 +101,3 @@ def test_reach_places_the_palm(robot):
     robot.forward(q)
     assert np.linalg.norm(pin.log6(robot.frame_placement(PALM).actInv(target)).vector) < 1e-4
     robot.check_configuration(q)
-
-
-def test_scene_collision_of_home_and_of_an_empty_batch(robot):
-    from tric_sim.collision import SceneCollision
-
-    situation = situations.sphere_grid()[13]
-    collision = SceneCollision(robot, situation)
-    poses = {"object": (situation.object_position, situation.object_orientation)}
-    assert collision.collision_free(np.zeros((0, robot.n_joints)), poses).shape == (0,)
-    assert collision.collision_free(robot.home[None], poses).tolist() == [True]

@@ -1,0 +1,66 @@
+"""The value function f(y) = z^T W2 + y^T W3, z = sigmoid(W1 u), on the features rescaled to
+[0, 1] (tric_learning.value_function): its gradient in y, and grad_q (f o phi) through the features'
+Jacobian, against finite differences."""
+
+import numpy as np
+import pytest
+
+from tric_learning.features import FeatureDefinition, FeatureMap
+from tric_learning.value_function import Scaling, ValueFunction
+from tric_sim.robot_model import HOME, RobotModel
+
+
+@pytest.fixture(scope="module")
+def robot():
+    return RobotModel()
+
+
+def random_value_function(rng, scaling: Scaling, hidden_units: int) -> ValueFunction:
+    s = len(scaling.kept)
+    return ValueFunction(
+        scaling,
+        rng.normal(0, 2, (hidden_units, s)),
+        rng.normal(0, 1, hidden_units),
+        rng.normal(0, 1, s),
+    )
+
+
+def central_difference(function, x: np.ndarray, step: float) -> np.ndarray:
+    """d function / dx (x.shape) by central differences."""
+    gradient = np.zeros_like(x)
+    for k in range(len(x)):
+        offset = np.zeros_like(x)
+        offset[k] = step
+        gradient[k] = (function(x + offset) - function(x - offset)) / (2 * step)
+    return gradient
+
+
+@pytest.mark.parametrize("hidden_units", [0, 4])
+def test_value_gradient_matches_finite_differences(hidden_units):
+    rng = np.random.default_rng(3)
+    scaling = Scaling(
+        kept=np.array([0, 2, 3, 6]), low=rng.uniform(-1, 0, 4), high=rng.uniform(0.5, 2, 4), size=8
+    )
+    model = random_value_function(rng, scaling, hidden_units)
+    y = rng.uniform(-1, 2, 8)
+    value, gradient = model.gradient(y)
+    assert value == pytest.approx(float(model.value(y)), abs=1e-12)
+    assert gradient.shape == (8,) and np.all(gradient[[1, 4, 5, 7]] == 0)
+    np.testing.assert_allclose(
+        gradient, central_difference(model.value, y, 1e-6), rtol=1e-6, atol=1e-8
+    )
+
+
+def test_gradient_of_value_over_features_matches_finite_differences(robot):
+    """grad_q (f o phi) = (df/dy)(dphi/dq) (Eq. 10) with the analytic feature Jacobian."""
+    rng = np.random.default_rng(4)
+    feature_map = FeatureMap(FeatureDefinition.for_task("grasp", robot), robot)
+    poses = {"object": (np.array([0.55, 0.1, 0.85]), np.array([0.0, 0.0, 0.0, 1.0]))}
+    around = HOME + rng.normal(0, 0.2, (50, robot.n_joints))
+    scaling = Scaling.fit(np.array([feature_map(q, poses) for q in around]), 0.995)
+    model = random_value_function(rng, scaling, 6)
+    q = HOME + rng.normal(0, 0.1, robot.n_joints)
+    y, jacobian = feature_map.with_jacobian(q, poses)
+    analytic = model.gradient(y)[1] @ jacobian
+    numeric = central_difference(lambda x: float(model.value(feature_map(x, poses))), q, 1e-6)
+    np.testing.assert_allclose(analytic, numeric, rtol=1e-5, atol=1e-6 * np.abs(numeric).max())
