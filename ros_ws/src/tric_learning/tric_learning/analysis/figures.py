@@ -31,127 +31,68 @@ bold.
 
 import pathlib
 
-import coal
 import matplotlib
 import numpy as np
-import pinocchio as pin
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.cm import ScalarMappable
 from matplotlib.colors import Normalize
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 
+from tric_learning.analysis.measures import (
+    CONTROLLER_INFLUENCE,
+    DEFAULT_FEATURE_RANK,
+    FIG12_DEMOS,
+    FIG12_FINGER,
+    FIG12_OBJECT,
+    cosines_along_demos,
+    feature_over_time,
+    feature_paths,
+    gradients_along_demos,
+    hand_body_distances,
+    hand_geometries,
+    joint_principal_paths,
+    kernel_pca,
+    kernel_pca_inputs,
+    mean_over_demos,
+    moving_only,
+    ranked_features,
+    relative_spread,
+    score_order,
+    values_along_demos,
+)
 from tric_learning.dataset import Dataset
-from tric_learning.training import MIN_STEP, SELECTED_FRACTION
+from tric_learning.training import SELECTED_FRACTION
 from tric_learning.value_function import ValueFunction
-from tric_sim.collision import SceneCollision
 from tric_sim.output_files import atomic_path
 from tric_sim.robot_model import RobotModel
 
 VALUE_FIGURE = "value_along_demos.png"
+
+
 COSINES_FIGURE = "gradient_cosines.png"
+
+
 SCORES_FIGURE = "feature_scores.png"
+
+
 GRADIENTS_FIGURE = "mean_gradients.png"
+
+
 TASK_SPACES_FIGURE = "box_task_spaces.png"
+
+
 COLLISION_FIGURE = "collision_prior.png"
+
+
 KERNEL_PCA_FIGURE = "kernel_pca.png"
+
+
 FEATURE_FIGURE = "feature_over_time.png"
+
+
 #: Features of Fig. 17a also drawn as lines.
 GRADIENT_LINES = 6
-#: Box openings drawn in Fig. 12 (the paper's 5), and the landmarks of its panels (b) and (c).
-FIG12_DEMOS = 5
-FIG12_FINGER, FIG12_OBJECT = "fingertip_2", "box"
-#: The controller's influence distance, m: the collision pairs nearer than this enter its QP
-#: (tric_control.motion_rate.INFLUENCE, which tric_learning may not import; a test keeps them
-#: equal).
-CONTROLLER_INFLUENCE = 0.05
-#: The scene bodies the hand may touch (tric_sim.scene roles): Fig. 14b's distances are to these.
-TOUCHED_ROLES = ("target", "lid")
-#: Kernel PCA on at most this many samples (evenly spaced over the demonstrations' samples): its
-#: eigendecomposition grows with the cube of the count.
-KPCA_MAX_SAMPLES = 2000
-#: Fig. 17b/c show the feature of this rank by score, unless --feature-rank says otherwise.
-DEFAULT_FEATURE_RANK = 8
-
-
-def values_along_demos(model: ValueFunction, dataset: Dataset) -> list:
-    """f(y_t) of each demo, [(T,)] in dataset order."""
-    return [model.value(demo.y) for demo in dataset.demos]
-
-
-def decreasing_shares(model: ValueFunction, dataset: Dataset):
-    """(share of all steps t -> t+1 along which f decreases, the same over the steps where the
-    demonstration moves by at least training.MIN_STEP rad)."""
-    decreasing, moving = [], []
-    for demo, values in zip(dataset.demos, values_along_demos(model, dataset)):
-        decreasing.append(np.diff(values) < 0)
-        moving.append(np.linalg.norm(np.diff(demo.q, axis=0), axis=1) >= MIN_STEP)
-    decreasing, moving = np.concatenate(decreasing), np.concatenate(moving)
-    return float(decreasing.mean()), float(decreasing[moving].mean()) if moving.any() else float(
-        "nan"
-    )
-
-
-def cosines_along_demos(
-    model: ValueFunction, dataset: Dataset, min_step: float = 0.0
-) -> np.ndarray:
-    """L_g's cosine (Eq. 17) between grad_q (f o phi)(q_t) = (df/dy)(y_t) dphi/dq(q_t) and the step
-    q_{t+1} - q_t, (N, T_max - 1) for N demos of at most T_max samples: NaN past a demo's end, where
-    the step is shorter than min_step rad or is zero, and where the gradient is zero."""
-    longest = max(demo.length for demo in dataset.demos)
-    cosines = np.full((len(dataset.demos), longest - 1), np.nan)
-    for i, demo in enumerate(dataset.demos):
-        steps = np.diff(demo.q, axis=0)
-        gradients = np.array(
-            [model.gradient(y)[1] @ jacobian for y, jacobian in zip(demo.y[:-1], demo.jacobians)]
-        )
-        step_norms = np.linalg.norm(steps, axis=1)
-        norms = step_norms * np.linalg.norm(gradients, axis=1)
-        defined = np.flatnonzero((step_norms >= min_step) & (norms > 0))
-        cosines[i, defined] = (
-            np.einsum("tn,tn->t", gradients[defined], steps[defined]) / norms[defined]
-        )
-    return cosines
-
-
-def moving_only(cosines: np.ndarray, dataset: Dataset) -> np.ndarray:
-    """cosines (N, T_max - 1) from cosines_along_demos() with NaN where the step is shorter than
-    MIN_STEP rad: the same as cosines_along_demos(..., MIN_STEP), without computing them again."""
-    lengths = np.full(cosines.shape, np.nan)
-    for i, demo in enumerate(dataset.demos):
-        lengths[i, : demo.length - 1] = np.linalg.norm(np.diff(demo.q, axis=0), axis=1)
-    return np.where(lengths >= MIN_STEP, cosines, np.nan)
-
-
-def gradients_along_demos(model: ValueFunction, dataset: Dataset) -> np.ndarray:
-    """df/du at every sample, u the kept features rescaled to [0, 1] (the paper's y):
-    (N, T_max, s) for N demos of at most T_max samples, NaN past a demo's end."""
-    longest = max(demo.length for demo in dataset.demos)
-    gradients = np.full((len(dataset.demos), longest, len(model.scaling.kept)), np.nan)
-    for i, demo in enumerate(dataset.demos):
-        for t, u in enumerate(model.scaling.transform(demo.y)):
-            gradients[i, t] = model.scaled_gradient(u)[1]
-    return gradients
-
-
-def mean_over_demos(values: np.ndarray) -> np.ndarray:
-    """The mean over the first axis (demos) of the finite entries of values (N, ...), (...); NaN
-    where no demo has one (e.g. past every demo's end)."""
-    counts = np.sum(np.isfinite(values), axis=0)
-    sums = np.nansum(values, axis=0)
-    return np.divide(sums, counts, out=np.full(sums.shape, np.nan), where=counts > 0)
-
-
-def score_order(model: ValueFunction) -> np.ndarray:
-    """Indices into the kept features, highest score s(y) first, (s,)."""
-    return np.argsort(-model.scores(), kind="stable")
-
-
-def ranked_features(model: ValueFunction, feature_names) -> list:
-    """[(name, score)] of the kept features, highest score s(y) first."""
-    scores = model.scores()
-    names = np.asarray(feature_names)[model.scaling.kept]
-    return [(str(names[k]), float(scores[k])) for k in score_order(model)]
 
 
 def plot_values(curves: list, names: list, path: pathlib.Path) -> pathlib.Path:
@@ -287,173 +228,6 @@ def plot_scores(ranked: list, path: pathlib.Path, top: int) -> pathlib.Path:
     with atomic_path(path) as temporary:
         figure.savefig(temporary, dpi=120)
     return path
-
-
-def padded(arrays: list) -> np.ndarray:
-    """Per-demo arrays [(T_i, ...)] stacked into (N, T_max, ...), NaN past each one's end."""
-    longest = max(len(a) for a in arrays)
-    out = np.full((len(arrays), longest) + np.shape(arrays[0])[1:], np.nan)
-    for i, values in enumerate(arrays):
-        out[i, : len(values)] = values
-    return out
-
-
-def feature_paths(dataset: Dataset, source: str, target: str, count: int = FIG12_DEMOS) -> list:
-    """The recorded p[source->target] (the position of landmark target in source's frame, m) along
-    the first count demos: [(T, 3)]; ValueError if the feature definition has no such features."""
-    names = list(dataset.definition.feature_names)
-    wanted = [f"p[{source}->{target}].{axis}" for axis in "xyz"]
-    missing = [name for name in wanted if name not in names]
-    if missing:
-        raise ValueError(f"the feature definition has no {', '.join(missing)}")
-    columns = [names.index(name) for name in wanted]
-    return [demo.y[:, columns] for demo in dataset.demos[:count]]
-
-
-def joint_principal_paths(dataset: Dataset, count: int = FIG12_DEMOS):
-    """The first count demos' q projected on the first three principal components of all their
-    samples (centred): ([(T, 3)] in rad, the share of q's variance each component explains (3,))."""
-    demos = dataset.demos[:count]
-    stacked = np.concatenate([demo.q for demo in demos])
-    mean = stacked.mean(axis=0)
-    _, singular, axes = np.linalg.svd(stacked - mean, full_matrices=False)
-    variance = singular**2
-    share = variance[:3] / variance.sum() if variance.sum() > 0 else np.zeros(3)
-    components = np.zeros((3, stacked.shape[1]))
-    components[: len(axes[:3])] = axes[:3]
-    return [(demo.q - mean) @ components.T for demo in demos], np.pad(share, (0, 3 - len(share)))
-
-
-def hand_geometries(robot: RobotModel) -> list:
-    """Indices of the robot's collision geometries on the hand (palm and finger links)."""
-    frames = robot.model.frames
-    return [
-        k
-        for k, geometry in enumerate(robot.collision_model.geometryObjects)
-        if frames[geometry.parentFrame].name.startswith(("finger_", "palm"))
-    ]
-
-
-def hand_body_distances(
-    robot: RobotModel, dataset: Dataset, influence: float = CONTROLLER_INFLUENCE
-):
-    """The controller's collision prior along the demos (paper Fig. 14b): at every sample, the
-    smallest signed distance (m) between a hand geometry (hand_geometries) and the scene body the
-    hand may touch (role in TOUCHED_ROLES: the grasp target, or the box's lid, where the sample's
-    object poses put it), and how many hand geometries are nearer to it than influence (m). Returns
-    (distances (N, T_max), counts (N, T_max), the body's role), NaN past a demo's end."""
-    model, data = robot.model, robot.data
-    geometry_model, geometry_data = robot.collision_model, robot.collision_data
-    hand = hand_geometries(robot)
-    request, result = coal.DistanceRequest(), coal.DistanceResult()
-    distances, counts, roles = [], [], set()
-    for demo in dataset.demos:
-        scene = SceneCollision(robot, demo.situation)
-        touched = [k for k, body in enumerate(scene.bodies) if body.role in TOUCHED_ROLES]
-        if not touched:
-            raise ValueError(f"demo '{demo.name}': its scene has no body the hand may touch")
-        body, shape = scene.bodies[touched[0]], scene.body_shapes[touched[0]]
-        roles.add(body.role)
-        demo_distances = np.empty((demo.length, len(hand)))
-        for t, (q, poses) in enumerate(zip(demo.q, demo.object_poses)):
-            pin.updateGeometryPlacements(model, data, geometry_model, geometry_data, q)
-            placement = scene.body_placements(poses, [body])[0]
-            other = coal.Transform3s(placement.rotation, placement.translation)
-            for column, k in enumerate(hand):
-                result.clear()
-                world = geometry_data.oMg[k]
-                demo_distances[t, column] = coal.distance(
-                    geometry_model.geometryObjects[k].geometry,
-                    coal.Transform3s(world.rotation, world.translation),
-                    shape,
-                    other,
-                    request,
-                    result,
-                )
-        distances.append(demo_distances.min(axis=1))
-        counts.append(np.sum(demo_distances < influence, axis=1).astype(float))
-    return padded(distances), padded(counts), "/".join(sorted(roles))
-
-
-def kernel_pca(points: np.ndarray, components: int = 2):
-    """Kernel PCA of points (S, k) with the Gaussian kernel exp(-|a - b|^2 / (2 h^2)), the bandwidth
-    h the median distance between two of the points (the median heuristic; 1 if they all coincide):
-    (the projections on the leading components (S, components), each sign fixed so that its
-    largest entry is positive; h)."""
-    points = np.asarray(points, dtype=float)
-    squares = np.sum(points**2, axis=1)
-    squared = np.maximum(squares[:, None] + squares[None, :] - 2.0 * points @ points.T, 0.0)
-    between = np.sqrt(squared[np.triu_indices(len(points), 1)])
-    bandwidth = float(np.median(between)) if len(between) else 0.0
-    if not bandwidth > 0:
-        bandwidth = 1.0
-    kernel = np.exp(-squared / (2.0 * bandwidth**2))
-    row_means = kernel.mean(axis=0)
-    centred = kernel - row_means[:, None] - row_means[None, :] + row_means.mean()
-    eigenvalues, eigenvectors = np.linalg.eigh(centred)
-    order = np.argsort(eigenvalues)[::-1][:components]
-    projections = eigenvectors[:, order] * np.sqrt(np.maximum(eigenvalues[order], 0.0))
-    largest = projections[np.argmax(np.abs(projections), axis=0), np.arange(projections.shape[1])]
-    return projections * np.where(largest < 0, -1.0, 1.0), bandwidth
-
-
-def hidden_layer(model: ValueFunction, u: np.ndarray) -> np.ndarray:
-    """z = sigmoid(W1 u) (Eq. 19) of scaled kept features u (..., s): (..., K)."""
-    return 0.5 * (1.0 + np.tanh(0.5 * (np.asarray(u) @ model.w1.T)))
-
-
-def kernel_pca_inputs(
-    model: ValueFunction, dataset: Dataset, limit: int = KPCA_MAX_SAMPLES
-) -> dict:
-    """Fig. 15's data on the demos' samples (at most limit of them evenly spaced, and every demo's
-    last): the scaled kept features u (S, s), the hidden layer z (S, K) (None when K = 0), f (S,)
-    and whether each sample is its demo's last (S,)."""
-    u = model.scaling.transform(np.concatenate([demo.y for demo in dataset.demos]))
-    last = np.zeros(len(u), dtype=bool)
-    last[np.cumsum([demo.length for demo in dataset.demos]) - 1] = True
-    chosen = np.unique(np.linspace(0, len(u) - 1, min(limit, len(u))).round().astype(int))
-    chosen = np.union1d(chosen, np.flatnonzero(last)) if len(chosen) < len(u) else chosen
-    u, last = u[chosen], last[chosen]
-    value = u @ model.w3
-    z = None
-    if model.hidden_units:
-        z = hidden_layer(model, u)
-        value = value + z @ model.w2
-    return {"u": u, "z": z, "value": value, "last": last}
-
-
-def relative_spread(points: np.ndarray, subset: np.ndarray) -> float:
-    """The RMS distance of the points selected by subset (mask) to their mean, divided by the same
-    for all points (S, k): how compact a subset is within the whole."""
-
-    def rms(values):
-        return float(np.sqrt(np.mean(np.sum((values - values.mean(axis=0)) ** 2, axis=1))))
-
-    whole = rms(points)
-    return rms(points[subset]) / whole if whole > 0 else float("nan")
-
-
-def ranked_feature(model: ValueFunction, feature_names, rank: int):
-    """(index into the kept features, index into the raw features, name) of the feature ranked
-    rank (1: the highest score s(y)); ValueError if there are fewer kept features."""
-    kept = len(model.scaling.kept)
-    if not 1 <= rank <= kept:
-        raise ValueError(f"--feature-rank {rank}: the model keeps {kept} features (1 to {kept})")
-    k = int(score_order(model)[rank - 1])
-    raw = int(model.scaling.kept[k])
-    return k, raw, str(feature_names[raw])
-
-
-def feature_over_time(
-    model: ValueFunction, dataset: Dataset, rank: int, gradients: np.ndarray = None
-):
-    """Fig. 17b/c: the raw value (N, T_max) and df/du (N, T_max) (u: the feature rescaled to
-    [0, 1]) of the feature ranked rank by score along every demo, NaN past a demo's end, and its
-    name. gradients: gradients_along_demos(model, dataset) if already computed."""
-    k, raw, name = ranked_feature(model, dataset.definition.feature_names, rank)
-    if gradients is None:
-        gradients = gradients_along_demos(model, dataset)
-    return padded([demo.y[:, raw] for demo in dataset.demos]), gradients[:, :, k], name
 
 
 def _start_end(axes, path, colour, label):
@@ -678,55 +452,3 @@ def write_figures(
             )
         )
     return paths
-
-
-def key_numbers(model: ValueFunction, dataset: Dataset, top: int) -> dict:
-    """The analyses' numbers, JSON-ready: the steps t -> t + 1 of all demos and those that move by
-    >= MIN_STEP rad; the shares of them along which f decreases; the demos that end lower than they
-    start; the mean cosines of Fig. 14a (over the moving steps, over all steps, and over the moving
-    steps before and from step late_from_step, 3/4 of the way); the kept and the selected features
-    (score above SELECTED_FRACTION of the largest); the top features [{name, score}]; and how many
-    of them have a mean gradient (Fig. 17a) that changes sign over time."""
-    all_steps, moving_steps = decreasing_shares(model, dataset)
-    cosines = cosines_along_demos(model, dataset)
-    moving = moving_only(cosines, dataset)
-    late = int(round(0.75 * moving.shape[1]))
-    ranked = ranked_features(model, dataset.definition.feature_names)
-    scores = np.array([score for _, score in ranked])
-    mean_gradient = mean_over_demos(gradients_along_demos(model, dataset))[
-        :, score_order(model)[:top]
-    ]
-
-    def finite_mean(values):
-        return (
-            float(np.mean(values[np.isfinite(values)]))
-            if np.isfinite(values).any()
-            else float("nan")
-        )
-
-    return {
-        "demos": len(dataset.demos),
-        "steps": sum(demo.length - 1 for demo in dataset.demos),
-        "moving_steps": int(
-            sum(
-                np.sum(np.linalg.norm(np.diff(demo.q, axis=0), axis=1) >= MIN_STEP)
-                for demo in dataset.demos
-            )
-        ),
-        "decreasing_share_all_steps": all_steps,
-        "decreasing_share_moving_steps": moving_steps,
-        "demos_ending_lower": int(
-            sum(values[-1] < values[0] for values in values_along_demos(model, dataset))
-        ),
-        "mean_cosine_moving_steps": finite_mean(moving),
-        "mean_cosine_all_steps": finite_mean(cosines),
-        "late_from_step": late,
-        "mean_cosine_moving_early": finite_mean(moving[:, :late]),
-        "mean_cosine_moving_late": finite_mean(moving[:, late:]),
-        "kept_features": len(scores),
-        "selected_features": int(np.sum(scores > SELECTED_FRACTION * scores.max())),
-        "top_features": [{"name": name, "score": score} for name, score in ranked[:top]],
-        "top_gradients_changing_sign": int(
-            np.sum((np.nanmin(mean_gradient, axis=0) < 0) & (np.nanmax(mean_gradient, axis=0) > 0))
-        ),
-    }
