@@ -1,7 +1,7 @@
 """tric-demo: the main job. Record sphere demonstrations, train TRIC, run it against the teacher.
 
-    tric-demo [--reuse [BAGS]] [--out DIR] [--iterations N] [--jobs N] [--check] [--viz [--viz-port
-    P]]
+    tric-demo [--reuse [BAGS]] [--out DIR] [--iterations N] [--jobs N] [--check]
+              [--viz [--viz-port P]]
 
 1. Record the paper's 27 sphere-grid demonstrations with the teacher through the real nodes
    (simulator in lockstep, teacher, recorder) into DIR/demo/bags, or, with --reuse, take the bags

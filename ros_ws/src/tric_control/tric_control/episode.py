@@ -29,9 +29,7 @@ from tric_sim.robot_model import RobotModel
 #: A state older than this many control periods is stale: the runner holds instead of stepping.
 STALE_PERIODS = 3
 #: An episode's step budget when none is given, by task, ticks at 100 Hz: 8 s for a grasp (the
-#: paper's take 5 s), 20 s for a box (its demonstrations last 8 s; chosen on box_train and box_val
-#: over three seeds: 2000 ticks opened 8/9/9 and 23/22/20 boxes where 1200 opened 8/9/8 and
-#: 22/21/20, docs/decisions/loss-balance.md).
+#: paper's take 5 s), 20 s for a box (its demonstrations last 8 s; docs/decisions/loss-balance.md).
 DEFAULT_MAX_STEPS = {"grasp": 800, "open_box": 2000}
 
 

@@ -45,8 +45,11 @@ from tric_control.limits import (
 from tric_sim.collision import Proximity
 from tric_sim.robot_model import RobotModel
 
+#: Inequality rows of the QP for the closest collision pairs and for the features nearest the
+#: bounds of the model's training range (a count each).
 COLLISION_ROWS = 10
 DOMAIN_ROWS = 8
+#: How far a feature may leave the training range [0, 1] of its rescaled value (dimensionless).
 DOMAIN_MARGIN = 0.05
 #: Collision pairs farther apart than this are not considered, m.
 INFLUENCE = 0.05
@@ -55,6 +58,7 @@ SAFETY = 0.01
 SELF_SAFETY = 0.002
 #: The dampers' gain: the fraction of its margin a distance (or a feature's) may lose per tick.
 DAMPING = 0.3
+#: The joint limits less this margin bound the command, rad.
 JOINT_MARGIN = 0.02
 #: How far the command may lead the measured arm and hand joints, rad (see the module docstring).
 MAX_LEAD = 0.03

@@ -12,8 +12,8 @@ with W1 (K, s), b1 (K,), W2 (m, K), b2 (m,). Two kinds of targets, one per demon
 
 Training minimizes the least-squares loss of Eq. 2 plus a small L2 penalty on W1 and W2, with
 PyTorch's L-BFGS (strong-Wolfe line search, full batch, float64), deterministic for a given seed,
-on one thread: the problem is small (about 1000 steps x 60 units), and on a loaded 2-core machine
-two threads made each evaluation about 5 times slower (measured: 40 ms against 8 ms).
+on one thread: the problem is small (about 1000 steps x 60 units), and two threads were slower
+(docs/decisions/dpl-settings.md).
 For conditioning the network is fitted to the targets divided by their RMS (one number for all
 outputs, so the loss stays Eq. 2's, only rescaled); W2 and b2 are multiplied back afterwards, so
 the saved network predicts in rad or m. A step is per sample period of the demonstrations (the
@@ -45,11 +45,15 @@ FINGERTIP_PREFIX = "fingertip"
 
 @dataclass
 class DplConfig:
-    """Hyper-parameters: K sigmoid units (the paper: 60), the L2 weight on W1, W2 (relative to the
-    mean squared error of the RMS-normalized targets), L-BFGS iterations at most, the correlation
-    threshold of the input scaling (as TRIC's), and the seed of the initial weights. Measured on the
-    sphere demonstrations with 5 of 27 held out (dpl_joint, 300 iterations): held-out MSE 4.2e-4,
-    3.0e-4, 2.6e-4 rad^2 for l2 1e-3, 1e-4, 1e-5; the default takes the middle one."""
+    """Hyper-parameters (l2's default: docs/decisions/dpl-settings.md).
+
+    hidden_units: K sigmoid units (the paper: 60), a count.
+    l2: the weight on |W1|^2 + |W2|^2, relative to the mean squared error of the RMS-normalized
+        targets (dimensionless).
+    max_iterations: L-BFGS iterations at most.
+    correlation_threshold: the input scaling's (as TRIC's), a correlation in (0, 1].
+    seed: the seed of the initial weights.
+    """
 
     hidden_units: int = 60
     l2: float = 1e-4

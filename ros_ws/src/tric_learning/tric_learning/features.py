@@ -9,13 +9,11 @@ are the position of j in i's frame (3 numbers) and the distance between them (1 
 Grasping uses 8 landmarks (object centre, three fingertips, the middles of the three fingers' lower
 segments, palm centre): 56 pairs, 224 features. Box opening uses 5 (box, lid, fingertips of fingers
 2 and 3, robot base): 80 features. The lid's landmark is its lip (the middle of its free edge, where
-a finger lifts it), not its hinge: boxes of every size then put the demonstrations' fingers at the
-same place relative to it (measured offline on the first 12 test boxes, seed 0: 8 opened against 5
-with the hinge landmark; seeds 1-3 with the lip: 4, 8, 4).
+a finger lifts it), not its hinge (docs/decisions/lid-landmark.md).
 The Jacobian is analytic, from the frames' Jacobians (objects do not move with q):
 
-    dp_ij/dq = R_i^T (Jv_j - Jv_i) + R_i^T [x_j - x_i]_x Jw_i,    dd_ij/dq = (x_j - x_i)^T (Jv_j -
-    Jv_i) / d_ij
+    dp_ij/dq = R_i^T (Jv_j - Jv_i) + R_i^T [x_j - x_i]_x Jw_i,
+    dd_ij/dq = (x_j - x_i)^T (Jv_j - Jv_i) / d_ij
 
 where Jv, Jw are the world-aligned linear and angular frame Jacobians.
 """

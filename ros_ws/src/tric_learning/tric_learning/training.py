@@ -11,14 +11,11 @@ alpha_w = 0.001 gives its regularization whatever N and T are (summed, it would 
 every demonstration added; measured here, the summed form leaves f too rough to control with).
 The noisy samples are drawn once (tric_learning.samples); the optimizer is PyTorch's L-BFGS with a
 strong-Wolfe line search on the full batch, in float32, with PyTorch's deterministic algorithms
-(deterministic_torch): the same seed gives the same model on a given machine, run after run (with
-PyTorch's defaults, two threads gave another model each run; measured, no slower). The defaults are
-the paper's but for the balance of the terms: in this form of the loss (the data terms averaged per
-step, L_n's weights summed over the M samples) the paper's alpha_g = 1 leaves L_g about ten times
-weaker than L_n, and the learned gradient does not follow the demonstrations (mean cosine -0.6 on
-spheres and boxes, -0.16 on cylinders); alpha_g = 30 with 300 iterations (the paper: 100 of BFGS)
-was chosen on the training and validation sets over three seeds (boxes 5 -> 8 to 9 of 10 reproduced,
-10 -> 20 to 22 of 25 validation boxes opened; docs/decisions/loss-balance.md).
+(deterministic_torch): the same seed gives the same model on a given machine, run after run
+(docs/decisions/seed-lottery.md). The defaults are the paper's but for the balance of the terms:
+in this form of the loss the paper's alpha_g = 1 leaves L_g about ten times weaker than L_n, so
+alpha_g = 30 with 300 iterations (the paper: 100 of BFGS), chosen on the training and validation
+sets over three seeds (docs/decisions/loss-balance.md).
 
 train_from_bags() is the whole job that the trainer node and tric-train share: bags -> dataset ->
 train() -> model file.
@@ -62,7 +59,17 @@ MODEL_SUFFIX = ".safetensors"
 @dataclass
 class TrainingConfig:
     """Hyper-parameters: the paper's defaults but alpha_g and max_iterations (see the module
-    docstring)."""
+    docstring).
+
+    hidden_units: K sigmoid units of f (0: the linear model), a count.
+    noisy_samples: M noisy joint samples per demonstration step (Eq. 12-16), a count.
+    sigma: the noisy samples' standard deviation around q_{t-1}, rad.
+    alpha_n, alpha_g, alpha_w: the weights of L_n, L_g and |w|_1 in Eq. 11 (dimensionless).
+    max_iterations: L-BFGS iterations at most.
+    correlation_threshold: features correlated above this (|r| in (0, 1]) with a kept one are
+        dropped.
+    seed: draws the noisy samples and the initial weights.
+    """
 
     hidden_units: int = 30
     noisy_samples: int = 60

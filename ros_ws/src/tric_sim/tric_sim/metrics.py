@@ -47,6 +47,9 @@ import pinocchio as pin
 from tric_sim import scene
 from tric_sim.robot_model import FINGERTIPS, HAND_JOINTS, PALM, RobotModel
 
+#: The grasp cost's terms (see the module docstring): a finger's distance to the surface that
+#: costs 1, m; the palm's distance that costs nothing, and the excess over it that costs 1, m; the
+#: palm's misalignment that costs 1, rad.
 FINGER_CONTACT_TOLERANCE = 0.03
 PALM_DISTANCE_OK = 0.05
 PALM_DISTANCE_TOLERANCE = 0.08

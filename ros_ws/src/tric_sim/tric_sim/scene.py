@@ -56,16 +56,9 @@ class Contact:
     cushion_weight: float = 0.0
 
 
-#: Each task's contacts, by the role of the body they are for. As in the paper, where the collision
-#: cost rises at the end of a grasp, the fingers come to touch the grasp target (contact is the goal
-#: there) and may press into it a few millimetres, which makes the grip. The soft prior keeps them
-#: from jamming: 3 mm measured best on the sphere test set (1 cm left the fingers ~1 cm off the
-#: surface, grasp cost 0.085; without the prior the fingers jam: 0.40; 2 mm lost one of 8 grasps; 3
-#: mm: 0.042 mean, 0.069 max over 15). The lid is there to be pushed open: the hand may press deeper
-#: and feels no soft prior (with both, measured on the first 12 test boxes: 0 opened, every episode
-#: stalled with a finger under the lip; without: 4), but only from beneath: from above, pressing can
-#: only shut the lid, and the hand keeps clear of it (measured without that rule: fingers pressing
-#: the closed lid's top, its hinge forced below 0).
+#: Each task's contacts, by the role of the body they are for: the fingers may press a few
+#: millimetres into the grasp target, within a soft cushion that keeps them from jamming; the hand
+#: may press the lid deeper, from beneath only, with no cushion (docs/decisions/contact-rules.md).
 TASK_CONTACTS = {
     "grasp": {"target": Contact(depth=0.005, cushion=0.003, cushion_weight=3.0)},
     "open_box": {"lid": Contact(depth=0.015, side=(0.0, 0.0, -1.0))},
