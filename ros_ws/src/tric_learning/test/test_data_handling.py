@@ -325,8 +325,11 @@ def test_the_tiny_model_file_of_the_fuzz_test_loads(robot, tmp_path):
 
 
 def test_the_sampling_pool_ends_in_a_process_with_rclpy_signal_handlers():
-    # every node executable calls rclpy.init(), whose SIGTERM handler a forked worker inherits
-    script = ("import rclpy\nfrom tric_learning import samples\nrclpy.init()\npool = samples.worker_pool(2)\n"
-              "pool.terminate()\nprint('ended')\n")
+    # every node executable calls rclpy.init(), whose SIGTERM handler a forked worker inherits; the
+    # workers here start slowly (as on a loaded machine), so the pool's SIGTERM comes before they have
+    # reset their handlers (without the blocked signals at the fork, the exit then waited for ever)
+    script = ("import os, time, rclpy\nfrom tric_learning import samples\nrclpy.init()\n"
+              "os.register_at_fork(after_in_child=lambda: time.sleep(0.5))\n"
+              "pool = samples.worker_pool(2)\npool.terminate()\nprint('ended')\n")
     done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=120)
     assert done.returncode == 0 and done.stdout == "ended\n", done.stderr

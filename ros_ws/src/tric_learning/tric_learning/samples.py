@@ -111,17 +111,27 @@ def generate(dataset: Dataset, robot: RobotModel, count: int, sigma: float, seed
 _JOB = None
 
 
+_ENDING_SIGNALS = {signal.SIGTERM, signal.SIGINT}
+
+
 def worker_pool(workers: int):
     """A pool of `workers` forked processes in which SIGTERM and SIGINT act as by default. A worker
     forked from a process where rclpy.init() installed its signal handlers (every node executable)
     would otherwise ignore the SIGTERM with which the pool may end it (rclpy's handler only wakes a
-    thread that the fork did not copy), and the pool's exit, so the training, would wait for ever."""
-    return multiprocessing.get_context("fork").Pool(workers, initializer=_default_signal_handling)
+    thread that the fork did not copy), and the pool's exit, so the training, would wait for ever.
+    The workers are forked with those signals blocked, so that one sent before a worker has reset
+    its handlers waits for the reset instead of reaching rclpy's."""
+    previous = signal.pthread_sigmask(signal.SIG_BLOCK, _ENDING_SIGNALS)
+    try:
+        return multiprocessing.get_context("fork").Pool(workers, initializer=_default_signal_handling)
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
 
 
 def _default_signal_handling():
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
     signal.signal(signal.SIGINT, signal.default_int_handler)
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, _ENDING_SIGNALS)
 
 
 def _forked_demo(index: int):
