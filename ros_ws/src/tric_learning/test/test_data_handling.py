@@ -446,12 +446,20 @@ def test_the_tiny_model_file_of_the_fuzz_test_loads(robot, tmp_path):
 
 
 def test_the_sampling_pool_ends_in_a_process_with_rclpy_signal_handlers():
-    # every node executable calls rclpy.init(), whose SIGTERM handler a forked worker inherits
+    """Every node executable calls rclpy.init(), whose SIGTERM handler a forked worker inherits.
+    Here a worker dies, so the executor ends the other with SIGTERM while that one is still starting
+    (its fork is slowed down, as on a loaded machine), before it has reset its handlers: the pending
+    work fails and the process ends (with a multiprocessing.Pool, whose workers wait on their
+    queue, the exit waited for ever)."""
     script = (
-        "import rclpy\nfrom tric_learning import samples\nrclpy.init()\npool = "
-        "samples.worker_pool(2)\npool.terminate()\nprint('ended')\n"
+        "import os, time, rclpy\nfrom tric_learning import samples\nrclpy.init()\nforks = []\n"
+        "os.register_at_fork(before=lambda: forks.append(1),\n"
+        "                    after_in_child=lambda: time.sleep(3.0 if len(forks) == 2 else 0.0))\n"
+        "pool = samples.worker_pool(2)\npool.submit(os._exit, 1)\n"
+        "try:\n    pool.submit(int).result()\nexcept Exception as error:\n"
+        "    print(type(error).__name__)\npool.shutdown()\nprint('ended')\n"
     )
     done = subprocess.run(
         [sys.executable, "-c", script], capture_output=True, text=True, timeout=120
     )
-    assert done.returncode == 0 and done.stdout == "ended\n", done.stderr
+    assert done.returncode == 0 and done.stdout == "BrokenProcessPool\nended\n", done.stderr

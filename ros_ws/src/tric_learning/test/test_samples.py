@@ -4,6 +4,8 @@ q_{t-1} with standard deviation sigma (checked with the collision check acceptin
 that no draw is refused); their features at the poses of step t - 1; their weights d_curve to the
 path ahead; the same samples from a seed whatever the number of workers. Units: rad."""
 
+import os
+
 import numpy as np
 import pytest
 
@@ -154,6 +156,39 @@ def test_a_seed_gives_the_same_samples_with_any_number_of_workers(robot, dataset
         assert np.array_equal(getattr(forked, name), getattr(noisy, name)), name
     other = samples.generate(dataset.subset(1), robot, COUNT, SIGMA, SEED + 1, workers=1)
     assert not np.array_equal(other.y[:COUNT], noisy.y[:COUNT])
+
+
+def _dies_on_the_first_demo(index: int):
+    """samples._forked_demo in a worker that crashes on demo 0."""
+    if index == 0:
+        os._exit(1)
+    return _FORKED_DEMO(index)
+
+
+_FORKED_DEMO = samples._forked_demo
+
+
+def test_a_worker_that_dies_leaves_its_demos_to_the_calling_process(
+    robot, dataset, drawn, monkeypatch
+):
+    """A worker process that ends abruptly (a segfault in a fork of a multi-threaded process, seen
+    once in tric-experiments) gives a RuntimeWarning and the same samples, not a wait for ever."""
+    noisy, _ = drawn
+    monkeypatch.setattr(samples, "_forked_demo", _dies_on_the_first_demo)
+    seen = []
+    with pytest.warns(RuntimeWarning, match="a worker process ended abruptly"):
+        rescued = samples.generate(
+            dataset,
+            robot,
+            COUNT,
+            SIGMA,
+            SEED,
+            workers=2,
+            progress=lambda done, total: seen.append((done, total)),
+        )
+    for name in ("step", "y", "weight", "kept_per_step"):
+        assert np.array_equal(getattr(rescued, name), getattr(noisy, name)), name
+    assert seen[-1] == (2, 2)
 
 
 @pytest.mark.parametrize("count, sigma", [(0, SIGMA), (COUNT, 0.0)])

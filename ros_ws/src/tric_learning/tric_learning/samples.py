@@ -7,8 +7,10 @@ path ahead, the polyline q_t, ..., q_{T-1} (Eq. 14-15). Samples do not depend on
 so they are drawn once per training, reproducibly from a seed. Units: rad.
 """
 
+import concurrent.futures
 import multiprocessing
 import signal
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -93,24 +95,12 @@ def generate(
     results = [None] * len(dataset.demos)
     job = (dataset, robot, count, sigma, seed)
     if workers > 1 and len(dataset.demos) > 1 and "fork" in multiprocessing.get_all_start_methods():
-        # processes forked from here inherit the job; each returns its demo's arrays
-        global _JOB
-        _JOB = job
-        try:
-            with worker_pool(workers) as pool:
-                for done, (i, result) in enumerate(
-                    pool.imap_unordered(_forked_demo, range(len(dataset.demos)))
-                ):
-                    results[i] = result
-                    if progress is not None:
-                        progress(done + 1, len(dataset.demos))
-        finally:
-            _JOB = None
-    else:
-        for i in range(len(dataset.demos)):
+        _sample_in_workers(job, workers, results, progress)
+    for i in range(len(dataset.demos)):
+        if results[i] is None:  # no workers, or a worker died before returning this demo
             results[i] = _demo_samples(*job[:2], i, *job[2:])
             if progress is not None:
-                progress(i + 1, len(dataset.demos))
+                progress(sum(r is not None for r in results), len(dataset.demos))
     kept = np.zeros(offsets[-1], dtype=int)
     for i, (steps, _, _) in enumerate(results):
         np.add.at(kept, offsets[i] + steps, 1)
@@ -125,18 +115,50 @@ def generate(
 _JOB = None
 
 
-def worker_pool(workers: int):
-    """A pool of `workers` forked processes in which SIGTERM and SIGINT act as by default. A worker
-    forked from a process where rclpy.init() installed its signal handlers (every node executable)
-    would otherwise ignore the SIGTERM with which the pool may end it (rclpy's handler only wakes a
-    thread that the fork did not copy), and the pool's exit, so the training, would wait for
-    ever."""
-    return multiprocessing.get_context("fork").Pool(workers, initializer=_default_signal_handling)
+def worker_pool(workers: int) -> concurrent.futures.ProcessPoolExecutor:
+    """An executor of `workers` forked processes in which SIGTERM and SIGINT act as by default. A
+    worker forked from a process where rclpy.init() installed its signal handlers (every node
+    executable) would otherwise ignore the SIGTERM with which the executor ends the others when one
+    worker died (rclpy's handler only wakes a thread that the fork did not copy)."""
+    return concurrent.futures.ProcessPoolExecutor(
+        workers,
+        mp_context=multiprocessing.get_context("fork"),
+        initializer=_default_signal_handling,
+    )
 
 
 def _default_signal_handling():
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
     signal.signal(signal.SIGINT, signal.default_int_handler)
+
+
+def _sample_in_workers(job, workers: int, results: list, progress) -> None:
+    """Fill results[i] with demo i's samples from forked worker processes (they inherit job). A
+    worker that dies (a process forked from a multi-threaded one may crash: a training in a
+    long-running tric-experiments segfaulted in its workers once) leaves its demos None, with a
+    warning, for generate to sample here, instead of waiting for ever as a multiprocessing.Pool
+    does."""
+    global _JOB
+    _JOB = job
+    executor = worker_pool(workers)
+    try:
+        futures = [executor.submit(_forked_demo, i) for i in range(len(results))]
+        for future in concurrent.futures.as_completed(futures):
+            i, result = future.result()
+            results[i] = result
+            if progress is not None:
+                progress(sum(r is not None for r in results), len(results))
+    except concurrent.futures.process.BrokenProcessPool as error:
+        missing = sum(r is None for r in results)
+        warnings.warn(
+            f"noisy sampling: a worker process ended abruptly ({error}); sampling the "
+            f"{missing} remaining demonstrations in this process",
+            RuntimeWarning,
+            stacklevel=3,
+        )
+    finally:
+        executor.shutdown(wait=True, cancel_futures=True)
+        _JOB = None
 
 
 def _forked_demo(index: int):
