@@ -33,7 +33,12 @@ from tric_learning.dataset import Dataset
 from tric_learning.features import FeatureDefinition
 from tric_learning.model_file import ModelFile
 from tric_learning.recording import bag_paths, load_dataset
-from tric_learning.training import BagTraining, deterministic_torch, model_output_path
+from tric_learning.training import (
+    BagTraining,
+    deterministic_torch,
+    minimize_lbfgs,
+    model_output_path,
+)
 from tric_learning.value_function import Scaling, sigmoid
 from tric_sim.robot_model import RobotModel
 
@@ -350,23 +355,10 @@ class _Regression:
 
     def solve(self, report):
         config = self.config
-        optimizer = torch.optim.LBFGS(
-            [self.theta],
-            lr=1.0,
-            max_iter=config.max_iterations,
-            max_eval=config.max_iterations * 2,
-            history_size=20,
-            tolerance_grad=1e-10,
-            tolerance_change=1e-14,
-            line_search_fn="strong_wolfe",
-        )
 
-        def closure():
-            optimizer.zero_grad()
+        def loss(iteration):
             error, penalty = self.terms(self.theta)
             total = error + config.l2 * penalty
-            total.backward()
-            iteration = optimizer.state[optimizer._params[0]].get("n_iter", 0)
             report(
                 "optimizing",
                 min(iteration / config.max_iterations, 1.0),
@@ -377,10 +369,11 @@ class _Regression:
         threads = torch.get_num_threads()
         torch.set_num_threads(1)
         try:
-            optimizer.step(closure)
+            iterations = minimize_lbfgs(
+                self.theta, loss, config.max_iterations, tolerance_change=1e-14
+            )
         finally:
             torch.set_num_threads(threads)
-        iterations = optimizer.state[optimizer._params[0]].get("n_iter", 0)
         with torch.no_grad():
             error, penalty = self.terms(self.theta)
         losses = {"total": float(error + config.l2 * penalty), "l2": float(penalty)}

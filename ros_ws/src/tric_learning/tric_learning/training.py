@@ -245,6 +245,33 @@ def train_from_bags(
     return BagTraining(path, dataset, result)
 
 
+def minimize_lbfgs(theta, loss, max_iterations: int, tolerance_change: float) -> int:
+    """Minimize loss(iteration), a scalar tensor of the parameters theta (1-D, requires grad), in
+    place by L-BFGS with a strong-Wolfe line search (history 20, at most max_iterations iterations
+    and twice as many evaluations; stops when the gradient's largest entry is below 1e-10 or the
+    loss changes by less than tolerance_change). loss gets the iterations done so far, for
+    progress reports. Returns the iterations done."""
+    optimizer = torch.optim.LBFGS(
+        [theta],
+        lr=1.0,
+        max_iter=max_iterations,
+        max_eval=max_iterations * 2,
+        history_size=20,
+        tolerance_grad=1e-10,
+        tolerance_change=tolerance_change,
+        line_search_fn="strong_wolfe",
+    )
+
+    def closure():
+        optimizer.zero_grad()
+        total = loss(optimizer.state[theta].get("n_iter", 0))
+        total.backward()
+        return total
+
+    optimizer.step(closure)
+    return optimizer.state[theta].get("n_iter", 0)
+
+
 @contextlib.contextmanager
 def deterministic_torch():
     """Within the block PyTorch uses only its deterministic algorithms (no run-to-run differences of
@@ -425,29 +452,11 @@ class _Problem:
 
     def _solve_lbfgs(self, report) -> int:
         config = self.config
-        optimizer = torch.optim.LBFGS(
-            [self.theta],
-            lr=1.0,
-            max_iter=config.max_iterations,
-            max_eval=config.max_iterations * 2,
-            history_size=20,
-            tolerance_grad=1e-10,
-            tolerance_change=1e-12,
-            line_search_fn="strong_wolfe",
-        )
 
-        def closure():
-            optimizer.zero_grad()
+        def loss(iteration):
             data, terms = self._data_loss(self.theta)
-            total = data + config.alpha_w * terms[2]
-            total.backward()
-            self._report(
-                report,
-                optimizer.state[optimizer._params[0]].get("n_iter", 0),
-                *(t.detach() for t in terms),
-            )
-            return total
+            self._report(report, iteration, *(t.detach() for t in terms))
+            return data + config.alpha_w * terms[2]
 
         torch.manual_seed(config.seed)
-        optimizer.step(closure)
-        return optimizer.state[optimizer._params[0]].get("n_iter", 0)
+        return minimize_lbfgs(self.theta, loss, config.max_iterations, tolerance_change=1e-12)
