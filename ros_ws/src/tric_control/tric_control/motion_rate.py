@@ -99,6 +99,9 @@ class Tick:
     converged: bool = False
 
 
+_PER_QUANTUM = 1.0 / STEP_QUANTUM
+#: The largest entry of an array, as a plain ufunc reduction (ndarray.max adds a Python layer).
+_largest = np.maximum.reduce
 #: The solver outcomes whose step is used.
 _SOLVED = (
     proxsuite.proxqp.QPSolverOutput.PROXQP_SOLVED,
@@ -136,7 +139,11 @@ class StepQP:
     def solve(self, hessian, linear, rows, lower, box_low, box_high) -> np.ndarray:
         # the cost divided by its largest coefficient (same minimizer): the solver's absolute
         # tolerance then means the same for an objective of any scale
-        scale = max(1.0, float(np.abs(hessian).max()), float(np.abs(linear).max()))
+        scale = max(
+            1.0,
+            float(_largest(np.abs(hessian), axis=None)),
+            float(_largest(np.abs(linear), axis=None)),
+        )
         if scale > 1.0:
             hessian, linear = hessian / scale, linear / scale
         if self.initialized:
@@ -149,7 +156,8 @@ class StepQP:
         self.qp.solve()
         if self.qp.results.info.status not in _SOLVED:
             return None
-        step = np.round(self.qp.results.x / STEP_QUANTUM) * STEP_QUANTUM
+        # x / STEP_QUANTUM is exactly x * 2**26; rint rounds half to even, as np.round does
+        step = np.rint(self.qp.results.x * _PER_QUANTUM) * STEP_QUANTUM
         return np.maximum(np.minimum(step, box_high), box_low)
 
 
@@ -194,18 +202,10 @@ class MotionRateController:
                 robot, getattr(proximity, "contacts", {}) if contacts is None else contacts
             )
         self.limits = list(limits)
-        n, overridden = (
-            robot.n_joints,
-            lambda method: [
-                limit
-                for limit in self.limits
-                if getattr(type(limit), method) is not getattr(Limit, method)
-            ],
-        )
-        self._costs, self._boxes = overridden("add_cost"), overridden("bound")
-        self._slices, start = [], 0
+        n = robot.n_joints
+        slices, start = [], 0
         for limit in self.limits:
-            self._slices.append(slice(start, start + limit.rows))
+            slices.append(slice(start, start + limit.rows))
             start += limit.rows
         self.qp = StepQP(n, start)
         self.reference = None
@@ -217,6 +217,21 @@ class MotionRateController:
         self._hessian, self._linear = np.empty((n, n)), np.empty(n)
         self._rows, self._lower = np.zeros((start, n)), np.full(start, UNBOUNDED_BELOW)
         self._low, self._high = np.empty(n), np.empty(n)
+        # the limits that use each way of shaping the step (those that override it); those with rows
+        # get their views into the QP's rows and lower bounds, those that name what binds the slice
+        # of their rows
+        self._costs = [limit for limit in self.limits if _overrides(limit, "add_cost")]
+        self._boxes = [limit for limit in self.limits if _overrides(limit, "bound")]
+        self._constraining = [
+            (limit, self._rows[rows_of], self._lower[rows_of])
+            for limit, rows_of in zip(self.limits, slices)
+            if limit.rows
+        ]
+        self._naming = [
+            (limit, rows_of)
+            for limit, rows_of in zip(self.limits, slices)
+            if _overrides(limit, "active")
+        ]
 
     def reset(self, q: np.ndarray) -> None:
         self.reference = np.array(q, dtype=float)
@@ -249,9 +264,8 @@ class MotionRateController:
             limit.bound(state, low, high)
         state.low, state.high = low, high
         rows, lower = self._rows, self._lower
-        for limit, rows_of in zip(self.limits, self._slices):
-            if limit.rows:
-                limit.constrain(state, rows[rows_of], lower[rows_of])
+        for limit, rows_of, lower_of in self._constraining:
+            limit.constrain(state, rows_of, lower_of)
         step = self.qp.solve(hessian, linear, rows, lower, low, high)
         if step is None:  # the solver found no step: hold still this tick
             step = np.zeros(robot.n_joints)
@@ -263,7 +277,7 @@ class MotionRateController:
         self.reference = np.maximum(np.minimum(target, robot.upper), robot.lower)
         binding = rows @ step <= lower + 1e-7
         active = []
-        for limit, rows_of in zip(self.limits, self._slices):
+        for limit, rows_of in self._naming:
             active += limit.active(state, step, binding[rows_of])
         self.values.append(model.value)
         self.history.append(q)
@@ -281,6 +295,11 @@ class MotionRateController:
             active=active,
             converged=converged,
         )
+
+
+def _overrides(limit: Limit, method: str) -> bool:
+    """Whether the limit's class overrides Limit's (empty) method."""
+    return getattr(type(limit), method) is not getattr(Limit, method)
 
 
 @dataclass
@@ -344,7 +363,7 @@ class ValueObjective:
         scaled = u.take(self._moving)
         to_low, to_high = scaled + DOMAIN_MARGIN, (1.0 + DOMAIN_MARGIN) - scaled
         margins = np.minimum(to_low, to_high)
-        nearest = np.argsort(margins)[:DOMAIN_ROWS]
+        nearest = margins.argsort()[:DOMAIN_ROWS]
         signs = np.where(to_low.take(nearest) <= to_high.take(nearest), 1.0, -1.0)
         rows = (
             jacobian.take(self._moving_raw.take(nearest), axis=0)

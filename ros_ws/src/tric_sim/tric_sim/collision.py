@@ -403,18 +403,17 @@ class Proximity:
             return Closest.none(
                 self.robot.n_joints, self.pair_names, self.body_names, self._body_rotations
             )
-        if len(close) > 1:  # closest first; ties keep the examination order
-            order = sorted(range(len(close)), key=distances.__getitem__)
-            close, distances = [close[k] for k in order], [distances[k] for k in order]
-            points, normals = [points[k] for k in order], [normals[k] for k in order]
-        aways = np.array(normals)
+        close, distances = np.array(close), np.array(distances)
+        points, aways = np.array(points), np.array(normals)
         np.negative(aways, out=aways)
-        distances = np.array(distances)
-        close = np.array(close)
+        if len(close) > 1:  # closest first; ties keep the examination order
+            order = distances.argsort(kind="stable")
+            close, distances = close.take(order), distances.take(order)
+            points, aways = points.take(order, axis=0), aways.take(order, axis=0)
         return Closest(
             close,
             distances,
-            self._rows(close, distances, np.array(points), aways),
+            self._rows(close, distances, points, aways),
             aways,
             self._pair_bodies.take(close),
             self._pair_hand.take(close),
