@@ -348,7 +348,7 @@ def test_the_simulator_stopping_mid_episode_leaves_the_robot_held_and_aborts(
         context=ros_context, parameter_overrides=[Parameter("mode", value=mode)]
     )
     controller = make_controller(
-        ros_context, mode=mode, state_timeout_s=0.5, use_sim_time=mode == "realtime"
+        ros_context, mode=mode, state_timeout_s=2.0, use_sim_time=mode == "realtime"
     )
     observer = Observer(ros_context)
     states = []
@@ -373,14 +373,17 @@ def test_the_simulator_stopping_mid_episode_leaves_the_robot_held_and_aborts(
         lambda: goal_future.result() if goal_future.done() else None, what="goal response"
     )
     result_future = handle.get_result_async()
-    wait_for(lambda: len(observer.commands) >= 30, what="30 commands")
+    wait_for(lambda: len(observer.commands) >= 30 or result_future.done(), what="30 commands")
+    # an episode that ended before the simulator stopped says why (a stall of the loaded test
+    # machine longer than state_timeout_s aborts it early)
+    assert not result_future.done(), f"the episode ended early: {result_future.result().result}"
     executor.remove_node(simulator)  # the simulator stops in the middle of the episode
     simulator.destroy_node()
     wrapped = wait_for(
         lambda: result_future.result() if result_future.done() else None, what="the abort"
     )
     assert wrapped.status == GoalStatus.STATUS_ABORTED and wrapped.result.outcome == "failed"
-    assert wrapped.result.message.startswith("no joint states for 0.5 s: is the")
+    assert wrapped.result.message.startswith("no joint states for 2 s: is the")
     # the robot holds: no command moves it on after the last state (lockstep answers states only;
     # realtime holds the last measured positions once the state is STALE_PERIODS periods old)
     run_periods(observer)
