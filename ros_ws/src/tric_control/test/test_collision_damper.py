@@ -11,7 +11,7 @@ import pytest
 from tric_control.limits import UNBOUNDED_BELOW, CollisionDamper, ContactRules, StepState
 from tric_control.motion_rate import DAMPING, SAFETY, SELF_SAFETY
 from tric_sim import scene, situations
-from tric_sim.collision import Closest, Proximity
+from tric_sim.proximity import Closest, Proximity
 from tric_sim.robot_model import RobotModel
 
 ROWS = 10

@@ -29,7 +29,7 @@ from tric_learning.features import FeatureDefinition, FeatureMap
 from tric_learning.model_file import ModelFile, value_function_arrays
 from tric_learning.value_function import Scaling, ValueFunction
 from tric_sim import situations
-from tric_sim.collision import Closest, Proximity
+from tric_sim.proximity import Closest, Proximity
 from tric_sim.robot_model import RobotModel
 from tric_sim.shapes import coal_shape
 

@@ -6,7 +6,7 @@ import numpy as np
 
 from tric_control.limits import ContactRules, SoftContact, StepState
 from tric_sim import scene
-from tric_sim.collision import Closest
+from tric_sim.proximity import Closest
 
 CUSHION, WEIGHT = 0.003, 3.0
 

@@ -42,7 +42,7 @@ from tric_control.limits import (
     SoftContact,
     StepState,
 )
-from tric_sim.collision import Proximity
+from tric_sim.proximity import Proximity
 from tric_sim.robot_model import RobotModel
 
 #: Inequality rows of the QP for the closest collision pairs and for the features nearest the
@@ -166,7 +166,7 @@ class MotionRateController:
 
     objective(q, object_poses) -> Objective: the quadratic model of the cost in dq (without the
     |dq|^2 term, which this adds), the cost's value and gradient norm, and the domain rows.
-    proximity.near(q, object_poses, INFLUENCE) -> tric_sim.collision.Closest: the collision pairs.
+    proximity.near(q, object_poses, INFLUENCE) -> tric_sim.proximity.Closest: the collision pairs.
     contacts: what the hand may press ({scene body name: tric_sim.scene.Contact}), default the
     proximity's (its situation's task's). limits: the QP's pieces (tric_control.limits.Limit),
     default default_limits(robot, contacts); the inequality rows are stacked in their order.

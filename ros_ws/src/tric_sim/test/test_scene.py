@@ -4,7 +4,8 @@ models take them."""
 import pytest
 
 from tric_sim import scene, situations
-from tric_sim.collision import CONTACT_TOLERANCE, Proximity
+from tric_sim.collision import CONTACT_TOLERANCE
+from tric_sim.proximity import Proximity
 from tric_sim.robot_model import RobotModel
 
 

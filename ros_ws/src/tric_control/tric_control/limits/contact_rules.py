@@ -6,7 +6,7 @@ import numpy as np
 
 class ContactRules:
     """The contacts {scene body name: Contact} of a task, read per tick against the pairs of a
-    tric_sim.collision.Closest. A pair holds its body's contact when its robot side is the hand and,
+    tric_sim.proximity.Closest. A pair holds its body's contact when its robot side is the hand and,
     for a contact with a side, the hand is on that side of the body: the direction in which the hand
     moves away from the body has a non-negative component along the side (body frame).
 
