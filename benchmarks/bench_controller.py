@@ -49,8 +49,8 @@ from tric_learning import model_file
 from tric_learning.recording import load_dataset, record_offline
 from tric_learning.training import TrainingConfig, train
 from tric_sim import situations
-from tric_sim.proximity import Proximity
 from tric_sim.physics import PhysicsWorld
+from tric_sim.proximity import Proximity
 from tric_sim.robot_model import RobotModel
 
 SPHERE_BAGS = pathlib.Path(__file__).resolve().parent.parent / "bags" / "sphere"

@@ -228,6 +228,43 @@ def test_experiment_report_from_hand_made_results(tmp_path, capsys):
     assert refused.value.code == 2 and "unknown experiment(s) table9" in capsys.readouterr().err
 
 
+def test_grasp_rows_evaluate_the_teacher_then_each_model_over_its_seeds():
+    """experiments.rows.grasp_rows: the teacher first, then each model over the runner's seeds (a
+    stand-in runner that records its calls); grasp_result tabulates and plots them."""
+    from tric_control.experiments.rows import grasp_result, grasp_rows
+
+    class Runner:
+        def __init__(self):
+            self.calls = []
+
+        def evaluate(self, tests, model, desc):
+            self.calls.append(("evaluate", model, desc))
+            return [grasp("a", 0.02, True), grasp("b", 0.04, True)]
+
+        def over_seeds(self, tests, label, **model):
+            self.calls.append(("over_seeds", label, model))
+            return {seed: [grasp("a", 0.05 * (seed + 1), seed < 2)] for seed in (0, 1, 2)}
+
+    runner = Runner()
+    models = {"TRIC K = 0": dict(name="c_k0", hidden_units=0), "TRIC K = 30": dict(name="c_k30")}
+    rows = grasp_rows(runner, ["a", "b"], models)
+    assert runner.calls == [
+        ("evaluate", None, "teacher"),
+        ("over_seeds", "TRIC K = 0", dict(name="c_k0", hidden_units=0)),
+        ("over_seeds", "TRIC K = 30", dict(name="c_k30")),
+    ]
+    assert list(rows) == ["teacher", "TRIC K = 0", "TRIC K = 30"]
+    assert rows["teacher"]["cost_mean"] == pytest.approx(0.03) and rows["teacher"]["good"] == 2
+    assert rows["TRIC K = 30"]["lift"] == [1, 1, 0]
+    assert rows["TRIC K = 30"]["cost_mean"] == pytest.approx(0.1)
+    result = grasp_result(rows, "Table 3: cylinders", "paper numbers", "the discussion")
+    assert result["rows"] is rows and result["paper"] == "paper numbers"
+    assert result["discussion"] == "the discussion" and "TRIC K = 30" in result["table"]
+    (axis,) = result["figure"].axes
+    assert axis.get_title() == "Table 3: cylinders"
+    assert [bar.get_height() for bar in axis.patches] == pytest.approx([0.03, 0.1, 0.1])
+
+
 def grasp_row(mean, good=15, lift=15, collisions=0, std=0.01, episodes=15):
     return {
         "cost_mean": mean,

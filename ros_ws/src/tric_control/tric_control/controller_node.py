@@ -74,9 +74,9 @@ from tric_msgs.msg import ControllerStatus, EpisodeEvent, ObjectPoses
 from tric_msgs.msg import Situation as SituationMsg
 from tric_msgs.srv import LoadModel
 from tric_sim import messages
-from tric_sim.proximity import Proximity
 from tric_sim.lockstep import StateStream, command_msg, run_in_thread
 from tric_sim.parameters import AT_LEAST_ONE, POSITIVE, Range, declare
+from tric_sim.proximity import Proximity
 from tric_sim.robot_model import RobotModel
 from tric_sim.ros_util import EVENT_QOS, LATCHED_QOS, STATE_QOS, Canceled, run_node
 

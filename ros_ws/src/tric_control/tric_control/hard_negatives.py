@@ -21,8 +21,8 @@ from tric_learning.dataset import Dataset
 from tric_learning.features import FeatureMap
 from tric_learning.samples import NoisySamples, d_curve, joined, step_offsets
 from tric_learning.training import TrainingConfig, TrainingResult, train
-from tric_sim.proximity import Proximity
 from tric_sim.physics import PhysicsWorld
+from tric_sim.proximity import Proximity
 from tric_sim.robot_model import RobotModel
 
 

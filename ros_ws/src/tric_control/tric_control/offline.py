@@ -26,8 +26,8 @@ from tric_control.objectives import CONTROL_PERIOD, make_objective
 from tric_learning.features import FeatureDefinition
 from tric_learning.model_file import ModelFile
 from tric_sim import metrics, teachers
-from tric_sim.proximity import Proximity
 from tric_sim.physics import PhysicsWorld
+from tric_sim.proximity import Proximity
 from tric_sim.robot_model import RobotModel
 
 

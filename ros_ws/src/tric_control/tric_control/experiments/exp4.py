@@ -2,13 +2,7 @@
 training."""
 
 from tric_control.experiments.paper import PAPER_REPORTS
-from tric_control.experiments.rows import (
-    cost_bars,
-    grasp_row,
-    grasp_table,
-    seeded_grasp_row,
-    spread,
-)
+from tric_control.experiments.rows import grasp_result, grasp_rows, spread
 from tric_control.experiments.runner import Runner
 from tric_sim import situations
 
@@ -21,20 +15,9 @@ TITLE = (
 
 def run(runner: Runner) -> dict:
     """The experiment's rows, table, figure(s), the paper's numbers and the discussion."""
-    tests = situations.dataset("obstacle_test")
-    rows = {
-        "teacher": grasp_row(runner.evaluate(tests, None, "teacher")),
-        "TRIC": seeded_grasp_row(
-            runner.over_seeds(tests, "TRIC", name="sphere_k30", bags="sphere")
-        ),
-    }
-    return {
-        "rows": rows,
-        "table": grasp_table(rows),
-        "figure": cost_bars("Exp. 4: unseen obstacle", rows),
-        "paper": PAPER_REPORTS["exp4"],
-        "discussion": discussion(rows),
-    }
+    tric = dict(name="sphere_k30", bags="sphere")
+    rows = grasp_rows(runner, situations.dataset("obstacle_test"), {"TRIC": tric})
+    return grasp_result(rows, "Exp. 4: unseen obstacle", PAPER_REPORTS["exp4"], discussion(rows))
 
 
 def discussion(rows: dict) -> str:

@@ -28,6 +28,27 @@ def grasp_row(records) -> dict:
     }
 
 
+def grasp_rows(runner, tests, models: dict) -> dict:
+    """The teacher's grasp row on tests, then the seeded grasp row of each model ({label:
+    Runner.model's arguments}) over the runner's seeds, in that order."""
+    rows = {"teacher": grasp_row(runner.evaluate(tests, None, "teacher"))}
+    for label, model in models.items():
+        rows[label] = seeded_grasp_row(runner.over_seeds(tests, label, **model))
+    return rows
+
+
+def grasp_result(rows: dict, figure_title: str, paper: str, discussion: str) -> dict:
+    """A grasp experiment's result: its rows, their table and cost bars, the paper's numbers and
+    the discussion."""
+    return {
+        "rows": rows,
+        "table": grasp_table(rows),
+        "figure": cost_bars(figure_title, rows),
+        "paper": paper,
+        "discussion": discussion,
+    }
+
+
 def seeded_grasp_row(by_seed: dict) -> dict:
     """Grasp rows of each seed ({seed: [EpisodeRecord]}) and their spread: the mean, lowest and
     highest of the seeds' mean costs, and the good, lifted and collided counts by seed."""

@@ -1,13 +1,7 @@
 """Table 1, spheres: the teacher and TRIC (K = 30) on the 15 sphere test situations."""
 
 from tric_control.experiments.paper import PAPER_REPORTS, PAPER_TEACHER, PAPER_TRIC
-from tric_control.experiments.rows import (
-    cost_bars,
-    grasp_row,
-    grasp_table,
-    seeded_grasp_row,
-    spread,
-)
+from tric_control.experiments.rows import grasp_result, grasp_rows, spread
 from tric_control.experiments.runner import Runner
 from tric_control.experiments.targets import MARGIN_TO_TEACHER
 from tric_sim import situations
@@ -20,20 +14,12 @@ TITLE = (
 
 def run(runner: Runner) -> dict:
     """The experiment's rows, table, figure(s), the paper's numbers and the discussion."""
-    tests = situations.dataset("sphere_test")
-    rows = {
-        "teacher": grasp_row(runner.evaluate(tests, None, "teacher")),
-        "TRIC K = 30": seeded_grasp_row(
-            runner.over_seeds(tests, "TRIC K = 30", name="sphere_k30", bags="sphere")
-        ),
-    }
-    return {
-        "rows": rows,
-        "table": grasp_table(rows),
-        "figure": cost_bars("Table 1: spheres", rows),
-        "paper": PAPER_REPORTS["table1"],
-        "discussion": discussion(rows),
-    }
+    rows = grasp_rows(
+        runner,
+        situations.dataset("sphere_test"),
+        {"TRIC K = 30": dict(name="sphere_k30", bags="sphere")},
+    )
+    return grasp_result(rows, "Table 1: spheres", PAPER_REPORTS["table1"], discussion(rows))
 
 
 def discussion(rows: dict) -> str:

@@ -1,13 +1,7 @@
 """Table 3, cylinders: the teacher, TRIC K = 0 and TRIC K = 30."""
 
 from tric_control.experiments.paper import PAPER_REPORTS
-from tric_control.experiments.rows import (
-    cost_bars,
-    grasp_row,
-    grasp_table,
-    seeded_grasp_row,
-    spread,
-)
+from tric_control.experiments.rows import grasp_result, grasp_rows, spread
 from tric_control.experiments.runner import Runner
 from tric_control.experiments.targets import CYLINDER_TARGETS
 from tric_sim import situations
@@ -21,25 +15,12 @@ TITLE = (
 
 def run(runner: Runner) -> dict:
     """The experiment's rows, table, figure(s), the paper's numbers and the discussion."""
-    tests = situations.dataset("cylinder_test")
-    rows = {"teacher": grasp_row(runner.evaluate(tests, None, "teacher"))}
-    for units in (0, 30):
-        rows[f"TRIC K = {units}"] = seeded_grasp_row(
-            runner.over_seeds(
-                tests,
-                f"TRIC K = {units}",
-                name=f"cylinder_k{units}",
-                bags="cylinder",
-                hidden_units=units,
-            )
-        )
-    return {
-        "rows": rows,
-        "table": grasp_table(rows),
-        "figure": cost_bars("Table 3: cylinders", rows),
-        "paper": PAPER_REPORTS["table3"],
-        "discussion": discussion(rows),
+    models = {
+        f"TRIC K = {units}": dict(name=f"cylinder_k{units}", bags="cylinder", hidden_units=units)
+        for units in (0, 30)
     }
+    rows = grasp_rows(runner, situations.dataset("cylinder_test"), models)
+    return grasp_result(rows, "Table 3: cylinders", PAPER_REPORTS["table3"], discussion(rows))
 
 
 def discussion(rows: dict) -> str:
