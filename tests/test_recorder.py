@@ -24,9 +24,10 @@ from sensor_msgs.msg import JointState
 
 from conftest import run_periods, wait_for
 from tric_learning import bags, record_cli
+from tric_learning.bag_dataset import load_dataset
+from tric_learning.bag_layout import SAMPLES_TOPIC
 from tric_learning.demonstrations import demonstrate_all
 from tric_learning.recorder_node import RecorderNode
-from tric_learning.recording import SAMPLES_TOPIC, load_dataset
 from tric_msgs.msg import EpisodeEvent, ObjectPoses, TaskMetrics
 from tric_sim import messages, scene, scene_view, situations
 from tric_sim.robot_model import RobotModel

@@ -19,10 +19,11 @@ from safetensors import safe_open
 from safetensors.numpy import save_file
 
 from tric_learning import samples, train_cli
+from tric_learning.bag_dataset import load_dataset
+from tric_learning.bag_recorder import BagRecorder
 from tric_learning.dataset import Dataset
 from tric_learning.features import FeatureDefinition
 from tric_learning.model_file import ModelFile, value_function, value_function_arrays
-from tric_learning.recording import BagRecorder, load_dataset
 from tric_learning.value_function import Scaling, ValueFunction
 from tric_msgs.msg import EpisodeEvent, TaskMetrics
 from tric_sim import messages, situations

@@ -5,8 +5,8 @@ dataset -> a training -> model file, with every input checked before anything is
 import pathlib
 from dataclasses import dataclass
 
+from tric_learning.bag_dataset import bag_paths, load_dataset
 from tric_learning.dataset import Dataset
-from tric_learning.recording import bag_paths, load_dataset
 from tric_sim.output_files import check_output_file
 from tric_sim.robot_model import RobotModel
 
@@ -44,7 +44,7 @@ def train_on_bags(
     tolerant: bool = False,
     notice=None,
 ) -> BagTraining:
-    """Load the demonstrations in the bags at paths (files or folders, see recording.load_dataset
+    """Load the demonstrations in the bags at paths (files or folders, see bag_dataset.load_dataset
     for include_failed, tolerant and notice), train on them with fit(dataset, report) -> result and
     write to_model_file(result, dataset) to output_path (see model_output_path). A bad bag or path
     raises ValueError and leaves no file. progress(stage, fraction, losses) is handed on to fit as

@@ -195,7 +195,7 @@ def train_from_bags(
     tolerant: bool = False,
     notice=None,
 ) -> BagTraining:
-    """Load the demonstrations in the bags at paths (files or folders, see recording.load_dataset
+    """Load the demonstrations in the bags at paths (files or folders, see bag_dataset.load_dataset
     for include_failed, tolerant and notice), train on them and write the model file to output_path
     (see bag_training.model_output_path). Every input is checked before anything is written: a bad
     bag, value or path raises ValueError and leaves no file. progress(stage, fraction, losses) as in
