@@ -31,6 +31,7 @@ from tric_learning.recorder_node import RecorderNode
 from tric_msgs.msg import EpisodeEvent, ObjectPoses, TaskMetrics
 from tric_sim import messages, scene, scene_view, situations
 from tric_sim.robot_model import RobotModel
+from tric_sim.situation_files import save_situations
 
 
 @pytest.fixture(scope="module")
@@ -418,7 +419,7 @@ def test_tric_record_refuses_a_bad_viz_port_before_recording(tmp_path, capsys):
 
 def test_overwrite_replaces_a_bag_of_the_same_name(tmp_path):
     situation_file = tmp_path / "one.yaml"
-    situations.save_situations(situation_file, situations.sphere_grid()[4:5])
+    save_situations(situation_file, situations.sphere_grid()[4:5])
     out = tmp_path / "bags"
     arguments = ["--situations-file", str(situation_file), "--out", str(out), "--duration", "1.0"]
     record_cli.main(arguments)  # a 1 s demonstration does not grasp (status 1), but it is recorded

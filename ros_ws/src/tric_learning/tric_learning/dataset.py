@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from tric_learning.features import FeatureDefinition
-from tric_sim.situations import Situation
+from tric_sim.situation import Situation
 
 
 @dataclass

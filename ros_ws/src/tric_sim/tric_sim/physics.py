@@ -35,7 +35,7 @@ with _quiet_stdout():
 # below the silenced pybullet import (PyBullet prints its build time when imported)
 from tric_sim import scene  # noqa: E402
 from tric_sim.robot_model import RobotModel  # noqa: E402
-from tric_sim.situations import Situation  # noqa: E402
+from tric_sim.situation import Situation  # noqa: E402
 
 COLORS = {
     "table": (0.82, 0.72, 0.55, 1.0),
@@ -165,7 +165,7 @@ class PhysicsWorld:
         """Replace the scene by the situation's and put the robot at its initial configuration.
         The clock advances by one control period, so that the new scene's first state is stamped
         after every state of the previous one (subscribers tell the scenes apart by stamp).
-        ValueError for an invalid or physically impossible situation (situations.check_scene)."""
+        ValueError for an invalid or physically impossible situation (scene_check.check_scene)."""
         situation.validate(self.robot.n_joints, self.robot)
         q0 = (
             self.robot.check_configuration(

@@ -25,7 +25,7 @@ import proxsuite
 from tric_sim import metrics, scene
 from tric_sim.box_teacher import BoxTeacher
 from tric_sim.robot_model import FINGERTIPS, PALM, RobotModel
-from tric_sim.situations import Situation
+from tric_sim.situation import Situation
 
 #: The shoulder (arm_2 joint) in the world frame at any arm_1 angle, m.
 SHOULDER = np.array([0.0, 0.0, 0.30])
