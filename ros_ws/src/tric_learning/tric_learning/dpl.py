@@ -34,6 +34,7 @@ from tric_learning.dataset import Dataset
 from tric_learning.features import FeatureDefinition
 from tric_learning.lbfgs import deterministic_torch, minimize_lbfgs
 from tric_learning.model_file import ModelFile
+from tric_learning.training import refuse_failed
 from tric_learning.value_function import Scaling, sigmoid
 from tric_sim.robot_model import RobotModel
 
@@ -70,9 +71,7 @@ class DplConfig:
             (0 < self.correlation_threshold <= 1, "correlation_threshold must be in (0, 1]"),
             (0 <= self.seed < 2**32, "seed must be in [0, 2^32)"),
         ]
-        for ok, message in checks:
-            if not ok:
-                raise ValueError(message)
+        refuse_failed(checks)
         return self
 
     def to_dict(self) -> dict:

@@ -47,6 +47,14 @@ RHO_GAIN = 100.0
 OPTIMIZERS = ("lbfgs", "lbfgsb")
 
 
+def refuse_failed(checks) -> None:
+    """ValueError with the message of the first (ok, message) of checks that is not ok; a config's
+    validate() lists its checks so (TrainingConfig's, dpl.DplConfig's)."""
+    for ok, message in checks:
+        if not ok:
+            raise ValueError(message)
+
+
 @dataclass
 class TrainingConfig:
     """Hyper-parameters: the paper's defaults but alpha_g and max_iterations (see the module
@@ -95,9 +103,7 @@ class TrainingConfig:
             (0 <= self.seed < 2**32, "seed must be in [0, 2^32)"),
             (self.optimizer in OPTIMIZERS, f"optimizer must be one of {', '.join(OPTIMIZERS)}"),
         ]
-        for ok, message in checks:
-            if not ok:
-                raise ValueError(message)
+        refuse_failed(checks)
         return self
 
     def to_dict(self) -> dict:
