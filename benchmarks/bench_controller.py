@@ -46,7 +46,8 @@ from tric_control.limits import CollisionDamper, DomainDamper, SoftContact, Step
 from tric_control.motion_rate import INFLUENCE, JOINT_MARGIN, MotionRateController, default_limits
 from tric_control.objectives import make_objective
 from tric_learning import model_file
-from tric_learning.recording import load_dataset, record_offline
+from tric_learning.bag_dataset import load_dataset
+from tric_learning.recording import record_offline
 from tric_learning.training import TrainingConfig, train
 from tric_sim import situations
 from tric_sim.physics import PhysicsWorld

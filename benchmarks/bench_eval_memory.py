@@ -21,7 +21,7 @@ import time
 
 from tric_control.graph_evaluation import Evaluator
 from tric_learning import model_file
-from tric_learning.recording import load_dataset
+from tric_learning.bag_dataset import load_dataset
 from tric_learning.training import TrainingConfig, train
 from tric_sim import situations
 from tric_sim.robot_model import RobotModel

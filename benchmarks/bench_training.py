@@ -14,8 +14,8 @@ import sys
 import tempfile
 import time
 
+from tric_learning.bag_dataset import load_dataset
 from tric_learning.demonstrations import demonstrate_all
-from tric_learning.recording import load_dataset
 from tric_learning.training import TrainingConfig, train
 from tric_sim import situations
 from tric_sim.robot_model import RobotModel

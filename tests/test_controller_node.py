@@ -260,7 +260,7 @@ def test_realtime_holds_on_stale_states_and_missing_poses_and_resumes(
     )
 
     feeder.object_pose = False  # fresh states, poses without the object
-    wait_for(lambda: controller._poses == {}, what="poses without the object")
+    wait_for(lambda: controller.loop.poses == {}, what="poses without the object")
     mark = controller.get_clock().now().nanoseconds
     run_periods(observer)
     without_object = statuses_since(mark)

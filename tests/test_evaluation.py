@@ -14,6 +14,7 @@ from tric_control.evaluation import EpisodeRecord, report, summarize, table, wri
 from tric_learning.training import TrainingConfig, train_from_bags
 from tric_sim import situations
 from tric_sim.robot_model import RobotModel
+from tric_sim.situation_files import save_situations
 
 BAGS = pathlib.Path(__file__).resolve().parent.parent / "bags" / "sphere"
 
@@ -95,9 +96,7 @@ def test_bad_arguments_are_refused(tmp_path, capsys):
     assert evaluate_cli.main(["--model", str(tmp_path / "missing.safetensors"), "sphere_test"]) == 2
     assert "does not exist" in capsys.readouterr().err
     mixed = tmp_path / "mixed.yaml"
-    situations.save_situations(
-        mixed, situations.sphere_grid()[:1] + situations.dataset("box_test")[:1]
-    )
+    save_situations(mixed, situations.sphere_grid()[:1] + situations.dataset("box_test")[:1])
     assert evaluate_cli.main(["--teacher", "--situations-file", str(mixed)]) == 2
     assert "mix tasks" in capsys.readouterr().err
     with pytest.raises(SystemExit) as refused:
@@ -134,7 +133,7 @@ def test_output_paths_and_impossible_situations_are_refused_before_the_first_epi
         (["--model", str(tmp_path), "sphere_test"], f"model file {tmp_path} is a folder"),
     ]
     inside = situations.sphere("inside_the_base", (0.0, 0.0, 0.05))
-    situations.save_situations(tmp_path / "impossible.yaml", [inside])
+    save_situations(tmp_path / "impossible.yaml", [inside])
     refusals.append(
         (
             ["--teacher", "--situations-file", str(tmp_path / "impossible.yaml")],
@@ -153,7 +152,7 @@ def test_tric_eval_writes_the_teacher_s_records_as_json(tmp_path):
     nodes are tric-demo's, test_demo.py)."""
     chosen = situations.dataset("sphere_test")[3:4]
     path = tmp_path / "one.yaml"
-    situations.save_situations(path, chosen)
+    save_situations(path, chosen)
     assert (
         evaluate_cli.main(
             ["--teacher", "--situations-file", str(path), "--json", str(tmp_path / "t.json")]

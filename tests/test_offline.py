@@ -13,6 +13,7 @@ from tric_control.offline import evaluate_offline
 from tric_learning.training import TrainingConfig, train_from_bags
 from tric_sim import situations
 from tric_sim.robot_model import RobotModel
+from tric_sim.situation_files import save_situations
 
 
 @pytest.fixture(scope="module")
@@ -67,7 +68,7 @@ def test_both_paths_name_the_failure_of_an_episode_cut_short(tmp_path):
 
 def test_offline_cli_writes_the_same_table_and_json(tmp_path, capsys):
     chosen = tmp_path / "one.yaml"
-    situations.save_situations(chosen, situations.dataset("sphere_test")[:1])
+    save_situations(chosen, situations.dataset("sphere_test")[:1])
     out = tmp_path / "teacher.json"
     assert (
         evaluate_cli.main(

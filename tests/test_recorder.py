@@ -24,12 +24,14 @@ from sensor_msgs.msg import JointState
 
 from conftest import run_periods, wait_for
 from tric_learning import bags, record_cli
+from tric_learning.bag_dataset import load_dataset
+from tric_learning.bag_layout import SAMPLES_TOPIC
 from tric_learning.demonstrations import demonstrate_all
 from tric_learning.recorder_node import RecorderNode
-from tric_learning.recording import SAMPLES_TOPIC, load_dataset
 from tric_msgs.msg import EpisodeEvent, ObjectPoses, TaskMetrics
 from tric_sim import messages, scene, scene_view, situations
 from tric_sim.robot_model import RobotModel
+from tric_sim.situation_files import save_situations
 
 
 @pytest.fixture(scope="module")
@@ -417,7 +419,7 @@ def test_tric_record_refuses_a_bad_viz_port_before_recording(tmp_path, capsys):
 
 def test_overwrite_replaces_a_bag_of_the_same_name(tmp_path):
     situation_file = tmp_path / "one.yaml"
-    situations.save_situations(situation_file, situations.sphere_grid()[4:5])
+    save_situations(situation_file, situations.sphere_grid()[4:5])
     out = tmp_path / "bags"
     arguments = ["--situations-file", str(situation_file), "--out", str(out), "--duration", "1.0"]
     record_cli.main(arguments)  # a 1 s demonstration does not grasp (status 1), but it is recorded

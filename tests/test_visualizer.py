@@ -33,6 +33,7 @@ from tric_msgs.srv import ResetScene
 from tric_sim import messages, scene, scene_view, situations
 from tric_sim.robot_model import RobotModel
 from tric_sim.simulator_node import SimulatorNode
+from tric_sim.situation_files import save_situations
 from tric_sim.visualizer_node import VisualizerNode
 
 LATCHED = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
@@ -187,7 +188,7 @@ def test_tric_eval_viz_serves_the_episode_live(model_path, tmp_path):
     step and the top features of every few ticks; the recorded bag has the status of every tick."""
     situation = situations.dataset("sphere_test")[2]
     situations_file = tmp_path / "one.yaml"
-    situations.save_situations(situations_file, [situation])
+    save_situations(situations_file, [situation])
     port = free_port()
     done = threading.Event()
     exit_codes = []

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from tric_control.hard_negatives import contrasts, train_with_hard_negatives
-from tric_learning.recording import bag_paths, load_dataset
+from tric_learning.bag_dataset import bag_paths, load_dataset
 from tric_learning.samples import step_offsets
 from tric_learning.training import TrainingConfig
 from tric_sim.robot_model import RobotModel

@@ -36,16 +36,11 @@ Parameters:
 - use_sim_time: as usual. Realtime mode's timer and staleness test run on the node clock, which must
   be the clock the joint states are stamped with (with the simulator: use_sim_time true).
 
-Lockstep protocol (mode "lockstep", with the simulator in lockstep): the simulator publishes the
-state of period t (stamped t) and waits; the controller answers that /joint_states message with
-exactly one /joint_command stamped t; the simulator then simulates one period and publishes the
-state t + period. The control loop runs in a thread of its own that waits on the topics directly
-(tric_sim.lockstep).
-
-Realtime mode: a timer at control_rate_hz on the node clock commands from the latest joint state.
-When that state is older than 3 control periods (or the objects' poses are missing) the input is
-stale: the node commands the last measured positions (approached at the velocity bound) with status
-HOLDING, does not step the controller, and resumes when fresh states arrive.
+Modes: "lockstep" (tric_control.lockstep_loop: each joint state of the simulator in lockstep
+answered with exactly one command, stamped as the state) and "realtime"
+(tric_control.realtime_loop: a timer on the node clock commands from the latest joint state, and
+holds when it is stale). The loaded model, the scene and the running episode are
+tric_control.controller_episode's.
 
 The episode itself (safe commands, the stale-state hold, convergence and the step budget, the
 statistics) is tric_control.episode.EpisodeRunner, the same loop that `tric-eval --offline` runs on
@@ -55,94 +50,32 @@ the physics without ROS; this node only feeds it states and publishes what it de
 import math
 import sys
 import threading
-import time
 
 from rclpy.action import ActionServer, CancelResponse, GoalResponse
-from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
-from rclpy.task import Future
 from sensor_msgs.msg import JointState
 
+from tric_control.controller_episode import Episode, Loaded, Scene
 from tric_control.episode import DEFAULT_MAX_STEPS, EpisodeRunner
+from tric_control.lockstep_loop import LockstepLoop
 from tric_control.motion_rate import MotionRateController
 from tric_control.objectives import make_objective
-from tric_control.top_features import TopFeatures
+from tric_control.realtime_loop import RealtimeLoop
 from tric_learning.features import TASK_LANDMARKS, FeatureDefinition
 from tric_learning.model_file import ModelFile
 from tric_msgs.action import Execute
-from tric_msgs.msg import ControllerStatus, EpisodeEvent, ObjectPoses
+from tric_msgs.msg import ControllerStatus, EpisodeEvent
 from tric_msgs.msg import Situation as SituationMsg
 from tric_msgs.srv import LoadModel
 from tric_sim import messages
-from tric_sim.lockstep import StateStream, command_msg, run_in_thread
+from tric_sim.lockstep import command_msg
 from tric_sim.parameters import AT_LEAST_ONE, POSITIVE, Range, declare
 from tric_sim.proximity import Proximity
 from tric_sim.robot_model import RobotModel
-from tric_sim.ros_util import EVENT_QOS, LATCHED_QOS, STATE_QOS, Canceled, run_node
+from tric_sim.ros_util import EVENT_QOS, LATCHED_QOS, STATE_QOS, run_node
 
 MODES = ("lockstep", "realtime")
 FEEDBACK_EVERY = 10
-#: Wall seconds between checks of cancel requests and the state timeout (lockstep waits, realtime
-#: watchdog).
-POLL_S = 0.05
-
-
-class Loaded:
-    """A loaded model: its file, path, controller objective and the top features its status
-    shows."""
-
-    def __init__(self, path: str, model_file: ModelFile, objective):
-        self.path, self.file, self.objective = path, model_file, objective
-        self.top_features = TopFeatures(objective)
-        self.kind = model_file.kind
-        self.objects = tuple(
-            source.partition("/")[2]
-            for source in model_file.definition.landmark_sources
-            if source.startswith("object/")
-        )
-
-
-class Scene:
-    """The current situation and the collision queries for it."""
-
-    def __init__(self, situation, msg: SituationMsg, proximity: Proximity):
-        self.situation, self.msg, self.proximity = situation, msg, proximity
-
-
-class Episode:
-    """One run of ~/execute: its goal, model, scene and runner (tric_control.episode)."""
-
-    def __init__(
-        self, goal_handle, episode_id: str, model: Loaded, scene: Scene, runner: EpisodeRunner
-    ):
-        self.goal_handle, self.episode_id, self.model, self.scene = (
-            goal_handle,
-            episode_id,
-            model,
-            scene,
-        )
-        self.runner = runner
-        self.start_ns = None  # stamp of the first answered state (START), None before it
-        self.last_ns = None  # stamp of the last answered state
-        self.wall_start = time.monotonic()
-        self.done = Future()  # realtime: (outcome, message) when the episode is over
-
-    @property
-    def steps(self) -> int:
-        return self.runner.stats.steps
-
-    def finish(self, outcome: str, message: str = "") -> None:
-        if not self.done.done():
-            self.done.set_result((outcome, message))
-
-    def fill(self, result) -> None:
-        stats = self.runner.stats
-        result.steps = stats.steps
-        result.initial_value, result.final_value = stats.initial_value, stats.final_value
-        result.min_distance = stats.min_distance if stats.steps else math.nan
-        result.min_joint_limit_margin = stats.min_joint_margin if stats.steps else math.nan
-        result.wall_time_s = time.monotonic() - self.wall_start
-        result.mean_tick_ms, result.max_tick_ms = stats.mean_tick_ms, stats.max_tick_ms
 
 
 class ControllerNode(Node):
@@ -182,8 +115,6 @@ class ControllerNode(Node):
         self.scene = None
         self._busy = threading.Lock()
         self._stop = threading.Event()
-        self._control_thread = None
-        self._episode = None  # realtime: the running episode
         if model_path:
             self.model = self._load(model_path)  # ValueError: a bad parameter
 
@@ -191,21 +122,7 @@ class ControllerNode(Node):
         self.episode_pub = self.create_publisher(EpisodeEvent, "/episode", EVENT_QOS)
         self.status_pub = self.create_publisher(ControllerStatus, "~/status", STATE_QOS)
         self.create_subscription(SituationMsg, "/situation", self._on_situation, LATCHED_QOS)
-        self.stream = None
-        # realtime: (stamp_ns, q, received wall time) of the newest joint state
-        self._latest = None
-        self._poses = {}
-        if self.mode == "lockstep":
-            self.stream = StateStream(
-                self.context, "controller_state_stream", self.robot.joint_names, STATE_QOS
-            )
-        else:
-            self.create_subscription(JointState, "/joint_states", self._on_joint_state, STATE_QOS)
-            self.create_subscription(ObjectPoses, "/object_poses", self._on_object_poses, STATE_QOS)
-            self.create_timer(self.period, self._on_control_timer)
-            self.create_timer(
-                POLL_S, self._on_watchdog, clock=Clock(clock_type=ClockType.STEADY_TIME)
-            )
+        self.loop = LockstepLoop(self) if self.mode == "lockstep" else RealtimeLoop(self)
         self.create_service(LoadModel, "~/load_model", self._on_load_model)
         self._server = ActionServer(
             self,
@@ -226,15 +143,9 @@ class ControllerNode(Node):
 
     def destroy_node(self):
         self._stop.set()
-        episode = self._episode
-        if episode is not None:
-            episode.finish("failed", "the controller is shutting down")
-        thread = self._control_thread
-        if thread is not None and thread is not threading.current_thread():
-            thread.join(timeout=5.0)
+        self.loop.stop()
         self._server.destroy()
-        if self.stream is not None:
-            self.stream.destroy()
+        self.loop.destroy()
         return super().destroy_node()
 
     # --- model and scene -----------------------------------------------------------------------
@@ -291,23 +202,6 @@ class ControllerNode(Node):
             self.get_logger().warning(f"ignored /situation '{msg.name}': {error}")
             return
         self.scene = Scene(situation, msg, proximity)
-
-    # --- realtime inputs
-    # ---------------------------------------------------------------------------
-
-    def _on_joint_state(self, msg: JointState):
-        try:
-            q = messages.joint_positions_from_msg(msg, self.robot.joint_names)
-        except ValueError as error:
-            self.get_logger().warning(f"ignored /joint_states: {error}", throttle_duration_sec=1.0)
-            return
-        self._latest = (messages.time_ns(msg.header.stamp), q, time.monotonic())
-
-    def _on_object_poses(self, msg: ObjectPoses):
-        try:
-            self._poses = messages.object_poses_from_msg(msg)
-        except ValueError as error:
-            self.get_logger().warning(f"ignored /object_poses: {error}", throttle_duration_sec=1.0)
 
     # --- the action ------------------------------------------------------------------------------
 
@@ -370,22 +264,7 @@ class ControllerNode(Node):
         self.get_logger().info(
             f"episode '{episode.episode_id}' ({model.kind}, {max_steps} steps at most)"
         )
-        if self.mode == "lockstep":
-            try:
-                outcome, message = await run_in_thread(self, self._drive, episode)
-            except Canceled:
-                outcome, message = "canceled", "canceled"
-            except RuntimeError as error:
-                outcome, message = "failed", str(error)
-            except Exception as error:  # a bug: still an answer, not a traceback
-                self.get_logger().error(f"episode failed: {error!r}")
-                outcome, message = "failed", f"internal error: {type(error).__name__}: {error}"
-        else:
-            self._episode = episode
-            try:
-                outcome, message = await episode.done
-            finally:
-                self._episode = None
+        outcome, message = await self.loop.run(episode)
         episode.fill(result)
         result.outcome, result.message = outcome, message
         if outcome == "canceled":
@@ -412,64 +291,9 @@ class ControllerNode(Node):
 
     def _event(self, kind, episode: Episode):
         """Publish an EpisodeEvent; END and ABORT only for an episode that started."""
-        if kind != EpisodeEvent.START and episode.start_ns is None:
-            return
-        msg = EpisodeEvent(event=kind, episode_id=episode.episode_id, source=episode.model.kind)
-        msg.header.stamp = messages.time_msg(
-            episode.start_ns if kind == EpisodeEvent.START else episode.last_ns
-        )
-        if kind == EpisodeEvent.START:
-            msg.situation = episode.scene.msg
-        self.episode_pub.publish(msg)
-
-    # --- lockstep --------------------------------------------------------------------------------
-
-    def _drive(self, episode: Episode):
-        """The lockstep control loop (in its own thread): answer each new state with one command.
-        Returns (outcome, message); raises Canceled or RuntimeError."""
-        self._control_thread = threading.current_thread()
-        try:
-            last = -1
-            while True:
-                stamp, q = self._next_state(episode, last)
-                if last >= 0 and stamp - last != self.period_ns and episode.steps == 1:
-                    self.get_logger().warning(
-                        f"joint states come every {(stamp - last) / 1e6:g} ms of simulated time, "
-                        f"but control_rate_hz sets a period of {self.period * 1e3:g} ms"
-                    )
-                last = stamp
-                poses = self.stream.poses
-                missing = episode.runner.missing(poses)
-                if missing:
-                    raise RuntimeError(
-                        f"no pose of {', '.join(missing)} on /object_poses: is the simulator "
-                        "running?"
-                    )
-                outcome = self._tick(episode, stamp, q, poses, stamp)
-                if outcome:
-                    return outcome
-        finally:
-            self._control_thread = None
-
-    def _next_state(self, episode: Episode, after_ns: int):
-        """(stamp_ns, q) of the next joint state, waiting up to state_timeout_s; raises Canceled or
-        RuntimeError (no states, a new scene, shutdown)."""
-        deadline = time.monotonic() + self.state_timeout
-        while True:
-            if self._stop.is_set():
-                raise RuntimeError("the controller is shutting down")
-            if episode.goal_handle.is_cancel_requested:
-                raise Canceled()
-            if self.scene is not episode.scene:
-                raise RuntimeError("the scene was reset during the episode")
-            remaining = deadline - time.monotonic()
-            if remaining <= 0:
-                raise RuntimeError(
-                    f"no joint states for {self.state_timeout:g} s: is the simulator running?"
-                )
-            state = self.stream.next_state(min(remaining, POLL_S), after_ns=after_ns)
-            if state is not None:
-                return state
+        msg = episode.event(kind)
+        if msg is not None:
+            self.episode_pub.publish(msg)
 
     # --- one tick (both modes) -------------------------------------------------------------------
 
@@ -526,33 +350,7 @@ class ControllerNode(Node):
             )
         return decided.outcome
 
-    # --- realtime
-    # ----------------------------------------------------------------------------------
-
-    def _on_control_timer(self):
-        """Realtime: one runner step from the latest state (a hold when it is stale or the objects'
-        poses are missing), or idle status."""
-        now_ns = self.get_clock().now().nanoseconds
-        episode = self._episode
-        if episode is None or episode.done.done():
-            self._status(ControllerStatus.IDLE, now_ns)
-            return
-        latest = self._latest
-        if latest is None:
-            self._status(ControllerStatus.HOLDING, now_ns, episode)
-            return
-        stamp, q, _ = latest
-        try:
-            outcome = self._tick(episode, stamp, q, self._poses, now_ns, now_ns)
-        except Exception as error:
-            outcome = (
-                "failed",
-                str(error)
-                if isinstance(error, RuntimeError)
-                else f"internal error: {type(error).__name__}: {error}",
-            )
-        if outcome:
-            episode.finish(*outcome)
+    # --- status (both modes) --------------------------------------------------------------------
 
     def _status(self, state, now_ns: int, episode: Episode = None):
         status = ControllerStatus(
@@ -571,24 +369,6 @@ class ControllerNode(Node):
             status.value_rate = float(getattr(episode.model.objective, "delta", math.nan))
         status.header.stamp = messages.time_msg(now_ns)
         self.status_pub.publish(status)
-
-    def _on_watchdog(self):
-        """Realtime (wall clock): cancel requests and the state timeout of the running episode."""
-        episode = self._episode
-        if episode is None or episode.done.done():
-            return
-        if episode.goal_handle.is_cancel_requested:
-            episode.finish("canceled", "canceled")
-            return
-        if self.scene is not episode.scene:
-            episode.finish("failed", "the scene was reset during the episode")
-            return
-        latest = self._latest
-        last_wall = max(episode.wall_start, latest[2]) if latest is not None else episode.wall_start
-        if time.monotonic() - last_wall > self.state_timeout:
-            episode.finish(
-                "failed", f"no joint states for {self.state_timeout:g} s: is the robot running?"
-            )
 
 
 def main(args=None):

@@ -35,7 +35,8 @@ from tric_control.graph_evaluation import MAX_DOMAIN_ID, evaluate
 from tric_control.offline import evaluate_offline
 from tric_sim.output_files import check_output_file, check_output_folder
 from tric_sim.ros_util import private_domain_id
-from tric_sim.situations import DATASETS, dataset, load_situations
+from tric_sim.situation_files import load_situations
+from tric_sim.situations import DATASETS, dataset
 from tric_sim.visualizer_node import add_view_arguments, open_view
 
 

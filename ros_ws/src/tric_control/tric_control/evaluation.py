@@ -59,6 +59,19 @@ class EpisodeRecord:
         return self.outcome == "failed"
 
 
+def evaluated_task(situations, jobs: int) -> str:
+    """The one task of the situations an evaluation runs in jobs processes; ValueError if they mix
+    tasks or jobs is below 1."""
+    tasks = {s.task for s in situations}
+    if len(tasks) != 1:
+        raise ValueError(
+            f"the situations mix tasks ({', '.join(sorted(tasks))}): evaluate one task at a time"
+        )
+    if jobs < 1:
+        raise ValueError(f"jobs must be at least 1, not {jobs}")
+    return tasks.pop()
+
+
 def _mean(values) -> float:
     values = [v for v in values if v is not None and math.isfinite(v)]
     return float(np.mean(values)) if values else math.nan

@@ -4,7 +4,6 @@ each situation: reset the scene, let the teacher demonstrate it or the controlle
 model for one episode, then judge the final state with the hidden metrics (with the lift test for
 grasps). evaluate() runs several such graphs at once, each in a spawned worker process."""
 
-import concurrent.futures
 import math
 import multiprocessing
 import multiprocessing.util
@@ -23,7 +22,8 @@ from rclpy.parameter import Parameter  # noqa: E402
 from tqdm import tqdm  # noqa: E402
 
 from tric_control.controller_node import ControllerNode  # noqa: E402
-from tric_control.evaluation import EpisodeRecord  # noqa: E402
+from tric_control.evaluation import EpisodeRecord, evaluated_task  # noqa: E402
+from tric_control.evaluation_workers import run_in_workers  # noqa: E402
 from tric_control.objectives import RUNNABLE_KINDS  # noqa: E402
 from tric_learning.recorder_node import RecorderNode  # noqa: E402
 from tric_msgs.action import Demonstrate, Execute  # noqa: E402
@@ -32,7 +32,7 @@ from tric_msgs.srv import EvaluateTask, LoadModel, RenderScene, ResetScene  # no
 from tric_sim import messages  # noqa: E402
 from tric_sim.output_files import atomic_path  # noqa: E402
 from tric_sim.ros_util import EVENT_QOS, InProcessGraph, wait  # noqa: E402
-from tric_sim.simulator_node import IN_PROCESS_LOCKSTEP_TIMEOUT_S, SimulatorNode  # noqa: E402
+from tric_sim.simulator_node import lockstep_simulator  # noqa: E402
 from tric_sim.teacher_node import TeacherNode  # noqa: E402
 from tric_sim.visualizer_node import VisualizerNode  # noqa: E402
 
@@ -65,15 +65,7 @@ class Evaluator:
         self.graph = InProcessGraph(domain_id)
         self.recorder = None
         try:
-            self.graph.add(
-                SimulatorNode(
-                    context=self.graph.context,
-                    parameter_overrides=[
-                        Parameter("mode", value="lockstep"),
-                        Parameter("lockstep_timeout_s", value=IN_PROCESS_LOCKSTEP_TIMEOUT_S),
-                    ],
-                )
-            )
+            self.graph.add(lockstep_simulator(self.graph.context))
             if view is not None:
                 self.graph.add(VisualizerNode(view=view, context=self.graph.context))
             if record is not None:
@@ -312,16 +304,9 @@ def evaluate(
     on DDS domain domain_id + k (domain_id None: the environment's ROS_DOMAIN_ID, else 0).
     view: a FoxgloveView to show the run in (jobs 1 only); record: a folder for one bag per
     episode."""
-    tasks = {s.task for s in situations}
-    if len(tasks) != 1:
-        raise ValueError(
-            f"the situations mix tasks ({', '.join(sorted(tasks))}): evaluate one task at a time"
-        )
-    if jobs < 1:
-        raise ValueError(f"jobs must be at least 1, not {jobs}")
+    task = evaluated_task(situations, jobs)
     if view is not None and min(jobs, len(situations)) > 1:
         raise ValueError("a live view shows one evaluation graph: use --jobs 1 with --viz")
-    task = tasks.pop()
     snapshot = pathlib.Path(snapshots) if snapshots else None
     bar = tqdm(total=len(situations), desc=desc, unit="episode", disable=not progress)
     try:
@@ -363,7 +348,8 @@ def _evaluate_here(
 def _evaluate_in_workers(
     situations, task, model, max_steps, snapshot, domain_id, jobs, bar, record
 ) -> list:
-    """The situations shared out over jobs spawned workers (see _start_worker), one at a time."""
+    """The situations shared out over jobs spawned workers (see _worker_evaluator), one at a
+    time."""
     base = int(os.environ.get("ROS_DOMAIN_ID", "0")) if domain_id is None else domain_id
     if not 0 <= base <= MAX_DOMAIN_ID - jobs + 1:
         raise ValueError(
@@ -374,50 +360,21 @@ def _evaluate_in_workers(
     domain_ids = spawn.Queue()
     for offset in range(jobs):
         domain_ids.put(base + offset)
-    records = [None] * len(situations)
-    with concurrent.futures.ProcessPoolExecutor(
+    return run_in_workers(
+        situations,
+        snapshot,
         jobs,
-        mp_context=spawn,
-        initializer=_start_worker,
-        initargs=(task, model, max_steps, domain_ids, record),
-    ) as pool:
-        futures = {
-            pool.submit(_run_in_worker, situation, snapshot): k
-            for k, situation in enumerate(situations)
-        }
-        try:
-            for future in concurrent.futures.as_completed(futures):
-                records[futures[future]] = future.result()
-                bar.set_postfix_str(situations[futures[future]].name)
-                bar.update()
-        except BaseException:
-            pool.shutdown(wait=True, cancel_futures=True)
-            raise
-    return records
+        bar,
+        _worker_evaluator,
+        (task, model, max_steps, domain_ids, record),
+    )
 
 
-#: A worker process's Evaluator, or the error that building it raised (re-raised by each of its
-#: runs).
-_worker = {}
-
-
-def _start_worker(task, model, max_steps, domain_ids, record):
-    """Worker initializer: build this process's Evaluator on the next free domain; closed at
-    exit."""
-    try:
-        evaluator = Evaluator(
-            task, model, max_steps, domain_ids.get(timeout=SERVICE_TIMEOUT), record=record
-        )
-    # an initializer's exception would only break the pool, without its message
-    except Exception as error:
-        _worker["error"] = error
-        return
-    _worker["evaluator"] = evaluator
+def _worker_evaluator(task, model, max_steps, domain_ids, record) -> Evaluator:
+    """A worker process's Evaluator (see evaluation_workers), on the next free domain; closed at
+    the worker's exit."""
+    evaluator = Evaluator(
+        task, model, max_steps, domain_ids.get(timeout=SERVICE_TIMEOUT), record=record
+    )
     multiprocessing.util.Finalize(None, evaluator.close, exitpriority=10)
-
-
-def _run_in_worker(situation, snapshot) -> EpisodeRecord:
-    """One episode on this worker's Evaluator; its construction's error, if it failed."""
-    if "error" in _worker:
-        raise _worker["error"]
-    return _worker["evaluator"].run(situation, snapshot)
+    return evaluator

@@ -12,15 +12,14 @@ simulator steps on its own when a command is late), so the two agree to within t
 run-to-run spread.
 """
 
-import concurrent.futures
-import multiprocessing
 import pathlib
 import time
 
 from tqdm import tqdm
 
 from tric_control.episode import DEFAULT_MAX_STEPS, EpisodeRunner
-from tric_control.evaluation import EpisodeRecord
+from tric_control.evaluation import EpisodeRecord, evaluated_task
+from tric_control.evaluation_workers import run_in_workers
 from tric_control.motion_rate import MotionRateController
 from tric_control.objectives import CONTROL_PERIOD, make_objective
 from tric_learning.features import FeatureDefinition
@@ -169,14 +168,7 @@ def evaluate_offline(
     """Run the agent (a model file, or the teacher if None) on every situation offline;
     [EpisodeRecord] in the situations' order. jobs > 1: that many spawned worker processes, each
     with its own world. controller_options: see OfflineEvaluator."""
-    tasks = {s.task for s in situations}
-    if len(tasks) != 1:
-        raise ValueError(
-            f"the situations mix tasks ({', '.join(sorted(tasks))}): evaluate one task at a time"
-        )
-    if jobs < 1:
-        raise ValueError(f"jobs must be at least 1, not {jobs}")
-    task = tasks.pop()
+    task = evaluated_task(situations, jobs)
     snapshot = pathlib.Path(snapshots) if snapshots else None
     jobs = min(jobs, len(situations))
     records = [None] * len(situations)
@@ -193,44 +185,16 @@ def evaluate_offline(
             finally:
                 evaluator.close()
             return records
-        spawn = multiprocessing.get_context("spawn")
-        with concurrent.futures.ProcessPoolExecutor(
+        return run_in_workers(
+            situations,
+            snapshot,
             jobs,
-            mp_context=spawn,
-            initializer=_start_worker,
-            initargs=(task, model, max_steps, controller_options),
-        ) as pool:
-            futures = {
-                pool.submit(_run_in_worker, situation, snapshot): k
-                for k, situation in enumerate(situations)
-            }
-            try:
-                for future in concurrent.futures.as_completed(futures):
-                    records[futures[future]] = future.result()
-                    bar.set_postfix_str(situations[futures[future]].name)
-                    bar.update()
-            except BaseException:
-                pool.shutdown(wait=True, cancel_futures=True)
-                raise
-    return records
-
-
-#: A worker process's OfflineEvaluator, or the error that building it raised (re-raised by each
-#: run).
-_worker = {}
-
-
-def _start_worker(task, model, max_steps, controller_options):
-    try:
-        _worker["evaluator"] = OfflineEvaluator(
-            task, model, max_steps, controller_options=controller_options
+            bar,
+            _worker_evaluator,
+            (task, model, max_steps, controller_options),
         )
-    # an initializer's exception would only break the pool, without its message
-    except Exception as error:
-        _worker["error"] = error
 
 
-def _run_in_worker(situation, snapshot):
-    if "error" in _worker:
-        raise _worker["error"]
-    return _worker["evaluator"].run(situation, snapshot)
+def _worker_evaluator(task, model, max_steps, controller_options) -> OfflineEvaluator:
+    """A worker process's OfflineEvaluator (see evaluation_workers)."""
+    return OfflineEvaluator(task, model, max_steps, controller_options=controller_options)

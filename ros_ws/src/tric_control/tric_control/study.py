@@ -43,7 +43,7 @@ from tric_control.hard_negatives import train_with_hard_negatives
 from tric_control.motion_rate import MAX_LEAD
 from tric_control.offline import evaluate_offline
 from tric_learning import analysis, model_file
-from tric_learning.recording import bag_paths, load_dataset
+from tric_learning.bag_dataset import bag_paths, load_dataset
 from tric_learning.training import TrainingConfig, train
 from tric_sim.metrics import GOOD_GRASP, LID_OPEN_ANGLE
 from tric_sim.robot_model import RobotModel

@@ -18,7 +18,8 @@ from rosbags.highlevel import AnyReader
 from sensor_msgs.msg import JointState
 
 from tric_learning import bags
-from tric_learning.recording import SAMPLES_TOPIC, bag_paths, load_dataset
+from tric_learning.bag_dataset import bag_paths, load_dataset
+from tric_learning.bag_layout import SAMPLES_TOPIC
 from tric_msgs.msg import FeatureSample
 from tric_sim.robot_model import RobotModel
 

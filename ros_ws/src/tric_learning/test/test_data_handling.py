@@ -19,18 +19,20 @@ from safetensors import safe_open
 from safetensors.numpy import save_file
 
 from tric_learning import samples, train_cli
+from tric_learning.bag_dataset import load_dataset
+from tric_learning.bag_recorder import BagRecorder
 from tric_learning.dataset import Dataset
 from tric_learning.features import FeatureDefinition
 from tric_learning.model_file import ModelFile, value_function, value_function_arrays
-from tric_learning.recording import BagRecorder, load_dataset
 from tric_learning.value_function import Scaling, ValueFunction
 from tric_msgs.msg import EpisodeEvent, TaskMetrics
 from tric_sim import messages, situations
 from tric_sim.robot_model import RobotModel
+from tric_sim.situation import Obstacle, Situation
 
 START_NS = 1_000_000_000
 #: An obstacle block around the robot's lower arm: every configuration near home collides with it.
-BLOCKING_OBSTACLE = situations.Obstacle("box", (0.3, 0.3, 0.3), (0.0, 0.0, 0.4))
+BLOCKING_OBSTACLE = Obstacle("box", (0.3, 0.3, 0.3), (0.0, 0.0, 0.4))
 
 
 @pytest.fixture(scope="module")
@@ -160,7 +162,7 @@ def test_a_demonstration_recorded_twice_names_both_bags(robot, tmp_path):
 def test_a_demonstration_without_collision_free_samples_is_named_with_its_bag(
     robot, tmp_path, capsys
 ):
-    blocked = situations.Situation(
+    blocked = Situation(
         name="blocked",
         task="grasp",
         object_kind="sphere",

@@ -19,9 +19,9 @@ from tric_learning.analysis import (
     ranked_feature,
     write_figures,
 )
+from tric_learning.bag_dataset import load_dataset
 from tric_learning.model_file import ModelFile, value_function
-from tric_learning.recording import load_dataset
-from tric_learning.training import MIN_STEP
+from tric_learning.training_problem import MIN_STEP
 from tric_sim.output_files import check_output_folder
 from tric_sim.robot_model import RobotModel
 

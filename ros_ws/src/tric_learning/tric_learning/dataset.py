@@ -2,7 +2,7 @@
 
 A Demo holds one demonstration's samples in time order; a Dataset holds demos of one feature
 definition, checked for consistency (same definition, joints and feature sizes, finite values).
-Loading from MCAP bags is tric_learning.recording's; this module is plain data. Units: rad, m.
+Loading from MCAP bags is tric_learning.bag_dataset's; this module is plain data. Units: rad, m.
 """
 
 import hashlib
@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from tric_learning.features import FeatureDefinition
-from tric_sim.situations import Situation
+from tric_sim.situation import Situation
 
 
 @dataclass

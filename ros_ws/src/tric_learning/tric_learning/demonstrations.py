@@ -14,7 +14,7 @@ from tric_learning.recorder_node import RecorderNode
 from tric_msgs.action import Demonstrate
 from tric_sim import messages
 from tric_sim.ros_util import InProcessGraph, wait
-from tric_sim.simulator_node import IN_PROCESS_LOCKSTEP_TIMEOUT_S, SimulatorNode
+from tric_sim.simulator_node import lockstep_simulator
 from tric_sim.teacher_node import TeacherNode
 from tric_sim.visualizer_node import VisualizerNode
 
@@ -35,15 +35,7 @@ def demonstrate_all(
     run in (None: no visualizer); overwrite: the recorder's parameter."""
     graph = InProcessGraph(domain_id)
     try:
-        graph.add(
-            SimulatorNode(
-                context=graph.context,
-                parameter_overrides=[
-                    Parameter("mode", value="lockstep"),
-                    Parameter("lockstep_timeout_s", value=IN_PROCESS_LOCKSTEP_TIMEOUT_S),
-                ],
-            )
-        )
+        graph.add(lockstep_simulator(graph.context))
         if view is not None:
             graph.add(VisualizerNode(view=view, context=graph.context))
         graph.add(TeacherNode(context=graph.context))

@@ -20,7 +20,7 @@ the saved network predicts in rad or m. A step is per sample period of the demon
 paper's 125 ms), which the model file records as sample_period_s.
 
 train_dpl_from_bags() is the whole job for tric-train --kind and the trainer node: bags -> dataset
--> train_dpl() -> model file, with training.py's bag loading and output-path checks.
+-> train_dpl() -> model file, by tric_learning.bag_training as TRIC's training.
 """
 
 import time
@@ -29,16 +29,12 @@ from dataclasses import asdict, dataclass
 import numpy as np
 import torch
 
+from tric_learning.bag_training import BagTraining, train_on_bags
 from tric_learning.dataset import Dataset
 from tric_learning.features import FeatureDefinition
+from tric_learning.lbfgs import deterministic_torch, minimize_lbfgs
 from tric_learning.model_file import ModelFile
-from tric_learning.recording import bag_paths, load_dataset
-from tric_learning.training import (
-    BagTraining,
-    deterministic_torch,
-    minimize_lbfgs,
-    model_output_path,
-)
+from tric_learning.training import refuse_failed
 from tric_learning.value_function import Scaling, sigmoid
 from tric_sim.robot_model import RobotModel
 
@@ -75,9 +71,7 @@ class DplConfig:
             (0 < self.correlation_threshold <= 1, "correlation_threshold must be in (0, 1]"),
             (0 <= self.seed < 2**32, "seed must be in [0, 2^32)"),
         ]
-        for ok, message in checks:
-            if not ok:
-                raise ValueError(message)
+        refuse_failed(checks)
         return self
 
     def to_dict(self) -> dict:
@@ -231,23 +225,17 @@ def train_dpl_from_bags(
     "saving"."""
     config.validate()
     check_kind(kind)
-    files = bag_paths(paths, tolerant, notice)
-    path = model_output_path(output_path, files[0])
-    report = progress or (lambda *_: None)
-    report("loading", 0.0, None)
-    dataset = load_dataset(
-        files,
+    return train_on_bags(
+        paths,
+        output_path,
         robot,
-        lambda done, total: report("loading", done / total, None),
+        progress,
+        lambda dataset, report: train_dpl(dataset, robot, config, kind, report),
+        to_model_file,
         include_failed=include_failed,
         tolerant=tolerant,
         notice=notice,
     )
-    result = train_dpl(dataset, robot, config, kind, report)
-    report("saving", 0.0, result.losses)
-    to_model_file(result, dataset).save(path)
-    report("saving", 1.0, result.losses)
-    return BagTraining(path, dataset, result)
 
 
 def policy_arrays(policy: DplPolicy) -> dict:

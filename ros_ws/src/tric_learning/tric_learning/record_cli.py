@@ -18,7 +18,8 @@ import time
 from tric_learning.demonstrations import demonstrate_all
 from tric_sim.output_files import check_output_folder
 from tric_sim.ros_util import private_domain_id
-from tric_sim.situations import DATASETS, dataset, load_situations
+from tric_sim.situation_files import load_situations
+from tric_sim.situations import DATASETS, dataset
 from tric_sim.visualizer_node import add_view_arguments, open_view
 
 

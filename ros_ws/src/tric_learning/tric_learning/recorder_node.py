@@ -1,5 +1,5 @@
 """The recorder node: one MCAP bag per episode, with features and Jacobians
-(tric_learning.recording).
+(tric_learning.bag_recorder).
 
 Listens to /episode (tric_msgs/EpisodeEvent): on START from a recorded source it opens
 `<output_dir>/<episode_id>.mcap.part`; it then writes every /joint_states and /object_poses of the
@@ -33,7 +33,8 @@ from rclpy.qos import QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState
 
 from tric_learning import bags
-from tric_learning.recording import SAMPLE_PERIOD, BagRecorder
+from tric_learning.bag_recorder import BagRecorder
+from tric_learning.recording import SAMPLE_PERIOD
 from tric_msgs.msg import ControllerStatus, EpisodeEvent, ObjectPoses
 from tric_sim import messages
 from tric_sim.lockstep import TopicPoller

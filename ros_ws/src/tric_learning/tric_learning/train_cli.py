@@ -25,9 +25,9 @@ import sys
 
 from tqdm import tqdm
 
+from tric_learning.bag_dataset import bag_paths
 from tric_learning.dpl import DPL_KINDS, DplConfig, train_dpl_from_bags
 from tric_learning.model_file import KINDS
-from tric_learning.recording import bag_paths
 from tric_learning.training import SELECTED_FRACTION, TrainingConfig, train_from_bags
 from tric_sim.robot_model import RobotModel
 

@@ -7,7 +7,8 @@ import pytest
 
 from tric_sim import metrics, scene
 from tric_sim import situations as S
-from tric_sim.physics import DISTANCE_CUTOFF, PhysicsWorld, pb
+from tric_sim.bullet import pb
+from tric_sim.physics import DISTANCE_CUTOFF, PhysicsWorld
 from tric_sim.robot_model import RobotModel
 
 

@@ -17,6 +17,9 @@ from tric_sim.output_files import (
 )
 from tric_sim.physics import PhysicsWorld
 from tric_sim.robot_model import RobotModel
+from tric_sim.scene_check import check_scene
+from tric_sim.situation import WORKSPACE_HIGH, WORKSPACE_LOW, Obstacle, Situation
+from tric_sim.situation_files import load_situations
 
 
 @pytest.fixture(scope="module")
@@ -81,7 +84,7 @@ def test_atomic_writes_replace_whole_files_or_leave_the_old_one(tmp_path):
             "the object \\(sphere\\) reaches 20.0 cm into the table",
         ),
         (
-            S.Situation(
+            Situation(
                 name="sunk_box",
                 task="open_box",
                 object_kind="box",
@@ -91,13 +94,13 @@ def test_atomic_writes_replace_whole_files_or_leave_the_old_one(tmp_path):
             "the object \\(box\\) reaches 5.0 cm into the table",
         ),
         (
-            S.Situation(
+            Situation(
                 name="plate_in_arm",
                 task="grasp",
                 object_kind="sphere",
                 object_dimensions=(0.04,),
                 object_position=(0.6, 0.0, 0.3),
-                obstacles=(S.Obstacle("box", (0.3, 0.3, 0.3), (0.0, 0.0, 0.4)),),
+                obstacles=(Obstacle("box", (0.3, 0.3, 0.3), (0.0, 0.0, 0.4)),),
             ),
             "obstacle 0 \\(box\\) intersects the robot's",
         ),
@@ -109,7 +112,7 @@ def test_physically_impossible_situations_are_refused(robot, situation, reason, 
     path = tmp_path / "situations.yaml"
     path.write_text(yaml.safe_dump({"situations": [situation.to_dict()]}))
     with pytest.raises(ValueError, match=reason):
-        S.load_situations(path, robot)
+        load_situations(path, robot)
     world = PhysicsWorld(robot)
     try:
         with pytest.raises(ValueError, match=reason):
@@ -121,7 +124,7 @@ def test_physically_impossible_situations_are_refused(robot, situation, reason, 
 def test_every_built_in_situation_is_physically_possible(robot):
     for name in S.DATASETS:
         for situation in S.dataset(name):
-            assert S.check_scene(situation, robot) is situation
+            assert check_scene(situation, robot) is situation
 
 
 # --- fuzzed situation data ----------------------------------------------------------------------
@@ -170,7 +173,7 @@ NEAR_VALID = st.sampled_from(sorted(FIELDS)).flatmap(
 
 #: Spheres anywhere in the workspace, of any size: some inside the robot or the table.
 SPHERES = st.tuples(
-    *(st.floats(lo, hi) for lo, hi in zip(S.WORKSPACE_LOW, S.WORKSPACE_HIGH)), st.floats(0.001, 0.8)
+    *(st.floats(lo, hi) for lo, hi in zip(WORKSPACE_LOW, WORKSPACE_HIGH)), st.floats(0.001, 0.8)
 ).map(lambda v: S.sphere("fuzzed", v[:3], radius=v[3]).to_dict())
 
 
@@ -178,7 +181,7 @@ SPHERES = st.tuples(
 @given(data=SITUATION_DATA | NEAR_VALID | SPHERES)
 def test_generated_situation_data_is_refused_clearly_or_valid(robot, data):
     try:
-        situation = S.Situation.from_dict(data)
+        situation = Situation.from_dict(data)
     except ValueError as error:
         assert str(error)
         event("refused")
@@ -186,7 +189,7 @@ def test_generated_situation_data_is_refused_clearly_or_valid(robot, data):
     assert isinstance(situation.name, str) and situation.name
     assert all(math.isfinite(v) for v in situation.object_position + situation.object_dimensions)
     try:
-        S.check_scene(situation, robot)
+        check_scene(situation, robot)
         event("valid, physically possible")
     except ValueError as error:
         assert f"situation '{situation.name}'" in str(error)

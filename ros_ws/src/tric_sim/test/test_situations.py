@@ -1,6 +1,5 @@
-"""Situations: validation, files, and the paper's data sets."""
+"""The paper's data sets and their generators (tric_sim.situations)."""
 
-import dataclasses
 import math
 
 import numpy as np
@@ -58,50 +57,7 @@ def test_obstacle_stands_between_robot_and_object():
     assert np.linalg.norm(obstacle.position[:2]) < np.linalg.norm(s.object_position[:2])
 
 
-@pytest.mark.parametrize("suffix", [".yaml", ".json"])
-def test_file_round_trip(tmp_path, suffix):
-    original = S.dataset("obstacle_test")[:2] + S.dataset("box_test")[:2]
-    path = tmp_path / ("situations" + suffix)
-    S.save_situations(path, original)
-    assert S.load_situations(path) == original
-
-
-@pytest.mark.parametrize(
-    "change, message",
-    [
-        ({"task": "juggle"}, "unknown task"),
-        ({"object_kind": "box"}, "does not fit task"),
-        ({"object_dimensions": (0.04, 0.1)}, "must have 1 value"),
-        ({"object_dimensions": (-0.04,)}, "positive"),
-        ({"object_position": (math.nan, 0.0, 0.3)}, "non-finite"),
-        ({"object_position": (5.0, 0.0, 0.3)}, "outside the workspace"),
-        ({"object_orientation": (0.0, 0.0, 0.0, 2.0)}, "unit quaternion"),
-        ({"initial_joint_positions": (0.0,) * 3}, "must have 14"),
-        ({"name": ""}, "non-empty name"),
-    ],
-)
-def test_bad_situations_are_refused(change, message):
-    good = S.sphere("s", (0.6, 0.0, 0.3))
-    with pytest.raises(ValueError, match=message):
-        dataclasses.replace(good, **change).validate()
-
-
-def test_bad_files_are_refused_with_the_reason(tmp_path):
-    missing = tmp_path / "nope.yaml"
-    with pytest.raises(ValueError, match="cannot read"):
-        S.load_situations(missing)
-    garbage = tmp_path / "garbage.json"
-    garbage.write_text("{not json")
-    with pytest.raises(ValueError, match="not valid JSON"):
-        S.load_situations(garbage)
-    unknown = tmp_path / "unknown.yaml"
-    data = S.sphere("s", (0.6, 0.0, 0.3)).to_dict()
-    data["colour"] = "red"
-    import yaml
-
-    unknown.write_text(yaml.safe_dump([data]))
-    with pytest.raises(ValueError, match="unknown field"):
-        S.load_situations(unknown)
+def test_an_unknown_data_set_is_refused():
     with pytest.raises(ValueError, match="unknown data set"):
         S.dataset("nonsense")
 

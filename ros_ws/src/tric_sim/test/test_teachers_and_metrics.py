@@ -10,9 +10,10 @@ import pytest
 
 from tric_sim import metrics
 from tric_sim import situations as S
+from tric_sim.grasp_teacher import GraspTeacher
 from tric_sim.physics import PhysicsWorld
 from tric_sim.robot_model import FINGERTIPS, PALM, RobotModel
-from tric_sim.teachers import GraspTeacher, approach_direction, demonstrate
+from tric_sim.teachers import demonstrate
 
 
 @pytest.fixture(scope="module")
@@ -115,12 +116,6 @@ def test_box_teacher_opens_the_lid(world, robot):
     assert teacher.planning_time_s > 0
 
 
-def test_approach_comes_from_the_robots_side_and_above():
-    for situation in S.sphere_grid():
-        n = approach_direction(np.asarray(situation.object_position))
-        assert n[2] < 0 and n[:2] @ np.asarray(situation.object_position[:2]) > 0
-
-
 def test_teachers_refuse_the_wrong_task(robot):
     with pytest.raises(ValueError, match="GraspTeacher"):
         GraspTeacher(robot, S.dataset("box_test")[0])
@@ -141,16 +136,6 @@ def test_snapshot_strip_of_a_demonstration(tmp_path, capsys):
     with pytest.raises(SystemExit) as refused:
         snapshot.main(["sphere_grid_13", "--strip", "1", "--out", str(tmp_path)])
     assert refused.value.code == 2 and "--strip takes 2 to 12 frames" in capsys.readouterr().err
-
-
-def test_cylinder_pointing_at_the_robot_still_gets_a_grasp_point():
-    from tric_sim.teachers import cylinder_grasp_point
-
-    centre = np.array([0.6, 0.0, 0.3])
-    point, direction = cylinder_grasp_point(centre, np.array([1.0, 0.0, 0.0]), 0.3)  # axis along x
-    # across the axis, not upwards
-    assert abs(direction @ [1.0, 0.0, 0.0]) < 1e-9 and direction[2] <= 0.1
-    assert np.linalg.norm(point - centre) <= 0.3 * 0.3 + 1e-9
 
 
 def test_finger_opposition_of_a_small_sphere_moved_across_the_open_hand(robot):

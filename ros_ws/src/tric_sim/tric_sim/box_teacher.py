@@ -21,7 +21,7 @@ import pinocchio as pin
 
 from tric_sim import scene
 from tric_sim.robot_model import RobotModel
-from tric_sim.situations import Situation
+from tric_sim.situation import Situation
 
 STEPS = 80
 STEP_DURATION = 0.1

@@ -16,7 +16,7 @@ import numpy as np
 
 from tric_sim import scene, shapes
 from tric_sim.robot_model import RobotModel
-from tric_sim.situations import Situation
+from tric_sim.situation import Situation
 
 #: Penetration allowed into the bodies the task lets the hand contact (scene.contacts), m: the
 #: fingers of a firm grip press a few millimetres into them in simulation.

@@ -14,7 +14,7 @@ from shape_msgs.msg import SolidPrimitive
 from tric_msgs.msg import ObjectPoses
 from tric_msgs.msg import Situation as SituationMsg
 from tric_msgs.msg import TaskMetrics as TaskMetricsMsg
-from tric_sim.situations import Obstacle, Situation
+from tric_sim.situation import Obstacle, Situation
 
 SHAPE_TYPES = {
     "box": SolidPrimitive.BOX,

@@ -178,7 +178,7 @@ def finger_flexion(robot: RobotModel, q) -> float:
 
 def open_flexion(kind: str) -> float:
     """The flexion (as finger_flexion) of the teacher's open pre-shape for an object kind, rad."""
-    from tric_sim.teachers import PRESHAPE  # the teachers import this module
+    from tric_sim.grasp_teacher import PRESHAPE  # the grasp teacher imports this module
 
     _, proximal, distal = PRESHAPE[kind]
     return proximal + distal

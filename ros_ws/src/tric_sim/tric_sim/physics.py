@@ -3,55 +3,21 @@ objects, stepped in control periods with position-controlled joints. ROS-free.
 
 Grasp targets float where the situation puts them, held by a fixture (a fixed constraint) until
 release_object() lets gravity act on them (the lift test). The box body is static; its lid is a link
-on a hinge with friction. Units: m, rad, s, kg, N m.
+on a hinge with friction (tric_sim.bullet_scene builds them). Units: m, rad, s, kg, N m.
 """
-
-import contextlib
-import os
 
 import numpy as np
 
+from tric_sim import scene
+from tric_sim.bullet import pb, quiet_stdout
+from tric_sim.bullet_scene import LATERAL_FRICTION, LID_RANGE, SPINNING_FRICTION, create_body
+from tric_sim.robot_model import RobotModel
+from tric_sim.situation import Situation
 
-@contextlib.contextmanager
-def _quiet_stdout():
-    """Silence what PyBullet's C code prints on stdout (build time, URDF link merging)."""
-    try:
-        saved = os.dup(1)
-    except OSError:  # no stdout to silence
-        yield
-        return
-    with open(os.devnull, "wb") as devnull:
-        os.dup2(devnull.fileno(), 1)
-        try:
-            yield
-        finally:
-            os.dup2(saved, 1)
-            os.close(saved)
-
-
-with _quiet_stdout():
-    import pybullet as pb
-
-# below the silenced pybullet import (PyBullet prints its build time when imported)
-from tric_sim import scene  # noqa: E402
-from tric_sim.robot_model import RobotModel  # noqa: E402
-from tric_sim.situations import Situation  # noqa: E402
-
-COLORS = {
-    "table": (0.82, 0.72, 0.55, 1.0),
-    "target": (0.85, 0.15, 0.12, 1.0),
-    "box_body": (0.55, 0.38, 0.2, 1.0),
-    "lid": (0.75, 0.55, 0.3, 1.0),
-    "obstacle": (0.45, 0.45, 0.5, 1.0),
-}
-#: Friction coefficients of the fingers and the objects.
-LATERAL_FRICTION = 0.6
-SPINNING_FRICTION = 0.002
 #: Distance beyond which robot-to-scene distances are not resolved (reported as this value), m: the
 #: contact-breaking threshold, within which PyBullet reports contact points with their distance.
 DISTANCE_CUTOFF = 0.02
 #: The lid's hinge range, rad: closed (resting on the box) to flung open.
-LID_RANGE = (0.0, 2.2)
 #: Gains of the joint servos (PyBullet's POSITION_CONTROL: position and velocity error weights).
 POSITION_GAIN = 0.1
 VELOCITY_GAIN = 1.0
@@ -103,7 +69,7 @@ class PhysicsWorld:
             | pb.URDF_USE_SELF_COLLISION_EXCLUDE_ALL_PARENTS
             | pb.URDF_USE_MATERIAL_COLORS_FROM_MTL
         )
-        with _quiet_stdout():
+        with quiet_stdout():
             self.robot_id = pb.loadURDF(
                 str(robot.urdf_path), useFixedBase=True, flags=flags, physicsClientId=self.client
             )
@@ -165,7 +131,7 @@ class PhysicsWorld:
         """Replace the scene by the situation's and put the robot at its initial configuration.
         The clock advances by one control period, so that the new scene's first state is stamped
         after every state of the previous one (subscribers tell the scenes apart by stamp).
-        ValueError for an invalid or physically impossible situation (situations.check_scene)."""
+        ValueError for an invalid or physically impossible situation (scene_check.check_scene)."""
         situation.validate(self.robot.n_joints, self.robot)
         q0 = (
             self.robot.check_configuration(
@@ -182,7 +148,7 @@ class PhysicsWorld:
             if body.role == "lid":
                 continue  # built as a link of the box body
             self.body_roles[body.name] = body.role
-            self.bodies[body.name] = self._create_body(body, situation)
+            self.bodies[body.name] = create_body(self.client, body, situation)
         if situation.object_kind in scene.OBJECT_MASS:
             position, orientation = situation.object_position, situation.object_orientation
             self.fixture = pb.createConstraint(
@@ -215,100 +181,6 @@ class PhysicsWorld:
         self.min_distance = self.closest_distance()
         self.max_overshoot, self.max_overshoot_joint = 0.0, ""
         self.periods += 1
-
-    def _create_body(self, body: scene.Body, situation: Situation) -> int:
-        color = COLORS[body.role]
-        collision, visual = self._shape(body.shape, body.dimensions, color)
-        if body.role == "box_body":
-            return self._create_box_with_lid(body, situation, collision, visual)
-        mass = scene.OBJECT_MASS[situation.object_kind] if body.role == "target" else 0.0
-        uid = pb.createMultiBody(
-            mass, collision, visual, body.position, body.orientation, physicsClientId=self.client
-        )
-        pb.changeDynamics(
-            uid,
-            -1,
-            lateralFriction=LATERAL_FRICTION,
-            spinningFriction=SPINNING_FRICTION,
-            rollingFriction=0.0005,
-            physicsClientId=self.client,
-        )
-        return uid
-
-    def _create_box_with_lid(self, body, situation, collision, visual) -> int:
-        side = situation.object_dimensions[0]
-        lid_collision, lid_visual = self._shape(
-            "box",
-            scene.lid_extents(side),
-            COLORS["lid"],
-            offset=scene.lid_geometry_offset(side).translation,
-        )
-        hinge_local = pb.multiplyTransforms(
-            *pb.invertTransform(body.position, body.orientation),
-            *scene.pose_tuple(scene.hinge_placement(situation)),
-        )
-        lid_com = scene.lid_geometry_offset(side).translation
-        uid = pb.createMultiBody(
-            0.0,
-            collision,
-            visual,
-            body.position,
-            body.orientation,
-            linkMasses=[scene.LID_MASS],
-            linkCollisionShapeIndices=[lid_collision],
-            linkVisualShapeIndices=[lid_visual],
-            linkPositions=[hinge_local[0]],
-            linkOrientations=[hinge_local[1]],
-            linkInertialFramePositions=[lid_com.tolist()],
-            linkInertialFrameOrientations=[[0, 0, 0, 1]],
-            linkParentIndices=[0],
-            linkJointTypes=[pb.JOINT_REVOLUTE],
-            linkJointAxis=[[0, -1, 0]],
-            physicsClientId=self.client,
-        )
-        pb.changeDynamics(
-            uid,
-            0,
-            lateralFriction=LATERAL_FRICTION,
-            jointLowerLimit=LID_RANGE[0],
-            jointUpperLimit=LID_RANGE[1],
-            physicsClientId=self.client,
-        )
-        pb.setJointMotorControl2(
-            uid,
-            0,
-            pb.VELOCITY_CONTROL,
-            targetVelocity=0.0,
-            force=scene.LID_HINGE_FRICTION,
-            physicsClientId=self.client,
-        )
-        # A multibody's links do not collide with their parent by default: the lid must rest on,
-        # not sink into, the box.
-        pb.setCollisionFilterPair(uid, uid, -1, 0, enableCollision=1, physicsClientId=self.client)
-        return uid
-
-    def _shape(self, shape: str, dimensions, color, offset=(0.0, 0.0, 0.0)):
-        kwargs = {"physicsClientId": self.client}
-        if shape == "box":
-            half = [d / 2 for d in dimensions]
-            c = pb.createCollisionShape(
-                pb.GEOM_BOX, halfExtents=half, collisionFramePosition=offset, **kwargs
-            )
-            v = pb.createVisualShape(
-                pb.GEOM_BOX, halfExtents=half, rgbaColor=color, visualFramePosition=offset, **kwargs
-            )
-        elif shape == "sphere":
-            c = pb.createCollisionShape(pb.GEOM_SPHERE, radius=dimensions[0], **kwargs)
-            v = pb.createVisualShape(
-                pb.GEOM_SPHERE, radius=dimensions[0], rgbaColor=color, **kwargs
-            )
-        else:
-            height, radius = dimensions
-            c = pb.createCollisionShape(pb.GEOM_CYLINDER, radius=radius, height=height, **kwargs)
-            v = pb.createVisualShape(
-                pb.GEOM_CYLINDER, radius=radius, length=height, rgbaColor=color, **kwargs
-            )
-        return c, v
 
     def release_object(self) -> None:
         """Remove the grasp target's fixture, so that gravity and the hand alone hold it."""

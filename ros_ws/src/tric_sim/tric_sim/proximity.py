@@ -18,7 +18,7 @@ import pinocchio as pin
 from tric_sim import shapes
 from tric_sim.collision import SceneCollision
 from tric_sim.robot_model import RobotModel
-from tric_sim.situations import Situation
+from tric_sim.situation import Situation
 
 #: Proximity sends a pair to coal when its distance's lower bound is below the reach asked for plus
 #: this, m (room for coal's own tolerance).

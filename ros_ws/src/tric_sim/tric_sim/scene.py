@@ -11,7 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
-from tric_sim.situations import Situation
+from tric_sim.situation import Situation
 
 #: The table top is the plane z = 0 under the robot and the objects.
 TABLE_SIZE = (1.6, 1.6, 0.05)

@@ -29,7 +29,7 @@ import pinocchio as pin
 
 from tric_sim import scene
 from tric_sim.robot_model import RobotModel
-from tric_sim.situations import Situation
+from tric_sim.situation import Situation
 
 WORLD = "world"
 BASE = "base_link"

@@ -25,6 +25,7 @@ import numpy as np
 from rclpy.callback_groups import MutuallyExclusiveCallbackGroup
 from rclpy.event_handler import PublisherEventCallbacks
 from rclpy.node import Node
+from rclpy.parameter import Parameter
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import Image, JointState
 
@@ -286,6 +287,18 @@ class SimulatorNode(Node):
         response.image.header.frame_id = "world"
         response.success, response.message = True, "rendered"
         return response
+
+
+def lockstep_simulator(context) -> SimulatorNode:
+    """A simulator node in lockstep mode for an in-process graph on context (its commanders answer
+    every state: lockstep_timeout_s IN_PROCESS_LOCKSTEP_TIMEOUT_S)."""
+    return SimulatorNode(
+        context=context,
+        parameter_overrides=[
+            Parameter("mode", value="lockstep"),
+            Parameter("lockstep_timeout_s", value=IN_PROCESS_LOCKSTEP_TIMEOUT_S),
+        ],
+    )
 
 
 def main(args=None):

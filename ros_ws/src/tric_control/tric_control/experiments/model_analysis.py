@@ -11,8 +11,8 @@ from tric_control.experiments.rows import (
 from tric_control.experiments.runner import BAGS, SEEDS, Runner
 from tric_control.experiments.targets import COSINE_TARGET, FALLING_TARGET
 from tric_learning import analysis, model_file
+from tric_learning.bag_dataset import load_dataset
 from tric_learning.model_file import ModelFile
-from tric_learning.recording import load_dataset
 from tric_learning.training import SELECTED_FRACTION
 
 #: The experiment's heading in the report and the log.

@@ -15,9 +15,9 @@ from tric_control.experiments.paper import (  # noqa: E402
 )
 from tric_control.experiments.runner import BAGS, Runner  # noqa: E402
 from tric_learning import dpl  # noqa: E402
+from tric_learning.bag_dataset import load_dataset  # noqa: E402
 from tric_learning.demonstrations import demonstrate_all  # noqa: E402
 from tric_learning.model_file import ModelFile  # noqa: E402
-from tric_learning.recording import load_dataset  # noqa: E402
 from tric_sim import situations  # noqa: E402
 
 #: The experiment's heading in the report and the log.

@@ -1,25 +1,24 @@
 """The paper's analyses of a trained TRIC model (Fig. 12 to 17): the numbers from its
-demonstrations (measures.py) and the figures drawn from them (figures.py), for tric-analyze and
-tric-experiments' analysis."""
+demonstrations (measures.py) and the figures drawn from them (figures.py names their files and
+draws them all; value_figures.py, feature_figures.py, space_figures.py and collision_figure.py draw
+them), for tric-analyze and tric-experiments' analysis."""
 
+from tric_learning.analysis.collision_figure import plot_collision_prior
+from tric_learning.analysis.feature_figures import (
+    GRADIENT_LINES,
+    plot_feature_over_time,
+    plot_gradients,
+    plot_scores,
+)
 from tric_learning.analysis.figures import (
     COLLISION_FIGURE,
     COSINES_FIGURE,
     FEATURE_FIGURE,
-    GRADIENT_LINES,
     GRADIENTS_FIGURE,
     KERNEL_PCA_FIGURE,
     SCORES_FIGURE,
     TASK_SPACES_FIGURE,
     VALUE_FIGURE,
-    plot_collision_prior,
-    plot_cosines,
-    plot_feature_over_time,
-    plot_gradients,
-    plot_kernel_pca,
-    plot_scores,
-    plot_task_spaces,
-    plot_values,
     write_figures,
 )
 from tric_learning.analysis.measures import (
@@ -51,6 +50,8 @@ from tric_learning.analysis.measures import (
     score_order,
     values_along_demos,
 )
+from tric_learning.analysis.space_figures import plot_kernel_pca, plot_task_spaces
+from tric_learning.analysis.value_figures import plot_cosines, plot_values
 
 __all__ = [
     "COLLISION_FIGURE",

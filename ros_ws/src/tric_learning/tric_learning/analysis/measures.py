@@ -7,7 +7,8 @@ import numpy as np
 import pinocchio as pin
 
 from tric_learning.dataset import Dataset
-from tric_learning.training import MIN_STEP, SELECTED_FRACTION
+from tric_learning.training import SELECTED_FRACTION
+from tric_learning.training_problem import MIN_STEP
 from tric_learning.value_function import ValueFunction
 from tric_sim.collision import SceneCollision
 from tric_sim.robot_model import RobotModel
@@ -45,7 +46,7 @@ def values_along_demos(model: ValueFunction, dataset: Dataset) -> list:
 
 def decreasing_shares(model: ValueFunction, dataset: Dataset):
     """(share of all steps t -> t+1 along which f decreases, the same over the steps where the
-    demonstration moves by at least training.MIN_STEP rad)."""
+    demonstration moves by at least training_problem.MIN_STEP rad)."""
     decreasing, moving = [], []
     for demo, values in zip(dataset.demos, values_along_demos(model, dataset)):
         decreasing.append(np.diff(values) < 0)

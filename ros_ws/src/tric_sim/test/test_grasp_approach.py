@@ -1,0 +1,21 @@
+"""Where the grasp teacher approaches an object from (tric_sim.grasp_approach): spheres from the
+robot's side and above, and a cylinder pointing at the robot still gets a grasp point."""
+
+import numpy as np
+
+from tric_sim import situations as S
+from tric_sim.grasp_approach import approach_direction, cylinder_grasp_point
+
+
+def test_approach_comes_from_the_robots_side_and_above():
+    for situation in S.sphere_grid():
+        n = approach_direction(np.asarray(situation.object_position))
+        assert n[2] < 0 and n[:2] @ np.asarray(situation.object_position[:2]) > 0
+
+
+def test_cylinder_pointing_at_the_robot_still_gets_a_grasp_point():
+    centre = np.array([0.6, 0.0, 0.3])
+    point, direction = cylinder_grasp_point(centre, np.array([1.0, 0.0, 0.0]), 0.3)  # axis along x
+    # across the axis, not upwards
+    assert abs(direction @ [1.0, 0.0, 0.0]) < 1e-9 and direction[2] <= 0.1
+    assert np.linalg.norm(point - centre) <= 0.3 * 0.3 + 1e-9

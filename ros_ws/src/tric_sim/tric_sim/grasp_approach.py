@@ -1,0 +1,82 @@
+"""Where the grasp teacher's palm approaches an object from: the approach direction for a sphere,
+the grasp point and direction across a cylinder's axis, both chosen so that the wrist ends a
+comfortable distance from the shoulder, and the palm frame built on a direction. Units: m, rad."""
+
+import math
+
+import numpy as np
+
+#: The shoulder (arm_2 joint) in the world frame at any arm_1 angle, m.
+SHOULDER = np.array([0.0, 0.0, 0.30])
+#: Distance from the palm centre back to the wrist (arm_6 joint), m.
+PALM_TO_WRIST = 0.19
+#: The approach tilt is chosen so that the wrist ends this far from the shoulder: a comfortable,
+#: well-conditioned elbow angle across the workspace, m.
+COMFORTABLE_WRIST_DISTANCE = 0.55
+
+
+def _wrist_discomfort(point: np.ndarray, n: np.ndarray) -> float:
+    """How far the wrist would be from COMFORTABLE_WRIST_DISTANCE to the shoulder, m, when the palm
+    approaches point along n."""
+    wrist = point - n * (0.06 + PALM_TO_WRIST)
+    return abs(float(np.linalg.norm(wrist - SHOULDER)) - COMFORTABLE_WRIST_DISTANCE)
+
+
+def approach_direction(centre: np.ndarray) -> np.ndarray:
+    """Unit vector along which the palm approaches a sphere centred at centre (world): pointing away
+    from the robot in azimuth, tilted down so the wrist ends COMFORTABLE_WRIST_DISTANCE from the
+    shoulder."""
+    azimuth = math.atan2(centre[1], centre[0])
+    candidates = [
+        np.array([math.cos(t) * math.cos(azimuth), math.cos(t) * math.sin(azimuth), -math.sin(t)])
+        for t in np.radians(np.arange(10.0, 81.0, 1.0))
+    ]
+    return min(candidates, key=lambda n: _wrist_discomfort(centre, n))
+
+
+#: A cylinder's approach from the robot's left (+y) costs this much more per unit of y, m: an
+#: upright cylinder in front of the robot has two mirror approaches of equal comfort, and the
+#: demonstrations should not flip between them (docs/decisions/cylinder-teacher.md).
+SIDE_PREFERENCE = 0.02
+
+
+def cylinder_grasp_point(centre: np.ndarray, axis: np.ndarray, height: float):
+    """(point on the axis, approach direction across the axis) for a cylinder: the direction points
+    away from the robot and not upwards, the point lies within the middle of the cylinder, and the
+    pair puts the wrist closest to COMFORTABLE_WRIST_DISTANCE from the shoulder. A cylinder whose
+    axis points at the robot has no direction across it that points away: then the direction may
+    point across (down onto the cylinder, or sideways)."""
+    e1 = np.cross(axis, [0.0, 0.0, 1.0])
+    if np.linalg.norm(e1) < 1e-6:
+        e1 = np.cross(axis, [1.0, 0.0, 0.0])
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(axis, e1)
+    outward = np.array([centre[0], centre[1], 0.0]) / np.linalg.norm(centre[:2])
+    best, best_cost = None, math.inf
+    for least_outward in (0.2, -0.2):
+        for offset in np.linspace(-0.3, 0.3, 7) * height:
+            point = centre + offset * axis
+            for angle in np.radians(np.arange(0.0, 360.0, 5.0)):
+                n = math.cos(angle) * e1 + math.sin(angle) * e2
+                if n @ outward < least_outward or n[2] > 0.1:
+                    continue
+                cost = (
+                    _wrist_discomfort(point, n)
+                    + 0.05 * abs(offset) / height
+                    + SIDE_PREFERENCE * max(float(n[1]), 0.0)
+                )
+                if cost < best_cost:
+                    best, best_cost = (point, n), cost
+        if best is not None:
+            return best
+    raise ValueError("no direction across the cylinder's axis points away from the robot or down")
+
+
+def frame_from(normal: np.ndarray, x_hint: np.ndarray) -> np.ndarray:
+    """Rotation with z = normal and x as close to x_hint as possible (orthogonalized)."""
+    z = normal / np.linalg.norm(normal)
+    x = x_hint - (x_hint @ z) * z
+    if np.linalg.norm(x) < 1e-6:
+        x = np.cross(z, [0.0, 1.0, 0.0] if abs(z[1]) < 0.9 else [1.0, 0.0, 0.0])
+    x /= np.linalg.norm(x)
+    return np.column_stack([x, np.cross(z, x), z])

@@ -1,0 +1,193 @@
+"""A situation: the plain data that defines an episode's starting scene (the same fields as
+tric_msgs/Situation), validated field by field, and its conversion to and from plain data (the
+entries of a situations file, tric_sim.situation_files). World frame: x forward from the robot, z
+up, origin at the robot's base on the table top. Units: m, rad; quaternions xyzw.
+
+Whether a valid situation can physically be (nothing in the table or the robot) is
+tric_sim.scene_check's; the paper's data sets are tric_sim.situations'.
+"""
+
+from dataclasses import MISSING, asdict, dataclass, fields
+
+import numpy as np
+
+#: Object kinds each task accepts.
+TASK_OBJECTS = {"grasp": ("sphere", "cylinder"), "open_box": ("box",)}
+#: Number of dimensions each shape takes: sphere (radius), cylinder (height, radius), box.
+OBJECT_DIMENSIONS = {"sphere": 1, "cylinder": 2, "box": 1}
+OBSTACLE_DIMENSIONS = {"box": 3, "sphere": 1, "cylinder": 2}
+#: Workspace in which any object or obstacle centre must lie (a sanity bound, m).
+WORKSPACE_LOW = np.array([-0.2, -0.8, -0.05])
+WORKSPACE_HIGH = np.array([1.2, 0.8, 1.2])
+
+IDENTITY = (0.0, 0.0, 0.0, 1.0)
+
+
+@dataclass(frozen=True)
+class Obstacle:
+    """A solid primitive the robot must avoid: shape "box" (full extents x, y, z), "sphere" (radius)
+    or "cylinder" (height, radius; axis = local z), at a world pose."""
+
+    shape: str
+    dimensions: tuple
+    position: tuple
+    orientation: tuple = IDENTITY
+
+
+@dataclass(frozen=True)
+class Situation:
+    """Everything that defines an episode's starting scene (see tric_msgs/msg/Situation.msg)."""
+
+    name: str
+    task: str
+    object_kind: str
+    object_dimensions: tuple
+    object_position: tuple
+    object_orientation: tuple = IDENTITY
+    obstacles: tuple = ()
+    initial_joint_positions: tuple = ()
+    seed: int = 0
+
+    def validate(self, n_joints: int = 14, robot=None) -> "Situation":
+        """Return self, or raise ValueError naming the first problem. With a robot
+        (tric_sim.robot_model.RobotModel), the scene is checked against it too (see check_scene)."""
+        where = f"situation '{self.name}'"
+        if not self.name or not isinstance(self.name, str):
+            raise ValueError("a situation needs a non-empty name")
+        if not isinstance(self.task, str) or self.task not in TASK_OBJECTS:
+            raise ValueError(
+                f"{where}: unknown task '{self.task}' (known: {', '.join(TASK_OBJECTS)})"
+            )
+        if not isinstance(self.object_kind, str) or self.object_kind not in TASK_OBJECTS[self.task]:
+            raise ValueError(
+                f"{where}: object kind '{self.object_kind}' does not fit task "
+                f"'{self.task}' (expected one of {', '.join(TASK_OBJECTS[self.task])})"
+            )
+        _check_vector(
+            self.object_dimensions,
+            OBJECT_DIMENSIONS[self.object_kind],
+            f"{where}: object_dimensions of a {self.object_kind}",
+            positive=True,
+        )
+        _check_position(self.object_position, f"{where}: object_position")
+        _check_quaternion(self.object_orientation, f"{where}: object_orientation")
+        for k, obstacle in enumerate(self.obstacles):
+            if not isinstance(obstacle.shape, str) or obstacle.shape not in OBSTACLE_DIMENSIONS:
+                raise ValueError(f"{where}: obstacle {k} has unknown shape '{obstacle.shape}'")
+            _check_vector(
+                obstacle.dimensions,
+                OBSTACLE_DIMENSIONS[obstacle.shape],
+                f"{where}: obstacle {k} dimensions",
+                positive=True,
+            )
+            _check_position(obstacle.position, f"{where}: obstacle {k} position")
+            _check_quaternion(obstacle.orientation, f"{where}: obstacle {k} orientation")
+        if self.initial_joint_positions:
+            _check_vector(
+                self.initial_joint_positions, n_joints, f"{where}: initial_joint_positions"
+            )
+        if not (
+            isinstance(self.seed, int)
+            and not isinstance(self.seed, bool)
+            and 0 <= self.seed < 2**32
+        ):
+            raise ValueError(f"{where}: seed must be an integer in [0, 2^32)")
+        if robot is not None:
+            from tric_sim.scene_check import check_scene  # it imports this module
+
+            check_scene(self, robot)
+        return self
+
+    def to_dict(self) -> dict:
+        data = asdict(self)
+        data["obstacles"] = [asdict(o) for o in self.obstacles]
+        return _plain(data)
+
+    @classmethod
+    def from_dict(cls, data: dict) -> "Situation":
+        """Build and validate a situation from plain data; unknown or missing keys are refused."""
+        if not isinstance(data, dict):
+            raise ValueError(f"a situation must be a mapping, got {type(data).__name__}")
+        known = {f.name for f in fields(cls)}
+        unknown = set(data) - known
+        if unknown:
+            raise ValueError(
+                f"situation '{data.get('name', '?')}': unknown field(s) {sorted(unknown)}"
+            )
+        required = {f.name for f in fields(cls) if f.default is MISSING}
+        missing = required - set(data)
+        if missing:
+            raise ValueError(
+                f"situation '{data.get('name', '?')}': missing field(s) {sorted(missing)}"
+            )
+        values = dict(data)
+        try:
+            values["obstacles"] = tuple(_obstacle_from_dict(o) for o in data.get("obstacles", ()))
+            for key in (
+                "object_dimensions",
+                "object_position",
+                "object_orientation",
+                "initial_joint_positions",
+            ):
+                if key in values:
+                    values[key] = tuple(float(v) for v in values[key])
+        except (TypeError, ValueError) as error:
+            raise ValueError(f"situation '{data.get('name', '?')}': {error}") from None
+        return cls(**values).validate()
+
+
+def _obstacle_from_dict(data) -> Obstacle:
+    known = {f.name for f in fields(Obstacle)}
+    if (
+        not isinstance(data, dict)
+        or set(data) - known
+        or not {"shape", "dimensions", "position"} <= set(data)
+    ):
+        raise ValueError(
+            f"bad obstacle entry {data!r} (expected the keys shape, dimensions, position and "
+            "optionally orientation)"
+        )
+    return Obstacle(
+        shape=data["shape"],
+        dimensions=tuple(float(v) for v in data["dimensions"]),
+        position=tuple(float(v) for v in data["position"]),
+        orientation=tuple(float(v) for v in data.get("orientation", IDENTITY)),
+    )
+
+
+def _plain(value):
+    if isinstance(value, dict):
+        return {k: _plain(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_plain(v) for v in value]
+    if isinstance(value, (np.floating, np.integer)):
+        return value.item()
+    return value
+
+
+def _check_vector(values, size, what, positive=False):
+    try:
+        array = np.asarray(values, dtype=float)
+    except (TypeError, ValueError):
+        raise ValueError(f"{what} must be {size} number(s), got {values!r}") from None
+    if array.shape != (size,):
+        raise ValueError(f"{what} must have {size} value(s), got {array.size}")
+    if not np.all(np.isfinite(array)):
+        raise ValueError(f"{what} has non-finite values")
+    if positive and np.any(array <= 0):
+        raise ValueError(f"{what} must be positive")
+
+
+def _check_position(values, what):
+    _check_vector(values, 3, what)
+    if np.any(np.asarray(values) < WORKSPACE_LOW) or np.any(np.asarray(values) > WORKSPACE_HIGH):
+        raise ValueError(
+            f"{what} {tuple(values)} is outside the workspace "
+            f"{tuple(WORKSPACE_LOW)} .. {tuple(WORKSPACE_HIGH)}"
+        )
+
+
+def _check_quaternion(values, what):
+    _check_vector(values, 4, what)
+    if abs(np.linalg.norm(values) - 1.0) > 1e-3:
+        raise ValueError(f"{what} must be a unit quaternion (x, y, z, w)")
