@@ -1,4 +1,4 @@
-"""CollisionDamper (and the ContactRules it reads): its rows are the gradients of the pairs'
+"""CollisionDamper: its rows are the gradients of the pairs'
 distances (against finite differences), its bounds the velocity dampers with the safety distance
 each pair's contact calls for, its unused rows padded. Units: m, rad."""
 
@@ -7,11 +7,12 @@ from dataclasses import replace
 import numpy as np
 import pinocchio as pin
 import pytest
+from closest_samples import hand_made
 
 from tric_control.limits import UNBOUNDED_BELOW, CollisionDamper, ContactRules, StepState
 from tric_control.motion_rate import DAMPING, SAFETY, SELF_SAFETY
 from tric_sim import scene, situations
-from tric_sim.proximity import Closest, Proximity
+from tric_sim.proximity import Proximity
 from tric_sim.robot_model import RobotModel
 
 ROWS = 10
@@ -78,23 +79,6 @@ def test_rows_are_the_gradients_of_the_distances(robot, situation):
     assert checked >= 8
 
 
-def hand_made(distances, bodies, hand, rows=None, aways=None, body_rotations=None) -> Closest:
-    """A Closest of pairs with the given distances, bodies (index into ("table", "object", "lid"),
-    -1: within the robot) and hands, unit rows along joint k for pair k unless given."""
-    k = len(distances)
-    return Closest(
-        np.arange(k),
-        np.array(distances, float),
-        np.eye(k, 14) if rows is None else np.array(rows),
-        np.tile([0.0, 0.0, 1.0], (k, 1)) if aways is None else np.array(aways, float),
-        np.array(bodies),
-        np.array(hand),
-        [f"pair_{i}" for i in range(k)],
-        ("table", "object", "lid"),
-        np.tile(np.eye(3), (3, 1, 1)) if body_rotations is None else body_rotations,
-    )
-
-
 def test_bounds_are_dampers_with_the_safety_each_pair_calls_for():
     """lower = min(-damping (d - safety), half of what a step can give along the row); the safety is
     SAFETY against the scene, SELF_SAFETY within the robot, and -depth for the hand against a body
@@ -125,20 +109,6 @@ def test_only_the_rows_closest_pairs_are_used():
     damper({}).constrain(StepState(max_step=np.full(14, 1.0), closest=closest), rows, lower)
     assert np.array_equal(rows, np.eye(12, 14)[:ROWS])
     assert np.allclose(lower, -DAMPING * (np.linspace(0.001, 0.04, 12)[:ROWS] - SAFETY))
-
-
-def test_a_sided_contact_holds_only_from_its_side():
-    """A contact from beneath (side (0, 0, -1) in the body's frame): held while the hand moves away
-    from the body downwards (it is beneath), not while it moves away upwards (above), also for a
-    body turned upside down."""
-    rules = ContactRules({"lid": scene.Contact(depth=0.015, side=(0.0, 0.0, -1.0))})
-    aways = [[0.0, 0.0, -1.0], [0.0, 0.0, 1.0], [1.0, 0.0, -0.01]]
-    upright = hand_made([0.001] * 3, bodies=[2] * 3, hand=[True] * 3, aways=aways)
-    assert rules.held(upright).tolist() == [True, False, True]
-    flipped = np.tile(np.eye(3), (3, 1, 1))
-    flipped[2] = pin.utils.rotate("x", np.pi)
-    upside_down = replace(upright, body_rotations=flipped)
-    assert rules.held(upside_down).tolist() == [False, True, False]
 
 
 def upside_down(situation):

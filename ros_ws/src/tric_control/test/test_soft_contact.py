@@ -3,27 +3,13 @@ gradient and Hessian in dq match finite differences of w (d + r dq - c)^2; pairs
 contact with a cushion, or are beyond it, add nothing. Units: m, rad."""
 
 import numpy as np
+from closest_samples import hand_made
 
 from tric_control.limits import ContactRules, SoftContact, StepState
 from tric_sim import scene
 from tric_sim.proximity import Closest
 
 CUSHION, WEIGHT = 0.003, 3.0
-
-
-def closest(distances, bodies, hand, rows):
-    k = len(distances)
-    return Closest(
-        np.arange(k),
-        np.array(distances, float),
-        np.array(rows, float),
-        np.tile([0.0, 0.0, 1.0], (k, 1)),
-        np.array(bodies),
-        np.array(hand),
-        [f"pair_{i}" for i in range(k)],
-        ("table", "object"),
-        np.tile(np.eye(3), (2, 1, 1)),
-    )
 
 
 def added(pairs: Closest, contacts: dict, n: int = 3):
@@ -37,7 +23,7 @@ def test_the_cost_matches_finite_differences_of_the_springs():
     of w_k (d_k + r_k dq - c)^2 (w_k = weight / |r_k|^2) up to a constant, checked through its
     gradient and Hessian by central differences at random dq."""
     rows = np.array([[1.0, 2.0, 0.0], [0.0, -1.0, 0.5], [0.3, 0.3, 0.3]])
-    pairs = closest([0.001, -0.002, 0.02], bodies=[1, 1, 1], hand=[True, True, True], rows=rows)
+    pairs = hand_made([0.001, -0.002, 0.02], bodies=[1, 1, 1], hand=[True, True, True], rows=rows)
     hessian, linear = added(
         pairs, {"object": scene.Contact(depth=0.005, cushion=CUSHION, cushion_weight=WEIGHT)}
     )
@@ -77,19 +63,19 @@ def test_only_held_contacts_with_a_cushion_push():
     rows = np.eye(3)
     for pairs, contacts in [
         (
-            closest([0.001], bodies=[1], hand=[False], rows=rows[:1]),
+            hand_made([0.001], bodies=[1], hand=[False], rows=rows[:1]),
             {"object": scene.Contact(0.005, None, CUSHION, WEIGHT)},
         ),
         (
-            closest([0.001], bodies=[0], hand=[True], rows=rows[:1]),
+            hand_made([0.001], bodies=[0], hand=[True], rows=rows[:1]),
             {"object": scene.Contact(0.005, None, CUSHION, WEIGHT)},
         ),
         (
-            closest([0.004], bodies=[1], hand=[True], rows=rows[:1]),
+            hand_made([0.004], bodies=[1], hand=[True], rows=rows[:1]),
             {"object": scene.Contact(0.005, None, CUSHION, WEIGHT)},
         ),
         (
-            closest([-0.001], bodies=[1], hand=[True], rows=rows[:1]),
+            hand_made([-0.001], bodies=[1], hand=[True], rows=rows[:1]),
             {"object": scene.Contact(0.015)},
         ),
     ]:
