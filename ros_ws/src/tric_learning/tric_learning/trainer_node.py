@@ -74,19 +74,16 @@ def training_config(request: Train.Request):
     an unknown model kind or a value out of range."""
     if request.model_kind not in KINDS:
         raise ValueError(f"unknown model_kind '{request.model_kind}' (known: {', '.join(KINDS)})")
-    if request.model_kind in DPL_KINDS:
-        hidden_units = (
-            DplConfig.hidden_units if request.hidden_units == -1 else request.hidden_units
-        )
+    dpl_kind = request.model_kind in DPL_KINDS
+    default_units = (DplConfig if dpl_kind else TrainingConfig).hidden_units
+    hidden_units = default_units if request.hidden_units == -1 else request.hidden_units
+    if dpl_kind:
         return DplConfig(
             hidden_units=hidden_units,
             max_iterations=request.max_iterations,
             correlation_threshold=request.correlation_threshold,
             seed=request.seed,
         ).validate()
-    hidden_units = (
-        TrainingConfig.hidden_units if request.hidden_units == -1 else request.hidden_units
-    )
     return TrainingConfig(
         hidden_units=hidden_units,
         noisy_samples=request.noisy_samples,
