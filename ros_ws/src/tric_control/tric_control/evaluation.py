@@ -59,6 +59,25 @@ class EpisodeRecord:
         return self.outcome == "failed"
 
 
+def unjudged_fields(situation, agent: str) -> dict:
+    """The fields of an episode's EpisodeRecord before the hidden metrics have judged it (what a
+    run that fails keeps): not a success, no metrics, no steps. The caller adds the times and the
+    outcome."""
+    return dict(
+        situation=situation.name,
+        task=situation.task,
+        agent=agent,
+        success=False,
+        grasp_cost=math.nan,
+        lift_passed=None,
+        lid_angle=math.nan,
+        min_distance=math.nan,
+        collided=False,
+        min_joint_margin=math.nan,
+        steps=0,
+    )
+
+
 def evaluated_task(situations, jobs: int) -> str:
     """The one task of the situations an evaluation runs in jobs processes; ValueError if they mix
     tasks or jobs is below 1."""

@@ -4,7 +4,6 @@ each situation: reset the scene, let the teacher demonstrate it or the controlle
 model for one episode, then judge the final state with the hidden metrics (with the lift test for
 grasps). evaluate() runs several such graphs at once, each in a spawned worker process."""
 
-import math
 import multiprocessing
 import multiprocessing.util
 import os
@@ -22,7 +21,11 @@ from rclpy.parameter import Parameter  # noqa: E402
 from tqdm import tqdm  # noqa: E402
 
 from tric_control.controller_node import ControllerNode  # noqa: E402
-from tric_control.evaluation import EpisodeRecord, evaluated_task  # noqa: E402
+from tric_control.evaluation import (  # noqa: E402
+    EpisodeRecord,
+    evaluated_task,
+    unjudged_fields,
+)
 from tric_control.evaluation_workers import run_in_workers  # noqa: E402
 from tric_control.objectives import RUNNABLE_KINDS  # noqa: E402
 from tric_learning.recorder_node import RecorderNode  # noqa: E402
@@ -155,19 +158,7 @@ class Evaluator:
         """One episode of the agent on situation, judged by the hidden metrics."""
         started = time.monotonic()
         grasp = situation.task == "grasp"
-        record = dict(
-            situation=situation.name,
-            task=situation.task,
-            agent=self.agent,
-            success=False,
-            grasp_cost=math.nan,
-            lift_passed=None,
-            lid_angle=math.nan,
-            min_distance=math.nan,
-            collided=False,
-            min_joint_margin=math.nan,
-            steps=0,
-        )
+        record = unjudged_fields(situation, self.agent)
         situation_msg = messages.situation_to_msg(situation)
         bags_before = len(self.recorder.finished) if self.recorder is not None else 0
         if self.model is None:

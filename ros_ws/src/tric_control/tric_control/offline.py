@@ -18,7 +18,7 @@ import time
 from tqdm import tqdm
 
 from tric_control.episode import DEFAULT_MAX_STEPS, EpisodeRunner
-from tric_control.evaluation import EpisodeRecord, evaluated_task
+from tric_control.evaluation import EpisodeRecord, evaluated_task, unjudged_fields
 from tric_control.evaluation_workers import run_in_workers
 from tric_control.motion_rate import MotionRateController
 from tric_control.objectives import CONTROL_PERIOD, make_objective
@@ -82,12 +82,7 @@ class OfflineEvaluator:
             )
         started = time.monotonic()
         world, grasp = self.world, situation.task == "grasp"
-        record = dict(
-            situation=situation.name,
-            task=situation.task,
-            agent=self.agent,
-            min_joint_margin=float("nan"),
-        )
+        record = unjudged_fields(situation, self.agent)
         if self.model is None:
             duration = teachers.DEFAULT_DURATION[situation.task]
             teachers.demonstrate(world, self.robot, situation, duration)
@@ -115,15 +110,9 @@ class OfflineEvaluator:
                     world.step()
                     outcome = decided.outcome
             except RuntimeError as error:
+                record["steps"] = runner.stats.steps
                 return EpisodeRecord(
                     **record,
-                    success=False,
-                    grasp_cost=float("nan"),
-                    lift_passed=None,
-                    lid_angle=float("nan"),
-                    min_distance=float("nan"),
-                    collided=False,
-                    steps=runner.stats.steps,
                     wall_time_s=time.monotonic() - started,
                     outcome="failed",
                     message=str(error),
@@ -133,15 +122,18 @@ class OfflineEvaluator:
             if snapshot is not None:
                 self._snapshot(snapshot, situation)
         judged = metrics.evaluate(world, self.robot, run_lift_test=grasp)
-        return EpisodeRecord(
-            **record,
+        record.update(
             success=bool(judged.success),
-            grasp_cost=judged.grasp_cost if grasp else float("nan"),
-            lift_passed=bool(judged.lift_passed) if grasp else None,
-            lid_angle=float("nan") if grasp else judged.lid_angle,
             min_distance=judged.min_distance,
             collided=bool(judged.collided),
             steps=int(steps),
+        )
+        if grasp:
+            record.update(grasp_cost=judged.grasp_cost, lift_passed=bool(judged.lift_passed))
+        else:
+            record["lid_angle"] = judged.lid_angle
+        return EpisodeRecord(
+            **record,
             wall_time_s=time.monotonic() - started,
             outcome=outcome,
             max_joint_overshoot=judged.max_joint_overshoot,
