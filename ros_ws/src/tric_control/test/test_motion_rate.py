@@ -82,6 +82,37 @@ def test_step_qp_active_inequality_row():
     assert np.allclose(step, [1.75, -1.25, 0.5], atol=1e-6)
 
 
+def test_step_qp_solves_with_daqp_and_every_active_row_holds_exactly():
+    """A feasible problem is daqp's: min 1/2 |x - a|^2 s.t. x0 + x1 >= 1 and x1 <= 0.2 (a box
+    bound) from a = 0 gives x = (0.8, 0.2) with both active, the row to the last rounding."""
+    qp = StepQP(2, 1)
+    step = qp.solve(
+        np.eye(2),
+        np.zeros(2),
+        np.array([[1.0, 1.0]]),
+        np.array([1.0]),
+        np.full(2, -1.0),
+        np.array([1.0, 0.2]),
+    )
+    assert qp.solved_by == "daqp"
+    assert np.allclose(step, [0.8, 0.2], atol=2 * STEP_QUANTUM)
+    assert step[1] == 0.2 and abs(step.sum() - 1.0) <= 2 * STEP_QUANTUM
+
+
+def test_step_qp_hands_conflicting_rows_to_proxsuite_and_holds_still_when_it_fails():
+    """x0 >= 1 and x0 <= 0 cannot both hold: daqp reports the problem infeasible, proxsuite's
+    infeasibility solving is tried, and where it ends without a solution (as on this problem, at its
+    iteration limit) solve() returns None, which the controller takes as "hold still"; the next
+    feasible problem is daqp's again."""
+    qp = StepQP(2, 2)
+    rows, box = np.array([[1.0, 0.0], [-1.0, 0.0]]), (np.full(2, -2.0), np.full(2, 2.0))
+    hessian, linear = np.eye(2), np.array([0.0, -1.0])
+    assert qp.solve(hessian, linear, rows, np.array([1.0, 0.0]), *box) is None
+    assert qp.solved_by is None and qp.qp.results.info.iter > 0  # proxsuite ran
+    step = qp.solve(hessian, linear, rows, np.array([0.5, -0.7]), *box)
+    assert qp.solved_by == "daqp" and np.allclose(step, [0.5, 1.0], atol=2 * STEP_QUANTUM)
+
+
 def test_step_qp_gives_the_same_step_bit_for_bit_in_every_instance():
     """A random problem of the controller's size (14 variables, 26 rows, some active) solved by 40
     solver instances made at different places in memory, each after another problem (which a warm

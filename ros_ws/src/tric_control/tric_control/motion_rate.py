@@ -16,9 +16,9 @@ features nearest the bounds of the model's domain (DomainDamper), and the soft s
 contacts as a cost (SoftContact). What the hand may press, how deep and from which side is the
 task's (tric_sim.scene.contacts, through the Proximity), handed to the limits when they are built.
 The QP has a fixed size (n variables with bounds, the limits' inequality rows) and is solved by
-proxsuite's dense solver, re-used tick after tick. Each solve starts cold and its solution is
-rounded (StepQP): an episode is then the same, bit for bit, in every run, through the nodes or
-offline.
+daqp's active-set solver, or by proxsuite where its rows conflict (StepQP). Each solve starts cold
+and its solution is rounded: an episode is then the same, bit for bit, in every run, through the
+nodes or offline.
 
 The command is a reference that integrates the steps; it may lead the measured joints by at most
 MAX_LEAD (the arm: a blocked arm does not wind up) or MAX_HAND_LEAD (the hand: fingers held back by
@@ -29,6 +29,7 @@ Units: rad, m, s.
 import math
 from dataclasses import dataclass, field
 
+import daqp
 import numpy as np
 import proxsuite
 
@@ -100,6 +101,9 @@ class Tick:
 
 
 _PER_QUANTUM = 1.0 / STEP_QUANTUM
+#: daqp's "no bound" (its DAQP_INF), and its tolerance for a row's violation (in the rows' units).
+DAQP_UNBOUNDED = 1e30
+DAQP_PRIMAL_TOLERANCE = 1e-9
 #: The largest entry of an array, as a plain ufunc reduction (ndarray.max adds a Python layer).
 _largest = np.maximum.reduce
 #: The solver outcomes whose step is used.
@@ -111,21 +115,28 @@ _SOLVED = (
 
 class StepQP:
     """min 1/2 dq^T H dq + c^T dq over dq (n,) with bounds on each variable and `rows` inequality
-    rows l <= C dq; solve() returns None when the solver finds no solution.
+    rows l <= C dq; solve() returns None when no solver finds a solution.
 
-    Every solve starts cold and its solution is rounded to a multiple of STEP_QUANTUM: proxsuite's
-    result for the same problem differs in its last bit from one solver instance to another (its
-    vectorized loops depend on where its buffers lie in memory), and contacts amplify that into
+    The step is solved by daqp, a dual active-set solver for small dense QPs: its solution is exact
+    up to rounding (every active row holds with equality). Where the rows conflict (dampers that
+    cannot all hold), daqp reports the problem infeasible, and proxsuite solves it instead with
+    primal infeasibility solving, for the step closest to feasible. The cost is divided by its
+    largest coefficient first (the same minimizer), so that proxsuite's absolute tolerance means the
+    same for objectives of every scale. Each solve starts cold, and its solution is rounded to a
+    multiple of STEP_QUANTUM: a compiled solver's result for the same problem may differ in its last
+    bit with where its buffers lie in memory (vectorized loops), and contacts amplify that into
     other episodes. Rounded, two instances give the same step unless an entry lies within 1e-16 of a
-    rounding boundary (about 1 in 10^8 entries). A warm start would carry the unrounded difference
-    into the next solve, where it grows to the solver's tolerance. The cost is divided by its
-    largest coefficient first (the same minimizer), so that the absolute tolerance means the same
-    for objectives of every scale. Measured over the 1200 ticks of a TRIC episode (box_train_00):
-    every solve succeeded in 9 iterations (p50; 18 at most), where the warm start with the unscaled
-    cost had failed 104 of 737 ticks (the controller then holds still) and needed up to 2687."""
+    rounding boundary (about 1 in 10^8 entries). Measured over the 600 ticks of the sphere episode
+    of benchmarks/bench_controller.py (2026-12-02): daqp 6.4 us per solve (median, with its Python
+    call), proxsuite 35 us; daqp's rows are violated by 1e-17 at most, proxsuite's by 2e-8
+    (docs/decisions/controller-tick-speed.md)."""
 
     def __init__(self, n: int, rows: int):
         self.n, self.rows = n, rows
+        # daqp's bounds: the n variables' first, then the rows' (their upper ones unbounded)
+        self._daqp_upper = np.full(n + rows, DAQP_UNBOUNDED)
+        self._daqp_lower = np.empty(n + rows)
+        self._daqp_kinds = np.zeros(n + rows, dtype=np.intc)  # inequalities
         self.qp = proxsuite.proxqp.dense.QP(n, 0, rows, True)
         self.qp.settings.eps_abs = 1e-9
         self.qp.settings.max_iter = 100
@@ -135,6 +146,8 @@ class StepQP:
         self.qp.settings.initial_guess = proxsuite.proxqp.InitialGuess.NO_INITIAL_GUESS
         self.initialized = False
         self._upper = np.full(rows, -UNBOUNDED_BELOW)
+        #: Which solver gave the last step: "daqp", "proxsuite" or None (none found one).
+        self.solved_by = None
 
     def solve(self, hessian, linear, rows, lower, box_low, box_high) -> np.ndarray:
         # the cost divided by its largest coefficient (same minimizer): the solver's absolute
@@ -146,6 +159,27 @@ class StepQP:
         )
         if scale > 1.0:
             hessian, linear = hessian / scale, linear / scale
+        n, upper, below = self.n, self._daqp_upper, self._daqp_lower
+        upper[:n] = box_high
+        below[:n] = box_low
+        below[n:] = lower
+        x, _, exit_flag, _ = daqp.solve(
+            hessian, linear, rows, upper, below, self._daqp_kinds, primal_tol=DAQP_PRIMAL_TOLERANCE
+        )
+        if exit_flag > 0:
+            self.solved_by = "daqp"
+        else:
+            x = self._closest_feasible(hessian, linear, rows, lower, box_low, box_high)
+            if x is None:
+                self.solved_by = None
+                return None
+            self.solved_by = "proxsuite"
+        # x / STEP_QUANTUM is exactly x * 2**26; rint rounds half to even, as np.round does
+        step = np.rint(np.asarray(x) * _PER_QUANTUM) * STEP_QUANTUM
+        return np.maximum(np.minimum(step, box_high), box_low)
+
+    def _closest_feasible(self, hessian, linear, rows, lower, box_low, box_high):
+        """proxsuite's solution (n,) of the problem with primal infeasibility solving, or None."""
         if self.initialized:
             self.qp.update(
                 H=hessian, g=linear, C=rows, l=lower, u=self._upper, l_box=box_low, u_box=box_high
@@ -156,9 +190,7 @@ class StepQP:
         self.qp.solve()
         if self.qp.results.info.status not in _SOLVED:
             return None
-        # x / STEP_QUANTUM is exactly x * 2**26; rint rounds half to even, as np.round does
-        step = np.rint(self.qp.results.x * _PER_QUANTUM) * STEP_QUANTUM
-        return np.maximum(np.minimum(step, box_high), box_low)
+        return self.qp.results.x
 
 
 class MotionRateController:

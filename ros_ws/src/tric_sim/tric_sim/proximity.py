@@ -188,9 +188,11 @@ class Proximity:
             before_position, before_orientation = self._body_poses[b]
             if position == before_position and orientation == before_orientation:
                 continue
+            x, y, z, w = orientation
+            x0, y0, z0, w0 = before_orientation
             turned = 2.0 * min(
                 math.dist(orientation, before_orientation),
-                math.hypot(*(a + c for a, c in zip(orientation, before_orientation))),
+                math.hypot(x + x0, y + y0, z + z0, w + w0),
             )
             self._lower_bounds[self._body_pairs[b]] -= (
                 math.dist(position, before_position) + turned * self._body_reach[b]
