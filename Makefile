@@ -9,7 +9,7 @@ IN_ENV := source ./env.sh &&
 DEPS_STAMP := $(VENV)/.tric-deps
 BUILD_STAMP := ros_ws/install/.tric-built
 BUILD_INPUTS := $(shell find ros_ws/src -type f \( -name package.xml -o -name CMakeLists.txt -o -name setup.py \
-	-o -name setup.cfg -o -name '*.msg' -o -name '*.srv' -o -name '*.action' -o -path '*/resource/*' \))
+	-o -name setup.cfg -o -name '*.cpp' -o -name '*.msg' -o -name '*.srv' -o -name '*.action' -o -path '*/resource/*' \))
 
 .PHONY: help setup demo experiments test lint bench constraints clean
 

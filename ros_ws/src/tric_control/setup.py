@@ -1,3 +1,4 @@
+from pybind11.setup_helpers import Pybind11Extension, build_ext
 from setuptools import find_packages, setup
 
 PACKAGE = "tric_control"
@@ -10,6 +11,13 @@ setup(
         ("share/ament_index/resource_index/packages", ["resource/" + PACKAGE]),
         ("share/" + PACKAGE, ["package.xml"]),
     ],
+    # TRIC's objective compiled (tric_control.objectives uses it when it is built)
+    ext_modules=[
+        Pybind11Extension(
+            "tric_control._value_kernel", ["tric_control/value_kernel.cpp"], cxx_std=17
+        )
+    ],
+    cmdclass={"build_ext": build_ext},
     install_requires=["setuptools"],
     zip_safe=False,
     maintainer="TRIC maintainers",

@@ -43,8 +43,17 @@ from tric_control.limits import (
     SoftContact,
     StepState,
 )
+from tric_learning.features import FeatureMap
+from tric_learning.value_function import ValueFunction
 from tric_sim.proximity import Proximity
 from tric_sim.robot_model import RobotModel
+
+try:
+    from tric_control import _value_kernel
+except ImportError as error:  # not built: the numpy objective
+    _value_kernel, _KERNEL_ERROR = None, error
+#: Whether the compiled objective (tric_control._value_kernel) is built.
+COMPILED = _value_kernel is not None
 
 #: Inequality rows of the QP for the closest collision pairs and for the features nearest the
 #: bounds of the model's training range (a count each).
@@ -359,9 +368,24 @@ class ValueObjective:
     object's position seen from the robot's base), nearest first: the gradients du/dq of their
     margins (the upper bound's margin falls as u rises), the margins and their names. After each
     call, scaled_features (s,) and value_gradient (s,) hold u and df/du at that q (for the
-    status)."""
+    status).
 
-    def __init__(self, feature_map, value_function, delta: float, rho: float, feature_names=None):
+    compiled: evaluate with tric_control._value_kernel (C++, built by colcon with this package):
+    True requires it, False uses the numpy code (the reference the kernel is tested against),
+    None (default) the kernel where it is built and feature_map and value_function are a
+    tric_learning FeatureMap and ValueFunction. The two agree to rounding (1e-12), not bit for
+    bit; COMPILED says whether the kernel is built.
+    """
+
+    def __init__(
+        self,
+        feature_map,
+        value_function,
+        delta: float,
+        rho: float,
+        feature_names=None,
+        compiled: bool = None,
+    ):
         if not (delta > 0 and rho > 0):
             raise ValueError("delta and rho must be positive")
         self.features, self.value_function, self.delta, self.rho = (
@@ -383,8 +407,68 @@ class ValueObjective:
             self._factor[moving],
         )
         self.scaled_features = self.value_gradient = None
+        self._kernel = self._compiled_kernel(compiled)
+
+    def _compiled_kernel(self, compiled: bool):
+        """The compiled kernel for this objective, or None (see the class docstring)."""
+        if compiled is False:
+            return None
+        usable = isinstance(self.features, FeatureMap) and isinstance(
+            self.value_function, ValueFunction
+        )
+        if not (COMPILED and usable):
+            if compiled:
+                raise ValueError(
+                    "the compiled objective needs tric_control._value_kernel (built by colcon "
+                    "with tric_control) and a FeatureMap with a ValueFunction"
+                    + ("" if COMPILED else f"; the kernel did not import: {_KERNEL_ERROR}")
+                )
+            return None
+        features, function, robot = self.features, self.value_function, self.features.robot
+        pairs = np.array(features.definition.pairs).reshape(-1, 2)
+        return _value_kernel.ValueKernel(
+            len(features.definition.landmark_names),
+            pairs[:, 0],
+            pairs[:, 1],
+            features.relative_supports,
+            robot.extended_to_q.argmax(axis=1),
+            robot.n_joints,
+            self._kept,
+            self._low,
+            self._span,
+            self._factor,
+            function.w1.reshape(function.hidden_units, len(self._kept)),
+            function.w2,
+            function.w3,
+            self._moving,
+            DOMAIN_ROWS,
+            DOMAIN_MARGIN,
+            self.rho,
+            self.delta,
+        )
 
     def __call__(self, q, object_poses) -> Objective:
+        if self._kernel is None:
+            return self._evaluate(q, object_poses)
+        features = self.features
+        placements = features.landmark_placements(np.asarray(q, dtype=float), object_poses)
+        value, u, df_du, g, hessian, linear, norm, rows, margins, nearest = self._kernel.evaluate(
+            placements, features.robot.data.J
+        )
+        self.scaled_features, self.value_gradient = u, df_du
+        return Objective(
+            hessian=hessian,
+            linear=linear,
+            value=value,
+            gradient_norm=norm,
+            gradient=g,
+            domain_rows=rows,
+            domain_margins=margins,
+            domain_names=[self.kept_names[k] for k in nearest.tolist()],
+        )
+
+    def _evaluate(self, q, object_poses) -> Objective:
+        """The objective at q with numpy (the reference)."""
         y, jacobian = self.features.with_jacobian(q, object_poses)
         u = (y.take(self._kept) - self._low) / self._span
         value, df_du = self.value_function.scaled_gradient(u)

@@ -192,10 +192,21 @@ class FeatureMap:
         self._local_index = (3 * first[:, None] + np.arange(3)) * count * count + self._pair[
             :, None
         ]
+        #: (P, E): for each pair, the columns of data.J that move its second landmark only (+1),
+        #: its first only (-1), or both or neither (0: they move them rigidly)
+        self.relative_supports = self._relative_supports(robot)
         self._jacobian_index, self._extra_jacobian_indices, self.moves_with_q = (
             self._jacobian_indices(robot)
         )
         self._object_rotations = {}  # object name -> (its xyzw quaternion, rotation matrix)
+
+    def _relative_supports(self, robot: RobotModel) -> np.ndarray:
+        """relative_supports (P, E): the columns of data.J that move each landmark (none for
+        objects), and for each pair those that move j relative to i."""
+        supports = np.zeros((self._count, robot.joint_supports.shape[1]))
+        for k, fid in self.robot_landmarks:
+            supports[k] = robot.joint_supports[robot.model.frames[fid].parentJoint]
+        return supports[self._second] - supports[self._first]
 
     def _jacobian_indices(self, robot: RobotModel):
         """Flat indices into with_jacobian's projections (rows of _directions, E columns of data.J,
@@ -206,13 +217,7 @@ class FeatureMap:
         at all (not those between objects and the robot's fixed base, say)."""
         count, first, second = self._count, self._first, self._second
         columns = robot.joint_supports.shape[1]
-        # the columns of data.J that move each landmark (none for objects), and for each pair those
-        # that move j relative to i: +1 moving j only, -1 moving i only (the others move both
-        # rigidly)
-        supports = np.zeros((count, columns))
-        for k, fid in self.robot_landmarks:
-            supports[k] = robot.joint_supports[robot.model.frames[fid].parentJoint]
-        relative = supports[second] - supports[first]  # (P, E)
+        relative = self.relative_supports
         moving_j = np.concatenate(
             [
                 3 * first[:, None] + np.arange(3),
@@ -247,6 +252,14 @@ class FeatureMap:
     def _landmarks(self, q, object_poses: dict, jacobians: bool) -> np.ndarray:
         """Landmark positions (L, 3) (a view of a buffer reused by the next call); writes the
         rotations' transposes into self._axes. With jacobians, robot.data.J is up to date after."""
+        placements = self.landmark_placements(q, object_poses, jacobians)
+        np.copyto(self._axes, placements[:, :3, :3].transpose(0, 2, 1))
+        return placements[:, :3, 3]
+
+    def landmark_placements(self, q, object_poses: dict, jacobians: bool = True) -> np.ndarray:
+        """The landmarks' world poses (L, 4, 4), homogeneous, at q (n,) with objects at
+        object_poses {name: (p, xyzw)} (a buffer reused by the next call). With jacobians,
+        robot.data.J is up to date after (pin.computeJointJacobians)."""
         model, data = self.robot.model, self.robot.data
         if jacobians:
             pin.computeJointJacobians(model, data, q)  # and the joint placements
@@ -269,8 +282,7 @@ class FeatureMap:
             if cached is None or cached[0] != quaternion:
                 cached = self._object_rotations[name] = (quaternion, _rotation(quaternion))
             placements[k, :3, :3] = cached[1]
-        np.copyto(self._axes, placements[:, :3, :3].transpose(0, 2, 1))
-        return placements[:, :3, 3]
+        return placements
 
     def __call__(self, q, object_poses: dict) -> np.ndarray:
         """Features y (d,) at joint positions q (n,) with objects at object_poses {name: (p,
