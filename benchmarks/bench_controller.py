@@ -15,6 +15,8 @@ left).
 controller_tick_p50_ms, controller_tick_p99_ms: wall time of MotionRateController.tick (features,
   Jacobian, f and its gradient, domain rows, collision distances, the limits, QP), ms. Target: p99
   <= 0.5.
+controller_objective_compiled: 1 when the objective ran compiled (tric_control._value_kernel, as
+  make setup builds it), 0 when it ran the numpy reference.
 controller_objective_p50_ms, controller_proximity_p50_ms, controller_qp_p50_ms: the tick's parts
   (ValueObjective: features, Jacobian, f, gradient and domain rows; Proximity.near: collision
   distances and rows; the rest: the limits, QP assembly and solve), medians, ms.
@@ -43,7 +45,13 @@ from pink.limits import ConfigurationLimit, Limit, VelocityLimit
 from pink.tasks import Task
 
 from tric_control.limits import CollisionDamper, DomainDamper, SoftContact, StepState
-from tric_control.motion_rate import INFLUENCE, JOINT_MARGIN, MotionRateController, default_limits
+from tric_control.motion_rate import (
+    COMPILED,
+    INFLUENCE,
+    JOINT_MARGIN,
+    MotionRateController,
+    default_limits,
+)
 from tric_control.objectives import make_objective
 from tric_learning import model_file
 from tric_learning.bag_dataset import load_dataset
@@ -316,6 +324,7 @@ def run() -> dict:
         "pink_tick_p50_ms": percentile_ms(turns["pink"], 50),
         "pink_tick_p99_ms": percentile_ms(turns["pink"], 99),
         "pink_bare_tick_p50_ms": percentile_ms(turns["pink_bare"], 50),
+        "controller_objective_compiled": int(COMPILED),
     }
     results["controller_vs_pink"] = round(
         results["controller_replay_p50_ms"] / results["pink_tick_p50_ms"], 3
