@@ -128,15 +128,16 @@ class StepQP:
 
     The step is solved by daqp, a dual active-set solver for small dense QPs: its solution is exact
     up to rounding (every active row holds with equality). Where the rows conflict (dampers that
-    cannot all hold), daqp reports the problem infeasible, and proxsuite solves it instead with
-    primal infeasibility solving, for the step closest to feasible. The cost is divided by its
+    cannot all hold), daqp reports the problem infeasible, and proxsuite is tried instead with
+    primal infeasibility solving, for the step closest to feasible; where it ends without a
+    solution too, solve() returns None and the controller holds still. The cost is divided by its
     largest coefficient first (the same minimizer), so that proxsuite's absolute tolerance means the
     same for objectives of every scale. Each solve starts cold, and its solution is rounded to a
     multiple of STEP_QUANTUM: a compiled solver's result for the same problem may differ in its last
     bit with where its buffers lie in memory (vectorized loops), and contacts amplify that into
     other episodes. Rounded, two instances give the same step unless an entry lies within 1e-16 of a
-    rounding boundary (about 1 in 10^8 entries). Measured over the 600 ticks of the sphere episode
-    of benchmarks/bench_controller.py (2026-12-02): daqp 6.4 us per solve (median, with its Python
+    rounding boundary (about 1 in 10^8 entries). Measured over the 600 ticks of the episode of
+    benchmarks/bench_controller.py (2026-12-02): daqp 6.4 us per solve (median, with its Python
     call), proxsuite 35 us; daqp's rows are violated by 1e-17 at most, proxsuite's by 2e-8
     (docs/decisions/controller-tick-speed.md)."""
 
