@@ -192,6 +192,7 @@ def test_bad_requests_are_refused_and_write_nothing(ros_context, spin, bag_dir, 
             "alpha_n, alpha_g and alpha_w must be finite and >= 0",
         ),
         (train_request([bag_dir], out, max_iterations=0), "max_iterations must be in [1, 100000]"),
+        (train_request([bag_dir], out, members=0), "members must be in [1, 20]"),
         (
             train_request([bag_dir], out, correlation_threshold=1.5),
             "correlation_threshold must be in (0, 1]",
@@ -305,6 +306,7 @@ def test_tric_train_writes_a_loadable_model(cli_run):
     [
         (["{tmp}/missing.mcap"], "tric-train: {tmp}/missing.mcap does not exist"),
         (["{bags}", "--sigma", "0"], "tric-train: sigma must be in (0, 1] rad"),
+        (["{bags}", "--members", "21"], "tric-train: members must be in [1, 20]"),
         (
             ["{bags}", "--out", "{tmp}/model.json"],
             "tric-train: the model path {tmp}/model.json must end in .safetensors",

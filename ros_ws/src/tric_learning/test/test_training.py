@@ -4,6 +4,7 @@ determinism from a seed, and a training on grid demonstrations whose value funct
 (decreases along them, gradients against their steps: the design's goals). The loss terms
 themselves: test_training_problem.py."""
 
+import dataclasses
 import math
 
 import numpy as np
@@ -12,7 +13,7 @@ import pytest
 from tric_learning.analysis import cosines_along_demos, decreasing_shares, ranked_features
 from tric_learning.recording import record_offline
 from tric_learning.samples import d_curve
-from tric_learning.training import TrainingConfig, train
+from tric_learning.training import TICKS_PER_DEMO, TrainingConfig, member_seed, train
 from tric_learning.training_problem import MIN_STEP
 from tric_sim import situations
 from tric_sim.robot_model import RobotModel
@@ -115,6 +116,8 @@ def test_split_l_bfgs_b_gives_exact_zeros_and_a_lower_loss_than_it_starts_from(r
         ({"seed": -1}, "seed must be in [0, 2^32)"),
         ({"seed": 2**32}, "seed must be in [0, 2^32)"),
         ({"optimizer": "adam"}, "optimizer must be one of lbfgs, lbfgsb"),
+        ({"members": 0}, "members must be in [1, 20]"),
+        ({"members": 21}, "members must be in [1, 20]"),
     ],
 )
 def test_training_config_refuses_bad_values(values, message):
@@ -150,6 +153,32 @@ def test_training_is_determined_by_its_seed(robot, grid_dataset):
         np.testing.assert_array_equal(getattr(first.model, name), getattr(again.model, name))
     assert first.losses == again.losses
     assert not np.array_equal(first.model.w3, other.model.w3)
+
+
+def test_an_ensemble_is_its_members_mean_each_scaled_by_its_fall(robot, grid_dataset):
+    """members = 2: member 0 draws what the ensemble's seed draws alone, member 1 its own samples
+    and weights; both on the scaling of all samples, and f their mean of f_k / fall_k, so that f
+    falls by 1 from a demonstration's start to its end on average."""
+    demos = grid_dataset.subset(3)
+    config = TrainingConfig(hidden_units=5, noisy_samples=10, max_iterations=20, seed=4)
+    both = train(demos, robot, dataclasses.replace(config, members=2))
+    assert both.model.hidden_units == 10 and both.iterations <= 40
+    assert member_seed(4, 0) == 4 and member_seed(4, 1) != 4
+    falls = np.mean([both.model.value(d.y[0]) - both.model.value(d.y[-1]) for d in demos.demos])
+    assert falls == pytest.approx(1.0)
+    assert both.delta == pytest.approx(1.0 / TICKS_PER_DEMO)
+    # member 0's samples are the single training's: the ensemble's scaling spans them and member
+    # 1's, so each feature both keep ranges at least as wide, and some wider
+    alone = train(demos, robot, config).model.scaling
+    scaling = both.model.scaling
+    common, in_both, in_alone = np.intersect1d(scaling.kept, alone.kept, return_indices=True)
+    assert len(common) > 0.8 * len(alone.kept)
+    assert np.all(scaling.low[in_both] <= alone.low[in_alone])
+    assert np.all(scaling.high[in_both] >= alone.high[in_alone])
+    wider = (scaling.low[in_both] < alone.low[in_alone]) | (
+        scaling.high[in_both] > alone.high[in_alone]
+    )
+    assert wider.any()
 
 
 def test_trained_value_function_follows_the_demonstrations(grid_dataset, grid_training):

@@ -64,3 +64,36 @@ def test_gradient_of_value_over_features_matches_finite_differences(robot):
     analytic = model.gradient(y)[1] @ jacobian
     numeric = central_difference(lambda x: float(model.value(feature_map(x, poses))), q, 1e-6)
     np.testing.assert_allclose(analytic, numeric, rtol=1e-5, atol=1e-6 * np.abs(numeric).max())
+
+
+def test_an_ensemble_is_the_weighted_sum_of_its_members():
+    rng = np.random.default_rng(5)
+    scaling = Scaling(
+        kept=np.array([1, 2, 5]), low=rng.uniform(-1, 0, 3), high=rng.uniform(0.5, 2, 3), size=6
+    )
+    members = [random_value_function(rng, scaling, units) for units in (4, 0, 2)]
+    weights = [0.5, -2.0, 1.5]
+    ensemble = ValueFunction.ensemble(members, weights)
+    assert ensemble.hidden_units == 6
+    for y in rng.uniform(-1, 2, (5, 6)):
+        value, gradient = ensemble.gradient(y)
+        parts = [member.gradient(y) for member in members]
+        assert value == pytest.approx(sum(w * v for w, (v, _) in zip(weights, parts)), abs=1e-12)
+        np.testing.assert_allclose(
+            gradient, sum(w * g for w, (_, g) in zip(weights, parts)), atol=1e-12
+        )
+
+
+def test_an_ensemble_refuses_other_scalings_and_bad_weights():
+    rng = np.random.default_rng(6)
+    scaling = Scaling(kept=np.array([0, 1]), low=np.zeros(2), high=np.ones(2), size=3)
+    other = Scaling(kept=np.array([0, 1]), low=np.zeros(2), high=np.full(2, 2.0), size=3)
+    first, second = (random_value_function(rng, s, 2) for s in (scaling, other))
+    with pytest.raises(ValueError, match="must share one Scaling"):
+        ValueFunction.ensemble([first, second], [1.0, 1.0])
+    with pytest.raises(ValueError, match="needs as many finite weights"):
+        ValueFunction.ensemble([first, first], [1.0])
+    with pytest.raises(ValueError, match="needs as many finite weights"):
+        ValueFunction.ensemble([first, first], [1.0, np.nan])
+    with pytest.raises(ValueError, match="at least one member"):
+        ValueFunction.ensemble([], [])

@@ -36,13 +36,14 @@ PROG = "tric-train"
 
 class StageBars:
     """progress(stage, fraction, losses) for train_from_bags as one tqdm bar per stage: bags loaded,
-    demos sampled, optimizer iterations (with the current loss terms)."""
+    demos sampled, optimizer iterations (with the current loss terms), of every ensemble member
+    (members) one after the other."""
 
-    def __init__(self, bags: int, max_iterations: int, enabled: bool = True):
+    def __init__(self, bags: int, max_iterations: int, enabled: bool = True, members: int = 1):
         self.totals = {
             "loading": (bags, "bag"),
-            "sampling": (bags, "demo"),
-            "optimizing": (max_iterations, "it"),
+            "sampling": (bags * members, "demo"),
+            "optimizing": (max_iterations * members, "it"),
         }
         self.enabled = enabled
         self.stage, self.bar = None, None
@@ -63,7 +64,7 @@ class StageBars:
         if self.bar is None:
             return
         total = self.totals[stage][0]
-        done = losses["iteration"] if stage == "optimizing" else round(fraction * total)
+        done = round(fraction * total)
         self.bar.update(min(done, total) - self.bar.n)
         if stage == "optimizing" and "n" not in losses:  # DPL: one objective
             self.bar.set_postfix_str(f"L {losses['total']:.4f}", refresh=False)
@@ -168,6 +169,14 @@ def parse_arguments(argv):
         help="seed of the noisy samples and initial weights (default %(default)s)",
     )
     parser.add_argument(
+        "--members",
+        metavar="N",
+        type=int,
+        default=defaults.members,
+        help="TRIC: value functions trained on noisy samples and initial weights of their own and "
+        "averaged into f (default %(default)s)",
+    )
+    parser.add_argument(
         "--include-failed",
         action="store_true",
         help="train on demonstrations whose recorded outcome is a failure too",
@@ -253,6 +262,7 @@ def main(argv=None) -> int:
             max_iterations=defaults.max_iterations if args.iterations is None else args.iterations,
             correlation_threshold=args.correlation_threshold,
             seed=args.seed,
+            members=args.members,
         )
         job = train_from_bags
     try:
@@ -261,6 +271,7 @@ def main(argv=None) -> int:
             len(bag_paths(args.bags, args.tolerant, notice=lambda _: None)),
             config.max_iterations,
             enabled=not args.quiet,
+            members=getattr(config, "members", 1),
         )
         try:
             run = job(

@@ -94,6 +94,7 @@ def training_config(request: Train.Request):
         max_iterations=request.max_iterations,
         correlation_threshold=request.correlation_threshold,
         seed=request.seed,
+        members=request.members,
     ).validate()
 
 

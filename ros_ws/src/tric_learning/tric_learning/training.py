@@ -23,7 +23,7 @@ that the trainer node and tric-train share: bags -> dataset -> train() -> model 
 """
 
 import time
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 
@@ -43,6 +43,8 @@ TICKS_PER_DEMO = 500
 #: gradient: the value term dominates the step-size term there (Proposition 1), and steps shrink
 #: smoothly where the gradient vanishes.
 RHO_GAIN = 100.0
+#: Apart of ensemble members' seeds (member_seed): far from the small seeds a study draws.
+MEMBER_SEED_STRIDE = 1_000_003
 #: The optimizers TrainingConfig.optimizer names.
 OPTIMIZERS = ("lbfgs", "lbfgsb")
 
@@ -82,6 +84,9 @@ class TrainingConfig:
     #: L_n's weights eps divided by their sum at each step (each step's L_n a weighted mean over its
     #: noisy samples) instead of summed as in Eq. 16.
     per_step_weights: bool = False
+    #: Value functions trained each on noisy samples and initial weights of its own and averaged
+    #: into f (train(); an ensemble of K * members hidden units), a count.
+    members: int = 1
     #: "lbfgs": PyTorch's L-BFGS on the whole loss, |w|_1 included (not smooth at 0); "lbfgsb":
     #: SciPy's L-BFGS-B on w = w+ - w-, w+, w- >= 0, where |w|_1 = sum(w+ + w-) is linear (exact L1,
     #: sparse).
@@ -99,6 +104,7 @@ class TrainingConfig:
             ),
             (self.alpha_n + self.alpha_g > 0, "alpha_n and alpha_g cannot both be 0"),
             (1 <= self.max_iterations <= 100000, "max_iterations must be in [1, 100000]"),
+            (1 <= self.members <= 20, "members must be in [1, 20]"),
             (0 < self.correlation_threshold <= 1, "correlation_threshold must be in (0, 1]"),
             (0 <= self.seed < 2**32, "seed must be in [0, 2^32)"),
             (self.optimizer in OPTIMIZERS, f"optimizer must be one of {', '.join(OPTIMIZERS)}"),
@@ -141,30 +147,49 @@ def train(
     """Train f on dataset. progress(stage, fraction, losses) is called during sampling and after
     each optimizer evaluation (losses: dict of the current terms, or None). extra_samples: more
     contrasts for L_n beside the noisy ones (e.g. states a learned controller visited: hard
-    negatives), each with the demonstration step it is contrasted with and its weight."""
+    negatives), each with the demonstration step it is contrasted with and its weight.
+
+    With config.members > 1 each member draws its own noisy samples and initial weights (seeds
+    member_seed(config.seed, m)) and is trained alone; the scaling is fitted once on the
+    demonstrations and every member's samples, and f is the members' mean of f_k / fall_k, fall_k
+    the mean fall of f_k from a demonstration's start to its end (ValueFunction.ensemble). The
+    losses are the members' means, the iterations their sum."""
     config = TrainingConfig() if config is None else config
     config.validate()
     dataset.check()
     report = progress or (lambda *_: None)
+    members = config.members
+    seeds = [member_seed(config.seed, m) for m in range(members)]
     start = time.perf_counter()
-    noisy = samples.generate(
-        dataset,
-        robot,
-        config.noisy_samples,
-        config.sigma,
-        config.seed,
-        lambda done, total: report("sampling", done / total, None),
-    )
-    if extra_samples is not None:
-        noisy = samples.joined(noisy, extra_samples)
+    noisy_sets = []
+    for m, seed in enumerate(seeds):
+        noisy = samples.generate(
+            dataset,
+            robot,
+            config.noisy_samples,
+            config.sigma,
+            seed,
+            lambda done, total, m=m: report("sampling", (m + done / total) / members, None),
+        )
+        if extra_samples is not None:
+            noisy = samples.joined(noisy, extra_samples)
+        noisy_sets.append(noisy)
     sampling_time = time.perf_counter() - start
     start = time.perf_counter()
     # the scaling spans everything the model is trained on: the demonstrations and the noisy samples
-    all_y = np.concatenate([demo.y for demo in dataset.demos] + [noisy.y])
+    all_y = np.concatenate([demo.y for demo in dataset.demos] + [noisy.y for noisy in noisy_sets])
     scaling = Scaling.fit(all_y, config.correlation_threshold)
-    problem = TrainingProblem(dataset, noisy, scaling, config)
-    weights, losses, iterations = problem.solve(report)
-    model = ValueFunction(scaling, *weights)
+    functions, member_losses, iterations = [], [], 0
+    for m, (seed, noisy) in enumerate(zip(seeds, noisy_sets)):
+        problem = TrainingProblem(dataset, noisy, scaling, replace(config, seed=seed))
+        weights, losses, member_iterations = problem.solve(
+            lambda stage, fraction, losses, m=m: report(stage, (m + fraction) / members, losses)
+        )
+        functions.append(ValueFunction(scaling, *weights))
+        member_losses.append(losses)
+        iterations += member_iterations
+    model = functions[0] if members == 1 else _mean_of_members(functions, dataset)
+    losses = {key: float(np.mean([m[key] for m in member_losses])) for key in member_losses[0]}
     optimization_time = time.perf_counter() - start
     starts = np.array([model.value(demo.y[0]) for demo in dataset.demos])
     ends = np.array([model.value(demo.y[-1]) for demo in dataset.demos])
@@ -174,6 +199,7 @@ def train(
         for y, jacobian in zip(demo.y, demo.jacobians)
     ]
     scores = model.scores()
+    kept_per_step = np.mean([noisy.kept_per_step for noisy in noisy_sets], axis=0)
     return TrainingResult(
         model=model,
         config=config,
@@ -186,7 +212,30 @@ def train(
         selected_features=int(np.sum(scores > SELECTED_FRACTION * scores.max()))
         if scores.max() > 0
         else 0,
-        mean_samples_per_step=float(noisy.kept_per_step[_later_steps(dataset)].mean()),
+        mean_samples_per_step=float(kept_per_step[_later_steps(dataset)].mean()),
+    )
+
+
+def member_seed(seed: int, member: int) -> int:
+    """The seed of an ensemble's member (0, 1, ...): member 0 keeps the ensemble's seed, so a
+    one-member ensemble is the plain training of that seed."""
+    return (seed + member * MEMBER_SEED_STRIDE) % 2**32
+
+
+def _mean_of_members(functions: list, dataset: Dataset) -> ValueFunction:
+    """The mean of f_k / fall_k over the members whose f falls along the demonstrations (fall_k:
+    the mean of f_k(start) - f_k(end) over the demos); ValueError if none does."""
+    falls = np.array(
+        [
+            np.mean([f.value(demo.y[0]) - f.value(demo.y[-1]) for demo in dataset.demos])
+            for f in functions
+        ]
+    )
+    falling = np.flatnonzero(falls > 0)
+    if not falling.size:
+        raise ValueError("no member of the ensemble learned an f that falls along the demos")
+    return ValueFunction.ensemble(
+        [functions[k] for k in falling], 1.0 / (len(falling) * falls[falling])
     )
 
 

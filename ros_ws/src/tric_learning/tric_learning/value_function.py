@@ -94,6 +94,34 @@ class ValueFunction:
         value += float(z @ self.w2)
         return value, self.w3 + self.w1.T @ (self.w2 * z * (1.0 - z))
 
+    @classmethod
+    def ensemble(cls, members: list, weights) -> "ValueFunction":
+        """The weighted sum f = sum_k weights_k f_k of value functions on one Scaling, as one
+        ValueFunction: their hidden units side by side (W1 stacked, W2 joined, each scaled by its
+        weight) and W3 = sum_k weights_k W3_k. ValueError for no members, members on other
+        scalings, or weights of another count or not finite."""
+        weights = np.asarray(weights, dtype=float)
+        if not members:
+            raise ValueError("an ensemble needs at least one member")
+        if weights.shape != (len(members),) or not np.all(np.isfinite(weights)):
+            raise ValueError(f"an ensemble of {len(members)} needs as many finite weights")
+        scaling = members[0].scaling
+        for member in members[1:]:
+            same = (
+                member.scaling.size == scaling.size
+                and np.array_equal(member.scaling.kept, scaling.kept)
+                and np.array_equal(member.scaling.low, scaling.low)
+                and np.array_equal(member.scaling.high, scaling.high)
+            )
+            if not same:
+                raise ValueError("the members of an ensemble must share one Scaling")
+        return cls(
+            scaling,
+            np.vstack([member.w1 for member in members]),
+            np.concatenate([weight * member.w2 for weight, member in zip(weights, members)]),
+            sum(weight * member.w3 for weight, member in zip(weights, members)),
+        )
+
     def scores(self) -> np.ndarray:
         """Each kept feature's contribution s(y) = |W1^T| |W2| + |W3| (Sec. 5.5.1), (s,)."""
         score = np.abs(self.w3).copy()
