@@ -13,8 +13,15 @@ import pytest
 from tric_learning.analysis import cosines_along_demos, decreasing_shares, ranked_features
 from tric_learning.recording import record_offline
 from tric_learning.samples import d_curve
-from tric_learning.training import TICKS_PER_DEMO, TrainingConfig, member_seed, train
+from tric_learning.training import (
+    TICKS_PER_DEMO,
+    TrainingConfig,
+    mean_of_members,
+    member_seed,
+    train,
+)
 from tric_learning.training_problem import MIN_STEP
+from tric_learning.value_function import ValueFunction
 from tric_sim import situations
 from tric_sim.robot_model import RobotModel
 
@@ -179,6 +186,20 @@ def test_an_ensemble_is_its_members_mean_each_scaled_by_its_fall(robot, grid_dat
         scaling.high[in_both] > alone.high[in_alone]
     )
     assert wider.any()
+
+
+def test_a_member_whose_f_does_not_fall_is_left_out_and_named(robot, grid_dataset):
+    demos = grid_dataset.subset(3)
+    config = TrainingConfig(hidden_units=5, noisy_samples=10, max_iterations=20)
+    f = train(demos, robot, config).model
+    rising = ValueFunction(f.scaling, f.w1, -f.w2, -f.w3)
+    with pytest.warns(RuntimeWarning, match="ensemble member 1 left out: its f does not fall"):
+        mean = mean_of_members([f, rising], demos)
+    fall = np.mean([f.value(d.y[0]) - f.value(d.y[-1]) for d in demos.demos])
+    y = demos.demos[0].y
+    np.testing.assert_allclose(mean.value(y), f.value(y) / fall, rtol=1e-12)
+    with pytest.raises(ValueError, match="no member of the ensemble learned an f that falls"):
+        mean_of_members([rising], demos)
 
 
 def test_trained_value_function_follows_the_demonstrations(grid_dataset, grid_training):

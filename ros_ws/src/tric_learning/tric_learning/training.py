@@ -23,6 +23,7 @@ that the trainer node and tric-train share: bags -> dataset -> train() -> model 
 """
 
 import time
+import warnings
 from dataclasses import asdict, dataclass, replace
 
 import numpy as np
@@ -43,7 +44,8 @@ TICKS_PER_DEMO = 500
 #: gradient: the value term dominates the step-size term there (Proposition 1), and steps shrink
 #: smoothly where the gradient vanishes.
 RHO_GAIN = 100.0
-#: Apart of ensemble members' seeds (member_seed): far from the small seeds a study draws.
+#: The step between the seeds of an ensemble's members (member_seed), far beyond the small seeds a
+#: study draws.
 MEMBER_SEED_STRIDE = 1_000_003
 #: The optimizers TrainingConfig.optimizer names.
 OPTIMIZERS = ("lbfgs", "lbfgsb")
@@ -188,7 +190,7 @@ def train(
         functions.append(ValueFunction(scaling, *weights))
         member_losses.append(losses)
         iterations += member_iterations
-    model = functions[0] if members == 1 else _mean_of_members(functions, dataset)
+    model = functions[0] if members == 1 else mean_of_members(functions, dataset)
     losses = {key: float(np.mean([m[key] for m in member_losses])) for key in member_losses[0]}
     optimization_time = time.perf_counter() - start
     starts = np.array([model.value(demo.y[0]) for demo in dataset.demos])
@@ -222,9 +224,10 @@ def member_seed(seed: int, member: int) -> int:
     return (seed + member * MEMBER_SEED_STRIDE) % 2**32
 
 
-def _mean_of_members(functions: list, dataset: Dataset) -> ValueFunction:
+def mean_of_members(functions: list, dataset: Dataset) -> ValueFunction:
     """The mean of f_k / fall_k over the members whose f falls along the demonstrations (fall_k:
-    the mean of f_k(start) - f_k(end) over the demos); ValueError if none does."""
+    the mean of f_k(start) - f_k(end) over the demos); a member whose f does not fall is left out
+    with a RuntimeWarning naming it, and ValueError if none falls."""
     falls = np.array(
         [
             np.mean([f.value(demo.y[0]) - f.value(demo.y[-1]) for demo in dataset.demos])
@@ -234,6 +237,13 @@ def _mean_of_members(functions: list, dataset: Dataset) -> ValueFunction:
     falling = np.flatnonzero(falls > 0)
     if not falling.size:
         raise ValueError("no member of the ensemble learned an f that falls along the demos")
+    for k in np.flatnonzero(falls <= 0):
+        warnings.warn(
+            f"ensemble member {k} left out: its f does not fall along the demos "
+            f"(mean fall {falls[k]:.4g})",
+            RuntimeWarning,
+            stacklevel=2,
+        )
     return ValueFunction.ensemble(
         [functions[k] for k in falling], 1.0 / (len(falling) * falls[falling])
     )
