@@ -53,7 +53,10 @@ def object_poses(definition, rng) -> dict:
     return poses
 
 
-@pytest.mark.parametrize(("task", "hidden_units"), [("grasp", 30), ("grasp", 0), ("open_box", 30)])
+@pytest.mark.parametrize(
+    ("task", "hidden_units"),
+    [("grasp", 30), ("grasp", 0), ("open_box", 30), ("grasp", 90)],  # 90: a 3-member ensemble
+)
 def test_compiled_and_numpy_objectives_agree(robot, task, hidden_units):
     """At 40 random configurations (within the joint limits) and object poses: the quadratic
     model, value, gradient and its norm, the domain rows with their margins and names, and the
