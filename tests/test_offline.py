@@ -3,6 +3,7 @@ nodes give, the same records bit for bit but the wall time (the README's tables 
 sweeps run offline)."""
 
 import json
+import time
 
 import pytest
 
@@ -12,6 +13,7 @@ from tric_control import evaluate_cli, graph_evaluation
 from tric_control.offline import evaluate_offline
 from tric_learning.training import TrainingConfig, train_from_bags
 from tric_sim import situations
+from tric_sim.lockstep import TopicPoller
 from tric_sim.robot_model import RobotModel
 from tric_sim.situation_files import save_situations
 
@@ -64,6 +66,26 @@ def test_both_paths_name_the_failure_of_an_episode_cut_short(tmp_path):
     [nodes] = graph_evaluation.evaluate(sphere, model, max_steps=5, progress=False)
     assert record_fields(offline) == record_fields(nodes)
     assert offline.failure == "palm off target" and not offline.success
+
+
+def test_the_metrics_wait_for_the_simulator_to_apply_the_last_command(models, monkeypatch):
+    """The controller's episode ends as it publishes its last command; the simulator applies it a
+    moment later. The node path must judge the state after that period, as the offline path does:
+    here the simulator takes every command 50 ms late (outside its lock, so the metrics service
+    could run first), and the records must still agree."""
+    original = TopicPoller.poll
+
+    def late_for_the_simulator(self, timeout_s):
+        received = original(self, timeout_s)
+        if self._node.get_name() == "simulator_lockstep" and received["command"]:
+            time.sleep(0.05)
+        return received
+
+    monkeypatch.setattr(TopicPoller, "poll", late_for_the_simulator)
+    sphere = situations.dataset("sphere_test")[:1]
+    [offline] = evaluate_offline(sphere, str(models["grasp"]), max_steps=5, progress=False)
+    [nodes] = graph_evaluation.evaluate(sphere, models["grasp"], max_steps=5, progress=False)
+    assert record_fields(offline) == record_fields(nodes)
 
 
 def test_offline_cli_writes_the_same_table_and_json(tmp_path, capsys):

@@ -68,7 +68,7 @@ class Evaluator:
         self.graph = InProcessGraph(domain_id)
         self.recorder = None
         try:
-            self.graph.add(lockstep_simulator(self.graph.context))
+            self.simulator = self.graph.add(lockstep_simulator(self.graph.context))
             if view is not None:
                 self.graph.add(VisualizerNode(view=view, context=self.graph.context))
             if record is not None:
@@ -100,12 +100,15 @@ class Evaluator:
                     )
                 )
             self.client = self.graph.add(Node("tric_eval", context=self.graph.context))
-            if self.recorder is not None and model is not None:
-                # the evaluator publishes each controller episode's OUTCOME, stamped as its END
+            if model is not None:
+                # each controller episode's END stamp: the metrics wait for the simulator to have
+                # applied the command that answered it; with --record, the evaluator publishes the
+                # episode's OUTCOME stamped so
                 self._end_stamps = {}
                 self.client.create_subscription(
                     EpisodeEvent, "/episode", self._on_episode_event, EVENT_QOS
                 )
+            if self.recorder is not None and model is not None:
                 self.outcome_pub = self.client.create_publisher(EpisodeEvent, "/episode", EVENT_QOS)
             self.graph.start()
             self.reset_scene = self._service(ResetScene, "/simulator/reset_scene")
@@ -197,6 +200,7 @@ class Evaluator:
                     outcome="failed",
                     message=result.message,
                 )
+            end_stamp = self._wait_for_last_command(situation.name) if result.steps else None
             if snapshot is not None:
                 self._snapshot(snapshot / f"{situation.name}.png")
             evaluation = self._call(
@@ -204,8 +208,8 @@ class Evaluator:
             )
             metrics, steps, outcome = evaluation.metrics, result.steps, result.outcome
             record["min_joint_margin"] = result.min_joint_limit_margin
-            if self.recorder is not None:
-                self._publish_outcome(situation.name, metrics)
+            if self.recorder is not None and end_stamp is not None:
+                self._publish_outcome(situation.name, metrics, end_stamp)
         if self.recorder is not None:
             self._wait_for_bag(situation.name, bags_before)
         if snapshot is not None and self.model is None:
@@ -229,17 +233,35 @@ class Evaluator:
         if event.event == EpisodeEvent.END:
             self._end_stamps[event.episode_id] = event.header.stamp
 
-    def _publish_outcome(self, episode_id: str, metrics):
-        """--record: the OUTCOME of a controller episode (the recorder then closes its bag)."""
+    def _wait_for_last_command(self, episode_id: str):
+        """Wait until the simulator has simulated the period after the controller's last answered
+        state (the stamp of the episode's END): the controller ends its episode as it publishes
+        the last command, and the metrics must judge the state that command leads to, as the
+        offline path does. Returns the END's stamp; RuntimeError if END or that period never
+        comes."""
         deadline = time.monotonic() + SERVICE_TIMEOUT
         while episode_id not in self._end_stamps:
             if time.monotonic() > deadline:
                 raise RuntimeError(f"the controller's END of '{episode_id}' never arrived")
             time.sleep(0.002)
+        stamp = self._end_stamps.pop(episode_id)
+        world = self.simulator.world
+        last_ns = messages.time_ns(stamp) + world.control_period_ns
+        while world.time_ns < last_ns:
+            if time.monotonic() > deadline:
+                raise RuntimeError(
+                    f"the simulator never applied the last command of '{episode_id}'"
+                )
+            time.sleep(0.001)
+        return stamp
+
+    def _publish_outcome(self, episode_id: str, metrics, end_stamp):
+        """--record: the OUTCOME of a controller episode, stamped as its END (the recorder then
+        closes its bag)."""
         event = EpisodeEvent(
             event=EpisodeEvent.OUTCOME, episode_id=episode_id, source=self.agent, metrics=metrics
         )
-        event.header.stamp = self._end_stamps.pop(episode_id)
+        event.header.stamp = end_stamp
         self.outcome_pub.publish(event)
 
     def _wait_for_bag(self, episode_id: str, bags_before: int):
