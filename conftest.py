@@ -33,8 +33,8 @@ def pytest_configure(config):
 
 
 def dump_native_stacks(nodeid: str) -> None:
-    """Print every thread of this process with its native and Python frames (py-spy) to the real
-    stderr, which pytest does not capture."""
+    """Print every thread of this process with its native and Python frames (py-spy) to stderr
+    (fd 2: pytest captures it with the test, and pytest-timeout prints it when it ends the run)."""
     spy = shutil.which("py-spy", path=os.path.dirname(sys.executable)) or shutil.which("py-spy")
     print(f"\n+++ {nodeid} still runs: native stacks of every thread +++", file=sys.__stderr__)
     if spy is None:
