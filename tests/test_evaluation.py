@@ -393,12 +393,15 @@ def test_analysis_discussion_judges_every_task_and_seed():
 
     def numbers(cosine, falls):
         return {
-            "mean_cosine_moving_steps": cosine,
-            "decreasing_share_moving_steps": falls,
-            "mean_cosine_moving_early": cosine,
-            "mean_cosine_moving_late": cosine + 0.1,
+            "cosine_weighted": cosine,
+            "cosine_moving": cosine + 0.05,
+            "cosine_slow": cosine + 0.1,
+            "falls": falls,
+            "cosine_moving_early": cosine,
+            "cosine_moving_late": cosine + 0.1,
             "late_from_step": 30,
             "selected_features": 40,
+            "features_95": 55,
             "kept_features": 130,
             "top_gradients_changing_sign": 3,
             "top_features": [
@@ -408,13 +411,17 @@ def test_analysis_discussion_judges_every_task_and_seed():
         }
 
     rows = {
-        "sphere": {0: numbers(-0.85, 0.97), 1: numbers(-0.82, 0.96), 2: numbers(-0.7, 0.97)},
+        "sphere": {0: numbers(-0.95, 0.97), 1: numbers(-0.92, 0.96), 2: numbers(-0.7, 0.97)},
         "cylinder": {0: numbers(-0.6, 0.9), 1: numbers(-0.6, 0.9), 2: numbers(-0.6, 0.9)},
-        "box": {0: numbers(-0.81, 1.0), 1: numbers(-0.81, 1.0), 2: numbers(-0.81, 1.0)},
+        "box": {0: numbers(-0.91, 1.0), 1: numbers(-0.91, 1.0), 2: numbers(-0.91, 1.0)},
     }
     text = model_analysis.discussion(rows)
-    assert "sphere: mean cosine -0.850/-0.820/-0.700" in text and "2 of 3 seeds meet" in text
+    assert "sphere: mean cosine -0.950/-0.920/-0.700" in text and "2 of 3 seeds meet" in text
     assert "cylinder: mean cosine" in text and "0 of 3 seeds meet" in text and "box:" in text
+    assert "over the slow steps (the lid lifting) -0.810/-0.810/-0.810" in text
+    assert (
+        "3 of 3 at most -0.8" in text and "carrying 95% of the score, all models: 55 to 55" in text
+    )
     assert (
         "worse late, as in the paper" in text and "2 relate a hand landmark to the object" in text
     )

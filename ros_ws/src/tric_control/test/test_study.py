@@ -46,8 +46,8 @@ def test_the_seed_summary_gives_each_seed_and_the_mean_min_max():
             "variant": "v",
             "task": "box",
             "seed": seed,
-            "model": {"cosine_moving": -0.5 - 0.1 * seed, "falls_moving": 0.9},
-            "sets": {"box_val": {"opened": opened, "episodes": 25}},
+            "model": {key: -0.5 - 0.1 * seed for key in study.MODEL_MEASURES},
+            "sets": {"box_val": {"opened": opened, "episodes": 25, "good_converged": seed}},
         }
         for seed, opened in enumerate((20, 23, 17))
     ]
@@ -55,6 +55,8 @@ def test_the_seed_summary_gives_each_seed_and_the_mean_min_max():
     assert (
         "v / box over 3 seeds" in text
         and "box_val opened 20/23/17 (mean 20, min 17, max 23)" in text
+        and "box_val at rest 0/1/2 (mean 1, min 0, max 2)" in text
+        and "cosine_weighted -0.5/-0.6/-0.7 (mean -0.6, min -0.7, max -0.5)" in text
     )
 
 

@@ -78,6 +78,14 @@ def unjudged_fields(situation, agent: str) -> dict:
     )
 
 
+def task_done(record: EpisodeRecord) -> bool:
+    """Whether the episode did its task by the hidden metrics: a good grasp (cost below
+    GOOD_GRASP) or an opened box (lid beyond LID_OPEN_ANGLE), collisions aside."""
+    if record.task == "grasp":
+        return bool(record.grasp_cost < GOOD_GRASP)
+    return bool(record.lid_angle > LID_OPEN_ANGLE)
+
+
 def evaluated_task(situations, jobs: int) -> str:
     """The one task of the situations an evaluation runs in jobs processes; ValueError if they mix
     tasks or jobs is below 1."""
@@ -122,6 +130,10 @@ def summarize(records) -> dict:
         "min_joint_margin": float(min(margins)) if margins else math.nan,
         "max_joint_overshoot": _max(r.max_joint_overshoot for r in records),
         "steps_mean": _mean(r.steps for r in records),
+        "converged": sum(r.outcome == "converged" for r in records),
+        "step_budget": sum(r.outcome == "step_budget" for r in records),
+        "done": sum(task_done(r) for r in records),
+        "done_converged": sum(task_done(r) and r.outcome == "converged" for r in records),
         "wall_time_s_mean": _mean(r.wall_time_s for r in records),
         "failures": dict(
             collections.Counter(r.failure for r in records if r.failure).most_common()
@@ -172,6 +184,11 @@ def table(records, title: str = "") -> str:
     )
     if math.isfinite(s["max_joint_overshoot"]):
         parts.append(f"joints at most {s['max_joint_overshoot']:.3f} rad past a limit")
+    if s["converged"] or s["step_budget"]:
+        parts.append(
+            f"{s['converged']} came to rest ({s['done_converged']} of the {s['done']} that did "
+            f"the task), {s['step_budget']} spent the step budget"
+        )
     if s["failures"]:
         parts.append(
             "failures: " + ", ".join(f"{name} {count}" for name, count in s["failures"].items())

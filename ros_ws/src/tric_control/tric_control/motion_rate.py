@@ -441,6 +441,7 @@ class ValueObjective:
             function.w1.reshape(function.hidden_units, len(self._kept)),
             function.w2,
             function.w3,
+            function.b1,
             self._moving,
             DOMAIN_ROWS,
             DOMAIN_MARGIN,

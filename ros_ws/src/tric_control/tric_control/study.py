@@ -26,6 +26,7 @@ and per variant the mean, min and max over the seeds.
 """
 
 import argparse
+import collections
 import dataclasses
 import hashlib
 import json
@@ -38,7 +39,7 @@ import time
 import numpy as np
 
 from tric_control.episode import DEFAULT_MAX_STEPS
-from tric_control.evaluation import write_json
+from tric_control.evaluation import task_done, write_json
 from tric_control.hard_negatives import train_with_hard_negatives
 from tric_control.motion_rate import MAX_LEAD
 from tric_control.offline import evaluate_offline
@@ -46,6 +47,7 @@ from tric_learning import analysis, model_file
 from tric_learning.bag_dataset import bag_paths, load_dataset
 from tric_learning.training import TrainingConfig, train
 from tric_sim.metrics import GOOD_GRASP, LID_OPEN_ANGLE
+from tric_sim.provenance import code_digest
 from tric_sim.robot_model import RobotModel
 from tric_sim.situations import dataset
 
@@ -58,6 +60,18 @@ TASKS = {
     "box": ("box", ("box_train", "box_val"), DEFAULT_MAX_STEPS["open_box"]),
     "obstacle": ("sphere", ("obstacle_val",), DEFAULT_MAX_STEPS["grasp"]),
 }
+
+
+#: The analysis' numbers of a model on its own demonstrations that a study records
+#: (tric_learning.analysis.key_numbers: gradient_measures and features_carrying).
+MODEL_MEASURES = (
+    "cosine_weighted",
+    "cosine_moving",
+    "cosine_slow",
+    "falls",
+    "falls_moving",
+    "features_95",
+)
 
 
 #: Controller settings a variant may change, with their types.
@@ -118,6 +132,13 @@ def training_part(changes: dict) -> dict:
 def measure_set(records) -> dict:
     """Summary numbers of one set's offline episodes."""
     grasps = [r for r in records if r.task == "grasp"]
+    rest = {
+        "converged": sum(r.outcome == "converged" for r in records),
+        "good_converged": sum(r.outcome == "converged" for r in records if task_done(r)),
+        "collisions": sum(bool(r.collided) for r in records),
+        "overshoot": max(r.max_joint_overshoot for r in records),
+        "failures": dict(collections.Counter(r.failure for r in records if r.failure)),
+    }
     if grasps:
         costs = [r.grasp_cost for r in grasps if math.isfinite(r.grasp_cost)]
         return {
@@ -125,15 +146,13 @@ def measure_set(records) -> dict:
             "cost_mean": float(np.mean(costs)) if costs else math.nan,
             "good": sum(r.grasp_cost < GOOD_GRASP for r in grasps),
             "lifted": sum(r.lift_passed is True for r in grasps),
-            "collisions": sum(bool(r.collided) for r in records),
-            "overshoot": max(r.max_joint_overshoot for r in records),
+            **rest,
         }
     return {
         "episodes": len(records),
         "opened": sum(r.lid_angle > LID_OPEN_ANGLE for r in records),
         "lid_mean": float(np.mean([r.lid_angle for r in records])),
-        "collisions": sum(bool(r.collided) for r in records),
-        "overshoot": max(r.max_joint_overshoot for r in records),
+        **rest,
     }
 
 
@@ -163,6 +182,9 @@ class Study:
             "seed": seed,
             **({"hard_negative_rounds": rounds} if rounds else {}),
             "bags_digest": self.bags_digest(bags),
+            "training_code": code_digest(
+                "tric_control.hard_negatives" if rounds else "tric_learning.training"
+            ),
         }
         for key, record in self.results.get("models", {}).items():
             path = self._model_path(key)
@@ -190,8 +212,7 @@ class Study:
             "train_s": time.perf_counter() - started,
             "iterations": result.iterations,
             "losses": result.losses,
-            "falls_moving": numbers["decreasing_share_moving_steps"],
-            "cosine_moving": numbers["mean_cosine_moving_steps"],
+            **{key: numbers[key] for key in MODEL_MEASURES},
             "selected_features": numbers["selected_features"],
             "kept_features": numbers["kept_features"],
         }
@@ -258,8 +279,9 @@ class Study:
 def format_row(row: dict) -> str:
     m = row["model"]
     cells = [
-        f"{row['variant']:16s} {row['task']:8s} s{row['seed']:<2d} cos {m['cosine_moving']:6.3f} "
-        f"falls {m['falls_moving']:5.3f} sel {m['selected_features']:3d} train {m['train_s']:5.1f}s"
+        f"{row['variant']:16s} {row['task']:8s} s{row['seed']:<2d} cos {m['cosine_weighted']:6.3f} "
+        f"slow {m['cosine_slow']:6.3f} falls {m['falls']:5.3f} f95 {m['features_95']:3d} "
+        f"train {m['train_s']:5.1f}s"
     ]
     for name, s in row["sets"].items():
         if "opened" in s:
@@ -268,6 +290,7 @@ def format_row(row: dict) -> str:
             cells.append(
                 f"{name} {s['cost_mean']:.3f} good {s['good']}/{s['episodes']} lift {s['lifted']}"
             )
+        cells.append(f"rest {s['good_converged']}")
         if s["collisions"]:
             cells.append(f"({s['collisions']} coll.)")
     return "  ".join(cells)
@@ -280,10 +303,7 @@ def seed_summary(rows: list) -> str:
     for row in rows:
         groups.setdefault((row["variant"], row["task"]), []).append(row)
     for (variant, task), group in groups.items():
-        measures = {
-            "cos": [r["model"]["cosine_moving"] for r in group],
-            "falls": [r["model"]["falls_moving"] for r in group],
-        }
+        measures = {key: [r["model"][key] for r in group] for key in MODEL_MEASURES}
         for name in group[0]["sets"]:
             sets = [r["sets"][name] for r in group]
             if "opened" in sets[0]:
@@ -292,6 +312,7 @@ def seed_summary(rows: list) -> str:
                 measures[f"{name} cost"] = [s["cost_mean"] for s in sets]
                 measures[f"{name} good"] = [s["good"] for s in sets]
                 measures[f"{name} lifted"] = [s["lifted"] for s in sets]
+            measures[f"{name} at rest"] = [s["good_converged"] for s in sets]
         parts = [
             f"{k} {'/'.join(format(v, '.3g') for v in values)} (mean {np.mean(values):.3g}, "
             f"min {np.min(values):.3g}, max {np.max(values):.3g})"

@@ -29,18 +29,18 @@ class ValueKernel {
   // count: landmarks L; first, second (P,): the pairs; signs (P, E): +1 where data.J's column e
   // moves the pair's second landmark only, -1 its first only, else 0; q_column (E,): the q entry
   // each column drives; kept, low, span, factor (s,): the kept features and their scaling; w1 (K,
-  // s), w2 (K,), w3 (s,): the value function; moving (m,): the kept features (indices into u) a
-  // step can change; domain_rows, domain_margin: how many domain rows and how far u may leave [0,
+  // s), w2 (K,), w3 (s,), b1 (K,): the value function; moving (m,): the kept features (indices
+  // into u) a step can change; domain_rows, domain_margin: how many domain rows and how far u may leave [0,
   // 1]; rho, delta: TRIC's step weight and asked fall of f per tick.
   ValueKernel(long count, const Indices &first, const Indices &second, const Array &signs,
               const Indices &q_column, long n, const Indices &kept, const Array &low,
               const Array &span, const Array &factor, const Array &w1, const Array &w2,
-              const Array &w3, const Indices &moving, long domain_rows, double domain_margin,
-              double rho, double delta)
+              const Array &w3, const Array &b1, const Indices &moving, long domain_rows,
+              double domain_margin, double rho, double delta)
       : count_(count), first_(longs(first)), second_(longs(second)), signs_(doubles(signs)),
         q_column_(longs(q_column)), n_(n), kept_(longs(kept)), low_(doubles(low)),
         span_(doubles(span)), factor_(doubles(factor)), w1_(doubles(w1)), w2_(doubles(w2)),
-        w3_(doubles(w3)), moving_(longs(moving)), domain_rows_(domain_rows),
+        w3_(doubles(w3)), b1_(doubles(b1)), moving_(longs(moving)), domain_rows_(domain_rows),
         domain_margin_(domain_margin), rho_(rho), delta_(delta) {
     pairs_ = static_cast<long>(first_.size());
     columns_ = static_cast<long>(q_column_.size());
@@ -53,6 +53,7 @@ class ValueKernel {
         static_cast<long>(span_.size()) != kept_count_ ||
         static_cast<long>(factor_.size()) != kept_count_ ||
         static_cast<long>(w3_.size()) != kept_count_ ||
+        static_cast<long>(b1_.size()) != hidden_ ||
         static_cast<long>(w1_.size()) != hidden_ * kept_count_)
       throw std::invalid_argument("value kernel: the value function's arrays disagree in size");
     for (long p = 0; p < pairs_; ++p)
@@ -133,7 +134,7 @@ class ValueKernel {
     }
     for (long h = 0; h < hidden_; ++h) {
       const double *row = &w1_[h * s_count];
-      double a = 0.0;
+      double a = b1_[h];
       for (long k = 0; k < s_count; ++k) a += row[k] * u[k];
       const double z = 0.5 * (1.0 + std::tanh(0.5 * a));
       value += z * w2_[h];
@@ -196,7 +197,7 @@ class ValueKernel {
   std::vector<long> q_column_;
   long n_;
   std::vector<long> kept_;
-  std::vector<double> low_, span_, factor_, w1_, w2_, w3_;
+  std::vector<double> low_, span_, factor_, w1_, w2_, w3_, b1_;
   std::vector<long> moving_;
   long domain_rows_;
   double domain_margin_, rho_, delta_;
@@ -210,6 +211,7 @@ PYBIND11_MODULE(_value_kernel, module) {
   py::class_<ValueKernel>(module, "ValueKernel")
       .def(py::init<long, const Indices &, const Indices &, const Array &, const Indices &, long,
                     const Indices &, const Array &, const Array &, const Array &, const Array &,
-                    const Array &, const Array &, const Indices &, long, double, double, double>())
+                    const Array &, const Array &, const Array &, const Indices &, long, double,
+                    double, double>())
       .def("evaluate", &ValueKernel::evaluate);
 }

@@ -120,15 +120,46 @@ def test_key_numbers_of_a_model_that_explains_one_demo_and_not_another():
         and numbers["moving_steps"] == 4
         and numbers["demos_ending_lower"] == 1
     )
-    assert numbers["decreasing_share_moving_steps"] == pytest.approx(0.5)
-    assert numbers["decreasing_share_all_steps"] == pytest.approx(2 / 6)
-    # two -1 and two +1
-    assert numbers["mean_cosine_moving_steps"] == pytest.approx(0.0, abs=1e-12)
+    assert numbers["falls"] == pytest.approx(0.5)
+    assert numbers["falls_moving"] == pytest.approx(0.5)
+    # two -1 and two +1, of equal lengths
+    assert numbers["cosine_moving"] == pytest.approx(0.0, abs=1e-12)
+    assert numbers["cosine_weighted"] == pytest.approx(0.0, abs=1e-12)
+    assert numbers["slow_steps"] == 0 and np.isnan(numbers["cosine_slow"])
     # both rest at the end
-    assert numbers["late_from_step"] == 2 and np.isnan(numbers["mean_cosine_moving_late"])
+    assert numbers["late_from_step"] == 2 and np.isnan(numbers["cosine_moving_late"])
     assert numbers["kept_features"] == 2 and numbers["selected_features"] == 2
+    # scores 1 and 2: the larger alone carries 2/3 of the total, both 95%
+    assert numbers["features_95"] == 2
     assert numbers["top_features"] == [{"name": "b", "score": 2.0}]
     assert numbers["top_gradients_changing_sign"] == 0
+
+
+def test_gradient_measures_weigh_each_step_by_its_length_and_filter_nothing_from_the_training():
+    """grad f = (1, 0): a long step straight down f (cosine -1, 0.2 rad), a slow one across
+    (cosine 0, 0.01 rad), a slow one up (cosine +1, 0.02 rad) and one that barely moves (0.0005
+    rad, down f): the weighted mean is (-0.2 + 0.02 - 0.0005) / 0.2305, the plain mean over the
+    steps that move at all (> 1e-3 rad) (-1 + 0 + 1) / 3, the slow steps' mean (0 + 1) / 2, and f
+    falls on 1 of the 3 steps of at least 0.01 rad and 1 of the 3 that move."""
+    model = linear([1.0, 0.0])
+    path = demo(
+        "mixed",
+        [[0.3, 0.0], [0.1, 0.0], [0.1, 0.01], [0.12, 0.01], [0.1195, 0.01]],
+    )
+    measures = analysis.gradient_measures(model, dataset(path))
+    assert measures["cosine_weighted"] == pytest.approx((-0.2 + 0.02 - 0.0005) / 0.2305)
+    assert measures["cosine_moving"] == pytest.approx(0.0, abs=1e-12)
+    assert measures["cosine_slow"] == pytest.approx(0.5) and measures["slow_steps"] == 2
+    assert measures["falls"] == pytest.approx(1 / 3)
+    assert measures["falls_moving"] == pytest.approx(1 / 3)
+
+
+def test_features_carrying_a_share_of_the_weight():
+    scores = linear([5.0, -3.0, 1.0, 1.0])  # |W3|: 5, 3, 1, 1 of 10
+    assert analysis.features_carrying(scores, 0.5) == 1
+    assert analysis.features_carrying(scores, 0.8) == 2
+    assert analysis.features_carrying(scores, 0.95) == 4
+    assert analysis.features_carrying(linear([0.0, 0.0])) == 0
 
 
 def test_score_order_and_a_gradient_that_changes_sign():

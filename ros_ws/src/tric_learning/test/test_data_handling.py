@@ -1,9 +1,11 @@
 """Nothing used or dropped in silence: failed demonstrations, unfinished recordings, a demonstration
-recorded twice and a demonstration without collision-free noisy samples are named; tric-train fails
-before training on a bad output path; model files of another format version, with a definition off
-its fingerprint or with non-finite arrays are refused; damaged bags and random model files (fuzzed
-with hypothesis) give a clear error or a correct result, never a traceback."""
+recorded twice, a bag recorded by other feature code and a demonstration without collision-free
+noisy samples are named; tric-train fails before training on a bad output path; model files of
+another format version, with a definition off its fingerprint or with non-finite arrays are
+refused, and a cached model is re-used only when made as asked; damaged bags and random model files
+(fuzzed with hypothesis) give a clear error or a correct result, never a traceback."""
 
+import dataclasses
 import json
 import math
 import pathlib
@@ -18,15 +20,17 @@ from hypothesis import strategies as st
 from safetensors import safe_open
 from safetensors.numpy import save_file
 
-from tric_learning import samples, train_cli
+from tric_learning import bag_recorder, model_file, samples, train_cli
 from tric_learning.bag_dataset import load_dataset
 from tric_learning.bag_recorder import BagRecorder
 from tric_learning.dataset import Dataset
-from tric_learning.features import FeatureDefinition
+from tric_learning.features import FeatureDefinition, FeatureMap
 from tric_learning.model_file import ModelFile, value_function, value_function_arrays
+from tric_learning.training import TrainingConfig, train
 from tric_learning.value_function import Scaling, ValueFunction
 from tric_msgs.msg import EpisodeEvent, TaskMetrics
 from tric_sim import messages, situations
+from tric_sim.provenance import code_digest
 from tric_sim.robot_model import RobotModel
 from tric_sim.situation import Obstacle, Situation
 
@@ -465,3 +469,50 @@ def test_the_sampling_pool_ends_in_a_process_with_rclpy_signal_handlers():
         [sys.executable, "-c", script], capture_output=True, text=True, timeout=120
     )
     assert done.returncode == 0 and done.stdout == "BrokenProcessPool\nended\n", done.stderr
+
+
+class ShiftedFeatureMap(FeatureMap):
+    """Another feature code: every feature 1 mm off."""
+
+    def with_jacobian(self, q, object_poses):
+        y, jacobian = super().with_jacobian(q, object_poses)
+        return y + 1e-3, jacobian
+
+
+def test_a_bag_of_other_feature_code_is_refused_by_name(robot, good_bag, tmp_path, monkeypatch):
+    """The recorded y and dphi/dq must be today's FeatureMap on the bag's own q and object poses;
+    the reference bags are (test_bag_reader's reference test loads them with the check)."""
+    assert load_dataset([good_bag], robot).demos[0].length == 5
+    monkeypatch.setattr(bag_recorder, "FeatureMap", ShiftedFeatureMap)
+    shifted = write_demo_bag(tmp_path / "shifted.mcap", robot, sphere("shifted"))
+    monkeypatch.undo()
+    with pytest.raises(ValueError, match=r"shifted\.mcap: its recorded features differ from today"):
+        load_dataset([shifted], robot)
+    assert load_dataset([shifted]).demos[0].y[0][0] == pytest.approx(
+        load_dataset([good_bag]).demos[0].y[0][0] + 1e-3
+    )  # without a robot nothing is recomputed
+
+
+def test_the_dataset_fingerprint_covers_the_object_poses(robot, good_bag):
+    dataset = load_dataset([good_bag], robot)
+    before = dataset.fingerprint
+    position, orientation = dataset.demos[0].object_poses[2]["object"]
+    dataset.demos[0].object_poses[2] = {"object": (np.add(position, 1e-6), orientation)}
+    assert dataset.fingerprint != before
+
+
+def test_a_cached_model_is_reused_only_when_made_as_asked(robot, good_bag, tmp_path):
+    dataset = load_dataset([good_bag], robot)
+    config = TrainingConfig(hidden_units=2, noisy_samples=4, max_iterations=3)
+    path = tmp_path / "cached.safetensors"
+    code = code_digest("tric_learning.training")
+    assert not model_file.made_as(path, "tric", config.to_dict(), dataset.fingerprint, code)
+    model_file.from_training(train(dataset, robot, config), dataset).save(path)
+    assert model_file.made_as(path, "tric", config.to_dict(), dataset.fingerprint, code)
+    other = dataclasses.replace(config, alpha_g=1.0).to_dict()
+    assert not model_file.made_as(path, "tric", other, dataset.fingerprint, code)
+    assert not model_file.made_as(path, "tric", config.to_dict(), "another", code)
+    assert not model_file.made_as(path, "tric", config.to_dict(), dataset.fingerprint, "old")
+    assert not model_file.made_as(path, "dpl_joint", config.to_dict(), dataset.fingerprint, code)
+    path.write_bytes(b"not a model")
+    assert not model_file.made_as(path, "tric", config.to_dict(), dataset.fingerprint, code)

@@ -1,8 +1,10 @@
 """The noisy samples of L_n (tric_learning.samples.generate, Eq. 12-15) on two recorded sphere
-demonstrations: at most M per step t >= 1, inside the joint limits and collision-free; drawn around
-q_{t-1} with standard deviation sigma (checked with the collision check accepting everything, so
-that no draw is refused); their features at the poses of step t - 1; their weights d_curve to the
-path ahead; the same samples from a seed whatever the number of workers. Units: rad."""
+demonstrations: at most M per step t >= 1, at least half of M on every one (the grasp's end
+included), inside the joint limits and collision-free in the scene of step t (the hand pressing
+into the sphere by at most the contact tolerance); drawn around q_{t-1} with standard deviation
+sigma, conditioned on the joint limits (checked with the collision check accepting everything, so
+that no draw is refused); their features at the poses of step t; their weights d_curve to the path
+ahead; the same samples from a seed whatever the number of workers. Units: rad."""
 
 import os
 
@@ -87,40 +89,69 @@ def test_each_later_step_gets_at_most_m_collision_free_samples_inside_the_limits
     assert np.all(np.diff(noisy.step) >= 0) and len(qs) == len(noisy.y) == len(noisy.weight) == len(
         noisy.step
     )
+    assert np.all(noisy.kept_per_step[later_steps(noisy, offsets)] >= COUNT / 2)
     assert np.all((qs >= robot.lower) & (qs <= robot.upper))
     demo, step = demo_of_each_sample(dataset, noisy)
     for i, recorded in enumerate(dataset.demos):
-        collision = SceneCollision(robot, recorded.situation)
+        collision = SceneCollision(robot, recorded.situation, samples.SAMPLE_CONTACT_TOLERANCE)
         extents = {body.name: samples.collision_extent(body) for body in collision.bodies}
         poses = recorded.object_poses
         for t in np.unique(step[demo == i]):
             mine = qs[(demo == i) & (step == t)]
-            for q in mine[~collision.collision_free(mine, poses[t - 1])]:
+            for q in mine[~collision.collision_free(mine, poses[t])]:
                 # steps whose objects moved by less than POSE_TOLERANCE share the check of the first
                 # one
                 assert any(
-                    samples._surface_shift(poses[s], poses[t - 1], extents) < samples.POSE_TOLERANCE
+                    samples._surface_shift(poses[s], poses[t], extents) < samples.POSE_TOLERANCE
                     and collision.collision_free(q[None], poses[s])[0]
-                    for s in range(t - 1)
+                    for s in range(1, t)
                 ), (i, t)
 
 
+def later_steps(noisy, offsets) -> np.ndarray:
+    """The flattened indices of every step t >= 1."""
+    return np.setdiff1d(np.arange(len(noisy.kept_per_step)), offsets[:-1])
+
+
+def test_a_tighter_contact_tolerance_keeps_fewer_samples_at_the_grasp(robot, dataset, drawn):
+    """At 5 mm the teacher's own grip (8 to 9 mm into the sphere) counts as a collision, and the
+    grasp's last steps keep fewer of their M samples."""
+    noisy, _ = drawn
+    tight = samples.generate(dataset, robot, COUNT, SIGMA, SEED, workers=1, contact_tolerance=0.005)
+    last = np.concatenate([np.arange(end - 5, end) for end in samples.step_offsets(dataset)[1:]])
+    assert tight.kept_per_step[last].sum() < noisy.kept_per_step[last].sum()
+
+
+def test_truncated_draws_follow_the_gaussian_within_the_bounds():
+    """Each coordinate from N(centre, sigma^2) conditioned on its bounds: inside them always; a
+    centre on a bound gives the half-normal (mean sigma sqrt(2 / pi) away from it); a centre far
+    from both the plain Gaussian; a centre beyond a bound draws close inside it."""
+    rng = np.random.default_rng(0)
+    count = 20000
+    centres = np.tile([0.0, 0.5, 1.3], (count, 1))
+    draws = samples.truncated_gaussian(rng, centres, SIGMA, np.zeros(3), np.ones(3))
+    assert np.all((draws >= 0.0) & (draws <= 1.0))
+    half = draws[:, 0]
+    expected = SIGMA * np.sqrt(2 / np.pi)
+    assert abs(half.mean() - expected) < 4 * SIGMA / np.sqrt(count)
+    middle = draws[:, 1] - 0.5
+    assert abs(middle.mean()) < 4 * SIGMA / np.sqrt(count)
+    assert abs(middle.std() / SIGMA - 1) < 4 / np.sqrt(2 * (count - 1))
+    assert np.all(draws[:, 2] > 1.0 - 2 * SIGMA)
+
+
 def test_samples_are_gaussian_around_the_previous_step(robot, dataset):
-    """With nothing refused by the collision check: M samples at every step t >= 1 whose q_{t-1} is
-    more than 4 sigma from every limit, and q~ - q_{t-1} of mean 0 and standard deviation sigma
-    (within 4 standard errors of the estimates) on the joints more than 4 sigma from both limits
-    (near a limit the draws are cut; a cut of another joint does not bias this one's)."""
+    """With nothing refused by the collision check: M samples at every step t >= 1 (the joint
+    limits refuse none: the draws are conditioned on them), and q~ - q_{t-1} of mean 0 and standard
+    deviation sigma (within 4 standard errors of the estimates) on the joints more than 4 sigma from
+    both limits (near a limit the draws are cut; a cut of another joint does not bias this
+    one's)."""
     noisy, qs = draw(robot, dataset, NothingCollides)
     offsets = samples.step_offsets(dataset)
     previous_of_step = np.concatenate(
         [np.vstack([demo.q[:1], demo.q[:-1]]) for demo in dataset.demos]
     )
-    far = np.all(
-        (previous_of_step - robot.lower > 4 * SIGMA) & (robot.upper - previous_of_step > 4 * SIGMA),
-        axis=1,
-    )
-    far[offsets[:-1]] = False
-    assert far.any() and np.all(noisy.kept_per_step[far] == COUNT)
+    assert np.all(noisy.kept_per_step[later_steps(noisy, offsets)] == COUNT)
     demo, step = demo_of_each_sample(dataset, noisy)
     previous = previous_of_step[noisy.step]
     offsets = (qs - previous)[
@@ -134,12 +165,13 @@ def test_samples_are_gaussian_around_the_previous_step(robot, dataset):
 
 
 def test_features_and_weights_of_each_sample(robot, dataset, drawn):
-    """y~ = phi(q~) with the objects where they were at step t - 1; the weight is d_curve, q~'s
-    distance to the demonstration's path from q_t on (Eq. 14-15)."""
+    """y~ = phi(q~) with the objects where they are at step t (the scene of the y_t it is contrasted
+    with); the weight is d_curve, q~'s distance to the demonstration's path from q_t on (Eq.
+    14-15)."""
     noisy, qs = drawn
     demo, step = demo_of_each_sample(dataset, noisy)
     features = FeatureMap(dataset.definition, robot)
-    poses = [dataset.demos[i].object_poses[t - 1] for i, t in zip(demo, step)]
+    poses = [dataset.demos[i].object_poses[t] for i, t in zip(demo, step)]
     np.testing.assert_allclose(noisy.y, features.batch(qs, poses), rtol=0, atol=1e-12)
     for k in range(len(qs)):
         path = dataset.demos[demo[k]].q[step[k] :]

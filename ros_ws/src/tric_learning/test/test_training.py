@@ -10,7 +10,7 @@ import math
 import numpy as np
 import pytest
 
-from tric_learning.analysis import cosines_along_demos, decreasing_shares, ranked_features
+from tric_learning.analysis import gradient_measures, ranked_features
 from tric_learning.recording import record_offline
 from tric_learning.samples import d_curve
 from tric_learning.training import (
@@ -20,7 +20,6 @@ from tric_learning.training import (
     member_seed,
     train,
 )
-from tric_learning.training_problem import MIN_STEP
 from tric_learning.value_function import ValueFunction
 from tric_sim import situations
 from tric_sim.robot_model import RobotModel
@@ -202,26 +201,25 @@ def test_a_member_whose_f_does_not_fall_is_left_out_and_named(robot, grid_datase
         mean_of_members([rising], demos)
 
 
-def test_trained_value_function_follows_the_demonstrations(grid_dataset, grid_training):
-    """The design's goals (design.md section 5, Fig. 12-17): f decreases along every demonstration,
-    and the mean cosine of its gradient with the demonstrated steps is -0.8 or lower on moving
-    steps."""
+def test_trained_value_function_falls_along_every_demonstration(grid_dataset, grid_training):
     model = grid_training.model
-    cosines = cosines_along_demos(model, grid_dataset, MIN_STEP)
-    cosines = cosines[np.isfinite(cosines)]
     starts = np.array([model.value(demo.y[0]) for demo in grid_dataset.demos])
     ends = np.array([model.value(demo.y[-1]) for demo in grid_dataset.demos])
-    print(
-        f"mean cosine {np.mean(cosines):.3f} over {len(cosines)} moving steps; "
-        f"{grid_training.train_time_s:.1f} s"
-    )
-    assert len(cosines) == sum(
-        int(np.sum(np.linalg.norm(np.diff(demo.q, axis=0), axis=1) >= MIN_STEP))
-        # a cosine for every moving step
-        for demo in grid_dataset.demos
-    )
     assert np.all(ends < starts)
-    assert np.mean(cosines) <= -0.8
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="goal (design.md section 5): mean cosine <= -0.8 over every step that moves at all "
+    "(> 1e-3 rad, no filter from the training); measured -0.742 on the 7 grid demonstrations "
+    "with TrainingConfig()'s defaults (L_g on every step, alpha_g 30) on 2026-12-02",
+)
+def test_trained_value_function_follows_the_demonstrations(grid_dataset, grid_training):
+    """The design's goal (design.md section 5, Fig. 12-17), measured over every step with no
+    filter from the training."""
+    measures = gradient_measures(grid_training.model, grid_dataset)
+    print(f"{measures}; {grid_training.train_time_s:.1f} s")
+    assert measures["cosine_moving"] <= -0.8
 
 
 @pytest.mark.xfail(
@@ -233,9 +231,9 @@ def test_trained_value_function_follows_the_demonstrations(grid_dataset, grid_tr
 def test_trained_value_function_falls_on_95_percent_of_the_moving_steps(
     grid_dataset, grid_training
 ):
-    all_steps, moving_steps = decreasing_shares(grid_training.model, grid_dataset)
-    print(f"f decreases on {all_steps:.1%} of all steps, {moving_steps:.1%} of moving steps")
-    assert moving_steps >= 0.95
+    measures = gradient_measures(grid_training.model, grid_dataset)
+    print(f"f decreases on {measures['falls_moving']:.1%} of the moving steps")
+    assert measures["falls_moving"] >= 0.95
 
 
 def test_top_features_include_hand_to_object_distances(grid_dataset, grid_training):

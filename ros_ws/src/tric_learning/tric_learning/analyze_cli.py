@@ -15,13 +15,16 @@ import sys
 
 from tric_learning.analysis import (
     DEFAULT_FEATURE_RANK,
+    FALLING_STEP,
+    MOVING_STEP,
+    SLOW_STEPS,
+    WEIGHT_SHARE,
     key_numbers,
     ranked_feature,
     write_figures,
 )
 from tric_learning.bag_dataset import load_dataset
 from tric_learning.model_file import ModelFile, value_function
-from tric_learning.training_problem import MIN_STEP
 from tric_sim.output_files import check_output_folder
 from tric_sim.robot_model import RobotModel
 
@@ -68,15 +71,18 @@ def main(argv=None) -> int:
         return 2
     numbers = key_numbers(model, dataset, args.top)
     print(
-        f"f decreases on {numbers['decreasing_share_all_steps']:.1%} of the steps of "
-        f"{numbers['demos']} demonstrations ({numbers['decreasing_share_moving_steps']:.1%} of "
-        f"the steps that move by >= {MIN_STEP} rad)"
+        f"over every step of {numbers['demos']} demonstrations: mean cosine of grad_q (f o phi) "
+        f"and the step {numbers['cosine_weighted']:.3f} weighted by |dq| "
+        f"({numbers['cosine_moving']:.3f} over the steps > {MOVING_STEP} rad, "
+        f"{numbers['cosine_slow']:.3f} over the {numbers['slow_steps']} steps of "
+        f"{SLOW_STEPS[0]} to {SLOW_STEPS[1]} rad); f falls on {numbers['falls']:.1%} of the "
+        f"steps >= {FALLING_STEP} rad ({numbers['falls_moving']:.1%} of those > {MOVING_STEP} rad)"
     )
     print(
-        f"mean cosine of grad_q (f o phi) and the step: {numbers['mean_cosine_moving_steps']:.3f} "
-        f"over the steps that move ({numbers['mean_cosine_all_steps']:.3f} over all)"
+        f"features: {numbers['features_95']} carry {WEIGHT_SHARE:.0%} of the score; "
+        f"{numbers['selected_features']} of {numbers['kept_features']} kept score above 1% of "
+        "the largest"
     )
-    print(f"selected features: {numbers['selected_features']} of {numbers['kept_features']} kept")
     print(
         "top features: "
         + ", ".join(f"{t['name']} {t['score']:.3g}" for t in numbers["top_features"][:5])

@@ -11,7 +11,7 @@ import numpy as np
 from tric_learning import bags
 from tric_learning.bag_layout import DEFINITION_TOPIC, SAMPLES_TOPIC, SITUATION_TOPIC
 from tric_learning.dataset import Dataset, Demo
-from tric_learning.features import FeatureDefinition
+from tric_learning.features import FeatureDefinition, FeatureMap
 from tric_learning.messages import definition_from_msg, sample_arrays
 from tric_msgs.msg import EpisodeEvent, FeatureSample
 from tric_msgs.msg import FeatureDefinition as FeatureDefinitionMsg
@@ -20,6 +20,10 @@ from tric_sim import messages
 from tric_sim.robot_model import RobotModel
 
 _log = logging.getLogger(__name__)
+
+#: The most a bag's recorded feature or Jacobian entry may differ from FeatureMap's on the bag's own
+#: q and object poses (m, or m/rad): far above rounding, far below any change of the features.
+FEATURE_TOLERANCE = 1e-9
 
 
 def bag_paths(paths, tolerant: bool = False, notice=None) -> list:
@@ -70,10 +74,11 @@ def load_dataset(
     with a ValueError that names the bags and the problem. tolerant: unfinished and damaged bags
     are read up to their damage instead of refused. Bags skipped, read tolerantly or taken despite
     their outcome are named through notice(text) (default: logged as a warning). progress(done,
-    total) after each bag."""
+    total) after each bag. With a robot, each bag's recorded y and dphi/dq must be today's
+    FeatureMap on its own q and object poses (check_features)."""
     notice = notice or _log.warning
     files = bag_paths(paths, tolerant, notice)
-    definition, demos, failed, origin = None, [], [], {}
+    definition, demos, failed, origin, feature_map = None, [], [], {}, None
     for k, path in enumerate(files):
         demo, bag_definition = _load_demo(path, tolerant, notice)
         if definition is None:
@@ -87,6 +92,7 @@ def load_dataset(
                     raise ValueError(
                         f"{error} (recorded with another robot model or definition)"
                     ) from None
+                feature_map = FeatureMap(definition, robot)
         else:
             try:
                 definition.check_same(bag_definition, f"bag {path}")
@@ -98,6 +104,8 @@ def load_dataset(
                 "(recorded twice into one folder?); give only one of them"
             )
         origin[demo.name] = path
+        if feature_map is not None:
+            check_features(demo, feature_map)
         outcome = _outcome_problem(demo.metrics)
         if outcome:
             failed.append(f"{path} ({outcome})")
@@ -116,6 +124,24 @@ def load_dataset(
         return Dataset(definition, demos).check()
     except ValueError as error:
         raise ValueError(f"the bags do not make a dataset: {error}") from None
+
+
+def check_features(demo: Demo, feature_map: FeatureMap) -> None:
+    """ValueError naming the demo's bag if a recorded feature vector y or Jacobian dphi/dq differs
+    by more than FEATURE_TOLERANCE from feature_map's on the recorded q and object poses (the bag
+    was recorded by other feature code, or edited): training on it would mix two definitions."""
+    for t, (q, poses) in enumerate(zip(demo.q, demo.object_poses)):
+        y, jacobian = feature_map.with_jacobian(q, poses)
+        off_y, off_jacobian = (
+            np.abs(y - demo.y[t]).max(),
+            np.abs(jacobian - demo.jacobians[t]).max(),
+        )
+        if not (off_y <= FEATURE_TOLERANCE and off_jacobian <= FEATURE_TOLERANCE):
+            raise ValueError(
+                f"bag {demo.bag or demo.name}: its recorded features differ from today's on its "
+                f"own q at sample {t} (y by {off_y:.3g}, dphi/dq by {off_jacobian:.3g}): it was "
+                "recorded by other feature code; record it again (tric-record)"
+            )
 
 
 def _outcome_problem(metrics: dict) -> str:

@@ -6,6 +6,7 @@ Loading from MCAP bags is tric_learning.bag_dataset's; this module is plain data
 """
 
 import hashlib
+import json
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -81,12 +82,19 @@ class Dataset:
 
     @property
     def fingerprint(self) -> str:
-        """Hex SHA-256 over the definition and every demo's name and arrays."""
+        """Hex SHA-256 over the definition and every demo's name, situation, arrays and object
+        poses: everything a training reads."""
         digest = hashlib.sha256(self.definition.fingerprint.encode())
         for demo in self.demos:
             digest.update(demo.name.encode())
+            digest.update(json.dumps(demo.situation.to_dict(), sort_keys=True).encode())
             for array in (demo.q, demo.y, demo.jacobians):
                 digest.update(np.ascontiguousarray(array, dtype=np.float64).tobytes())
+            for poses in demo.object_poses:
+                for name in sorted(poses):
+                    digest.update(name.encode())
+                    for part in poses[name]:
+                        digest.update(np.ascontiguousarray(part, dtype=np.float64).tobytes())
         return digest.hexdigest()
 
     def subset(self, count: int) -> "Dataset":

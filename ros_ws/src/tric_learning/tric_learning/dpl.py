@@ -36,6 +36,7 @@ from tric_learning.lbfgs import deterministic_torch, minimize_lbfgs
 from tric_learning.model_file import ModelFile
 from tric_learning.training import refuse_failed
 from tric_learning.value_function import Scaling, sigmoid
+from tric_sim.provenance import code_digest
 from tric_sim.robot_model import RobotModel
 
 DPL_KINDS = ("dpl_joint", "dpl_finger")
@@ -261,6 +262,7 @@ def to_model_file(result: DplResult, dataset: Dataset) -> ModelFile:
         {
             "hyperparameters": result.config.to_dict(),
             "dataset_fingerprint": dataset.fingerprint,
+            "training_code": code_digest(__name__),
             "demos": [demo.name for demo in dataset.demos],
             "losses": result.losses,
             "iterations": result.iterations,

@@ -18,6 +18,7 @@ from safetensors.numpy import load_file, save_file
 from tric_learning.features import FeatureDefinition
 from tric_learning.value_function import Scaling, ValueFunction
 from tric_sim.output_files import atomic_path
+from tric_sim.provenance import code_digest
 
 FORMAT = "tric-model"
 VERSION = 1
@@ -93,12 +94,30 @@ class ModelFile:
         return cls(meta["kind"], definition, arrays, meta.get("info", {}))
 
 
+def made_as(path, kind: str, hyperparameters: dict, dataset_fingerprint: str, code: str) -> bool:
+    """Whether the model file at path exists and was trained as asked: of this kind, with these
+    hyper-parameters, on the dataset of this fingerprint, by the training code of this digest
+    (tric_sim.provenance). A cache re-uses a model only then; an unreadable file is not one."""
+    try:
+        model = ModelFile.load(path)
+    except ValueError:
+        return False
+    info = model.info
+    return (
+        model.kind == kind
+        and info.get("hyperparameters") == hyperparameters
+        and info.get("dataset_fingerprint") == dataset_fingerprint
+        and info.get("training_code") == code
+    )
+
+
 def value_function_arrays(model: ValueFunction) -> dict:
     """The arrays of a TRIC value function for a ModelFile."""
     return {
         "w1": model.w1,
         "w2": model.w2,
         "w3": model.w3,
+        "b1": model.b1,
         "kept": model.scaling.kept.astype(np.int64),
         "low": model.scaling.low,
         "high": model.scaling.high,
@@ -106,7 +125,8 @@ def value_function_arrays(model: ValueFunction) -> dict:
 
 
 def value_function(model_file: ModelFile) -> ValueFunction:
-    """The TRIC value function of a ModelFile, or ValueError if its arrays are inconsistent."""
+    """The TRIC value function of a ModelFile, or ValueError if its arrays are inconsistent. A file
+    without hidden biases b1 (written before they existed) has zero ones, the paper's model."""
     if model_file.kind != "tric":
         raise ValueError(f"the model is a '{model_file.kind}' model, not a TRIC value function")
     a = model_file.arrays
@@ -116,10 +136,12 @@ def value_function(model_file: ModelFile) -> ValueFunction:
             raise ValueError("the model file's kept feature indices are not a list of integers")
         kept = kept.astype(int)
         s = len(kept)
+        b1 = a.get("b1", np.zeros(a["w2"].shape))
         consistent = (
             a["w1"].ndim == 2
             and a["w1"].shape[1] == s
             and a["w2"].shape == (a["w1"].shape[0],)
+            and b1.shape == a["w2"].shape
             and a["w3"].shape == (s,)
             and a["low"].shape == (s,)
             and a["high"].shape == (s,)
@@ -130,10 +152,13 @@ def value_function(model_file: ModelFile) -> ValueFunction:
         raise ValueError(f"the model file lacks the array {missing}") from None
     if not consistent:
         raise ValueError("the model file's arrays have inconsistent shapes")
-    for name in ("w1", "w2", "w3", "low", "high"):
-        if not np.all(np.isfinite(a[name])):
+    for name, array in (
+        *((name, a[name]) for name in ("w1", "w2", "w3", "low", "high")),
+        ("b1", b1),
+    ):
+        if not np.all(np.isfinite(array)):
             raise ValueError(f"the model file's {name} has non-finite values")
-    return ValueFunction(Scaling(kept, a["low"], a["high"], size), a["w1"], a["w2"], a["w3"])
+    return ValueFunction(Scaling(kept, a["low"], a["high"], size), a["w1"], a["w2"], a["w3"], b1)
 
 
 def from_training(result, dataset) -> ModelFile:
@@ -148,6 +173,7 @@ def from_training(result, dataset) -> ModelFile:
         {
             "hyperparameters": result.config.to_dict(),
             "dataset_fingerprint": dataset.fingerprint,
+            "training_code": code_digest("tric_learning.training"),
             "demos": [demo.name for demo in dataset.demos],
             "losses": result.losses,
             "iterations": result.iterations,

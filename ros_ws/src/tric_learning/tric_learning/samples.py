@@ -1,10 +1,15 @@
 """Noisy samples around the demonstrations and their weights (paper Eq. 12-15).
 
-For demo i and step t (1 <= t < T) the samples are q~ = q_{t-1} + N(0, sigma^2) per joint, kept
-only inside the joint limits and free of collision with the demo's scene (tric_sim.collision, with
-the objects where they were at t-1). Each sample's weight is d_curve: its distance to the demo's
-path ahead, the polyline q_t, ..., q_{T-1} (Eq. 14-15). Samples do not depend on the value function,
-so they are drawn once per training, reproducibly from a seed. Units: rad.
+For demo i and step t (1 <= t < T) the samples are q~ = q_{t-1} + N(0, sigma^2) per joint,
+conditioned on the joint limits (each joint drawn from its Gaussian truncated to its limits: the
+same distribution as drawing and refusing what falls outside, without the refused draws) and kept
+only free of collision with the demo's scene (tric_sim.collision, with the objects where they are
+at step t: the sample and the demonstrated y_t it is contrasted with see one scene, and differ only
+by the robot's configuration). The hand may press into the bodies the task lets it touch by
+contact_tolerance (m), which admits the teacher's own grip. Each sample's weight is d_curve: its
+distance to the demo's path ahead, the polyline q_t, ..., q_{T-1} (Eq. 14-15). Samples do not
+depend on the value function, so they are drawn once per training, reproducibly from a seed.
+Units: rad, m.
 """
 
 import concurrent.futures
@@ -14,6 +19,7 @@ import warnings
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.special import ndtr, ndtri
 
 from tric_learning.dataset import Dataset
 from tric_learning.features import FeatureMap
@@ -21,13 +27,19 @@ from tric_sim.collision import SceneCollision
 from tric_sim.robot_model import RobotModel
 
 #: Candidates are drawn in rounds: the first assumes this many per kept sample; later rounds draw
-#: for the still missing samples from the acceptance seen so far, at most MAX_DRAWS * M per step.
+#: for the still missing samples from the acceptance seen so far, at most MAX_DRAWS * M per step
+#: and round. Near a grasp few candidates are collision-free (a 0.05 rad turn of an arm joint moves
+#: the hand by centimetres): 4 to 20% of them in the last 10 steps of a sphere grasp.
 OVERSAMPLING = 1.25
-MAX_ROUNDS = 3
-MAX_DRAWS = 6
+MAX_ROUNDS = 4
+MAX_DRAWS = 25
 #: Consecutive steps whose objects' surfaces moved by less than this share one collision check with
 #: the first step's poses (held objects give by a millimetre or so), m.
 POSE_TOLERANCE = 0.002
+#: How deep a sample may press into the bodies the task lets the hand touch, m: the teacher's own
+#: grip presses 8 to 9 mm into a sphere's collision shape, so this admits its grasps (at 5 mm only
+#: 9% of the last steps' demonstrated states were collision-free).
+SAMPLE_CONTACT_TOLERANCE = 0.015
 
 
 @dataclass
@@ -84,16 +96,25 @@ def generate(
     seed: int,
     progress=None,
     workers: int = 2,
+    contact_tolerance: float = SAMPLE_CONTACT_TOLERANCE,
+    scene_step: int = 0,
 ) -> NoisySamples:
     """count (M) collision-free noisy samples per demo step t >= 1 (fewer only where MAX_ROUNDS of
     resampling could not find them); progress(done, total) is called after each demo. Demos are
     sampled in `workers` forked processes where the platform allows it, each from its own seed
-    (seed, demo index): the result does not depend on the number of workers."""
+    (seed, demo index): the result does not depend on the number of workers. contact_tolerance: how
+    deep (m) a sample may press into the bodies the task lets the hand touch. scene_step: the
+    samples of step t see the objects of step t + scene_step (0: the positive's; -1: those of
+    q_{t-1}, around which they are drawn)."""
     if count < 1 or not sigma > 0:
         raise ValueError("the noisy sample count must be >= 1 and sigma > 0")
+    if not 0 <= contact_tolerance <= 0.1:
+        raise ValueError("the samples' contact tolerance must be in [0, 0.1] m")
+    if scene_step not in (0, -1):
+        raise ValueError("the samples' scene step must be 0 or -1")
     offsets = step_offsets(dataset)
     results = [None] * len(dataset.demos)
-    job = (dataset, robot, count, sigma, seed)
+    job = (dataset, robot, count, sigma, seed, contact_tolerance, scene_step)
     if workers > 1 and len(dataset.demos) > 1 and "fork" in multiprocessing.get_all_start_methods():
         _sample_in_workers(job, workers, results, progress)
     for i in range(len(dataset.demos)):
@@ -162,28 +183,46 @@ def _sample_in_workers(job, workers: int, results: list, progress) -> None:
 
 
 def _forked_demo(index: int):
-    dataset, robot, count, sigma, seed = _JOB
-    return index, _demo_samples(dataset, robot, index, count, sigma, seed)
+    dataset, robot, *rest = _JOB
+    return index, _demo_samples(dataset, robot, index, *rest)
+
+
+def truncated_gaussian(rng, centres: np.ndarray, sigma: float, lower, upper) -> np.ndarray:
+    """Draws (B, n) around centres (B, n), each coordinate from N(centre, sigma^2) conditioned on
+    [lower, upper] (n,) by inverse transform sampling: the distribution of plain Gaussian draws
+    with those outside the bounds refused (a centre beyond a bound gives draws close inside it)."""
+    low = ndtr((lower - centres) / sigma)
+    high = ndtr((upper - centres) / sigma)
+    uniform = low + rng.random(centres.shape) * (high - low)
+    draws = centres + sigma * ndtri(np.clip(uniform, 1e-300, 1.0 - 1e-16))
+    return np.clip(draws, lower, upper)
 
 
 def _demo_samples(
-    dataset: Dataset, robot: RobotModel, index: int, count: int, sigma: float, seed: int
+    dataset: Dataset,
+    robot: RobotModel,
+    index: int,
+    count: int,
+    sigma: float,
+    seed: int,
+    contact_tolerance: float,
+    scene_step: int,
 ):
     """(steps (S,), features (S, d), weights (S,)) of one demo's noisy samples."""
     demo = dataset.demos[index]
     features = FeatureMap(dataset.definition, robot)
-    collision = SceneCollision(robot, demo.situation)
+    collision = SceneCollision(robot, demo.situation, contact_tolerance)
     extents = {b.name: collision_extent(b) for b in collision.bodies}
     rng = np.random.default_rng([seed, index])
+    poses = demo.object_poses[1 + scene_step :]  # poses[t - 1]: the scene of step t's samples
     chosen_q, chosen_step = [], []
     t = 1
     while t < demo.length:
-        # steps whose objects are where they were at step t - 1 (within POSE_TOLERANCE) form a batch
+        # steps whose scenes are that of step t (within POSE_TOLERANCE) form a batch
         end = t + 1
         while (
             end < demo.length
-            and _surface_shift(demo.object_poses[end - 1], demo.object_poses[t - 1], extents)
-            < POSE_TOLERANCE
+            and _surface_shift(poses[end - 1], poses[t - 1], extents) < POSE_TOLERANCE
         ):
             end += 1
         block = np.arange(t, end)
@@ -197,9 +236,8 @@ def _demo_samples(
             if not draws.any():
                 break
             owner = np.repeat(block, draws)
-            candidates = demo.q[owner - 1] + rng.normal(0.0, sigma, (len(owner), robot.n_joints))
-            valid = np.all((candidates >= robot.lower) & (candidates <= robot.upper), axis=1)
-            valid[valid] = collision.collision_free(candidates[valid], demo.object_poses[t - 1])
+            candidates = truncated_gaussian(rng, demo.q[owner - 1], sigma, robot.lower, robot.upper)
+            valid = collision.collision_free(candidates, poses[t - 1])
             for k, step in enumerate(block):
                 mine = np.flatnonzero(valid & (owner == step))[: need[k]]
                 if draws[k]:
@@ -218,7 +256,7 @@ def _demo_samples(
         )
     order = np.argsort(steps, kind="stable")
     qs, steps = qs[order], steps[order]
-    ys = features.batch(qs, [demo.object_poses[s - 1] for s in steps])
+    ys = features.batch(qs, [poses[s - 1] for s in steps])
     weights = np.empty(len(steps))
     for step in np.unique(steps):
         mine = steps == step

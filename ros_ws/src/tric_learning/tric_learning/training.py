@@ -49,6 +49,8 @@ RHO_GAIN = 100.0
 MEMBER_SEED_STRIDE = 1_000_003
 #: The optimizers TrainingConfig.optimizer names.
 OPTIMIZERS = ("lbfgs", "lbfgsb")
+#: The weightings of L_g's steps TrainingConfig.lg_weighting names.
+LG_WEIGHTINGS = ("none", "length")
 
 
 def refuse_failed(checks) -> None:
@@ -93,6 +95,21 @@ class TrainingConfig:
     #: SciPy's L-BFGS-B on w = w+ - w-, w+, w- >= 0, where |w|_1 = sum(w+ + w-) is linear (exact L1,
     #: sparse).
     optimizer: str = "lbfgs"
+    #: How deep a noisy sample may press into the bodies the task lets the hand touch, m
+    #: (samples.SAMPLE_CONTACT_TOLERANCE: the teacher's own grip).
+    sample_contact_tolerance: float = samples.SAMPLE_CONTACT_TOLERANCE
+    #: The scene of step t's noisy samples: the objects of step t + sample_scene_step (0: those of
+    #: the demonstrated y_t they are contrasted with; -1: those of q_{t-1}).
+    sample_scene_step: int = 0
+    #: L_g's steps: those of at least lg_min_step rad (0: every step, as Eq. 11 sums them), each
+    #: step's cosine weighted by 1 ("none", Eq. 11) or by its length |q_{t+1} - q_t| over the mean
+    #: length ("length").
+    lg_min_step: float = 0.0
+    lg_weighting: str = "none"
+    #: Biases b1 in the hidden layer, z = sigmoid(W1 u + b1) (the paper's model has none).
+    hidden_bias: bool = False
+    #: The optimization in float64, as the paper's BFGS (the default float32 is faster).
+    float64: bool = False
 
     def validate(self) -> "TrainingConfig":
         """Return self, or ValueError naming the first value out of range."""
@@ -110,6 +127,16 @@ class TrainingConfig:
             (0 < self.correlation_threshold <= 1, "correlation_threshold must be in (0, 1]"),
             (0 <= self.seed < 2**32, "seed must be in [0, 2^32)"),
             (self.optimizer in OPTIMIZERS, f"optimizer must be one of {', '.join(OPTIMIZERS)}"),
+            (
+                0 <= self.sample_contact_tolerance <= 0.1,
+                "sample_contact_tolerance must be in [0, 0.1] m",
+            ),
+            (self.sample_scene_step in (0, -1), "sample_scene_step must be 0 or -1"),
+            (0 <= self.lg_min_step < 1, "lg_min_step must be in [0, 1) rad"),
+            (
+                self.lg_weighting in LG_WEIGHTINGS,
+                f"lg_weighting must be one of {', '.join(LG_WEIGHTINGS)}",
+            ),
         ]
         refuse_failed(checks)
         return self
@@ -172,6 +199,8 @@ def train(
             config.sigma,
             seed,
             lambda done, total, m=m: report("sampling", (m + done / total) / members, None),
+            contact_tolerance=config.sample_contact_tolerance,
+            scene_step=config.sample_scene_step,
         )
         if extra_samples is not None:
             noisy = samples.joined(noisy, extra_samples)

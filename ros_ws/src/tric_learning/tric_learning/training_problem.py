@@ -3,7 +3,8 @@ torch function of the value function's flattened weights, built from a dataset, 
 and the feature scaling, and its minimization by PyTorch's L-BFGS (the default) or by SciPy's
 L-BFGS-B on the weights split into positive and negative parts (exact L1).
 
-L_g uses the steps where the demonstration moves (|q_{t+1} - q_t| >= MIN_STEP); the data terms are
+L_g sums over every step of the demonstrations (those shorter than the config's lg_min_step left
+out, none by default; a step of length zero has no direction and adds nothing); the data terms are
 divided by the number S of demonstration steps (see tric_learning.training).
 """
 
@@ -21,10 +22,6 @@ from tric_learning.value_function import Scaling
 if TYPE_CHECKING:
     from tric_learning.training import TrainingConfig
 
-#: A demonstration step (between two samples) shorter than this has no direction for L_g: the hand
-#: only settles, rad.
-MIN_STEP = 0.03
-
 
 class TrainingProblem:
     """The loss of Eq. 11 as a torch function of the flattened weights."""
@@ -37,7 +34,8 @@ class TrainingProblem:
         config: "TrainingConfig",
     ):
         self.config = config
-        dtype = torch.float64 if config.optimizer == "lbfgsb" else torch.float32
+        dtype = torch.float64 if config.float64 or config.optimizer == "lbfgsb" else torch.float32
+        self.bias = bool(config.hidden_bias and config.hidden_units)
         self.s, self.k = len(scaling.kept), config.hidden_units
         self.u = torch.tensor(
             scaling.transform(np.concatenate([d.y for d in dataset.demos])), dtype=dtype
@@ -55,7 +53,8 @@ class TrainingProblem:
         rows, jacobians, directions = [], [], []
         for i, demo in enumerate(dataset.demos):
             delta = np.diff(demo.q, axis=0)
-            moving = np.flatnonzero(np.linalg.norm(delta, axis=1) >= MIN_STEP)
+            lengths = np.linalg.norm(delta, axis=1)
+            moving = np.flatnonzero((lengths >= config.lg_min_step) & (lengths > 0))
             rows.append(offsets[i] + moving)
             jacobians.append(
                 demo.jacobians[moving][:, scaling.kept, :] * scaling.factor[None, :, None]
@@ -63,27 +62,38 @@ class TrainingProblem:
             directions.append(delta[moving])
         self.g_rows = torch.tensor(np.concatenate(rows), dtype=torch.long)
         self.g_jacobian = torch.tensor(np.concatenate(jacobians), dtype=dtype)  # (G, s, n)
-        self.g_direction = torch.tensor(np.concatenate(directions), dtype=dtype)  # (G, n)
+        directions = np.concatenate(directions)
+        self.g_direction = torch.tensor(directions, dtype=dtype)  # (G, n)
+        lengths = np.linalg.norm(directions, axis=1)
+        weights = (
+            lengths / lengths.mean() if config.lg_weighting == "length" else np.ones(len(lengths))
+        )
+        self.g_weight = torch.tensor(weights, dtype=dtype)  # (G,)
         rng = np.random.default_rng(config.seed)
         initial = np.concatenate(
             [
                 rng.normal(0.0, 1.0 / np.sqrt(max(self.s, 1)), self.k * self.s),
                 rng.normal(0.0, 0.1, self.k),
                 rng.normal(0.0, 0.01, self.s),
+                np.zeros(self.k if self.bias else 0),
             ]
         )
         self.theta = torch.tensor(initial, dtype=dtype, requires_grad=True)
 
     def _split(self, theta):
+        """(W1, W2, W3, b1) of the flattened weights; b1 zeros without hidden biases."""
         k, s = self.k, self.s
-        return theta[: k * s].reshape(k, s), theta[k * s : k * s + k], theta[k * s + k :]
+        w1, w2 = theta[: k * s].reshape(k, s), theta[k * s : k * s + k]
+        w3 = theta[k * s + k : k * s + k + s]
+        b1 = theta[k * s + k + s :] if self.bias else torch.zeros(k, dtype=theta.dtype)
+        return w1, w2, w3, b1
 
     def terms(self, theta):
-        w1, w2, w3 = self._split(theta)
+        w1, w2, w3, b1 = self._split(theta)
 
         def value(u):
             out = u @ w3
-            return out + torch.sigmoid(u @ w1.T) @ w2 if self.k else out
+            return out + torch.sigmoid(u @ w1.T + b1) @ w2 if self.k else out
 
         f_demo = value(self.u)
         f_noisy = value(self.u_noisy)
@@ -93,17 +103,18 @@ class TrainingProblem:
         u = self.u[self.g_rows]
         du = w3.expand(len(u), -1)
         if self.k:
-            z = torch.sigmoid(u @ w1.T)
+            z = torch.sigmoid(u @ w1.T + b1)
             du = du + (z * (1 - z) * w2) @ w1
         gradient_q = torch.einsum("gsn,gs->gn", self.g_jacobian, du)
         loss_g = torch.sum(
-            torch.nn.functional.cosine_similarity(gradient_q, self.g_direction, dim=1, eps=1e-12)
+            self.g_weight
+            * torch.nn.functional.cosine_similarity(gradient_q, self.g_direction, dim=1, eps=1e-12)
         )
         loss_w = theta.abs().sum()
         return loss_n, loss_g, loss_w
 
     def solve(self, report):
-        """Minimize the loss; ((W1, W2, W3), final loss terms, iterations)."""
+        """Minimize the loss; ((W1, W2, W3, b1), final loss terms, iterations)."""
         with deterministic_torch():
             if self.config.optimizer == "lbfgsb":
                 iterations = self._solve_split(report)
@@ -122,8 +133,10 @@ class TrainingProblem:
             + config.alpha_g * losses["g"]
             + config.alpha_w * losses["w"]
         )
-        w1, w2, w3 = (t.detach().to(torch.float64).numpy().copy() for t in self._split(self.theta))
-        return (w1, w2, w3), losses, int(iterations)
+        weights = tuple(
+            t.detach().to(torch.float64).numpy().copy() for t in self._split(self.theta)
+        )
+        return weights, losses, int(iterations)
 
     def _data_loss(self, theta):
         """(alpha_n L_n + alpha_g L_g) / S and the terms (L_n, L_g, |w|_1) as tensors."""

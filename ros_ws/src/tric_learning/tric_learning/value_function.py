@@ -5,9 +5,10 @@ Preprocessing (Sec. 5.2.1): each feature is rescaled to [0, 1] over the training
 never moved them, so rescaling would blow up noise) and features whose absolute correlation with an
 earlier kept feature exceeds a threshold are dropped. The model on the s kept, scaled features u is
 
-    f = z^T W2 + u^T W3,    z = sigmoid(W1 u)
+    f = z^T W2 + u^T W3,    z = sigmoid(W1 u + b1)
 
-with K sigmoid units (K = 0: the linear model), W1 (K, s), W2 (K,), W3 (s,). (The paper writes
+with K sigmoid units (K = 0: the linear model), W1 (K, s), W2 (K,), W3 (s,), and the hidden
+units' biases b1 (K,), zero in the paper's model (a training option adds them). (The paper writes
 z = 1 / (1 + e^{W1 y}), i.e. sigmoid(-W1 y); the sign is absorbed into W1. Its "W3 in R^K" is a
 typo for R^s.) Gradients are analytic: df/du = W1^T (W2 * z * (1 - z)) + W3, and df/dy on the raw
 features is that divided by (high - low), zero on dropped features.
@@ -65,6 +66,11 @@ class ValueFunction:
     w1: np.ndarray
     w2: np.ndarray
     w3: np.ndarray
+    b1: np.ndarray = None  # (K,); None: zeros, the paper's model
+
+    def __post_init__(self):
+        if self.b1 is None:
+            self.b1 = np.zeros(len(self.w2))
 
     @property
     def hidden_units(self) -> int:
@@ -75,7 +81,7 @@ class ValueFunction:
         u = self.scaling.transform(y)
         value = u @ self.w3
         if self.hidden_units:
-            value = value + sigmoid(u @ self.w1.T) @ self.w2
+            value = value + sigmoid(u @ self.w1.T + self.b1) @ self.w2
         return value
 
     def gradient(self, y: np.ndarray):
@@ -90,7 +96,7 @@ class ValueFunction:
         value = float(u @ self.w3)
         if not self.hidden_units:
             return value, self.w3.copy()
-        z = sigmoid(self.w1 @ u)
+        z = sigmoid(self.w1 @ u + self.b1)
         value += float(z @ self.w2)
         return value, self.w3 + self.w1.T @ (self.w2 * z * (1.0 - z))
 
@@ -120,6 +126,7 @@ class ValueFunction:
             np.vstack([member.w1 for member in members]),
             np.concatenate([weight * member.w2 for weight, member in zip(weights, members)]),
             sum(weight * member.w3 for weight, member in zip(weights, members)),
+            np.concatenate([member.b1 for member in members]),
         )
 
     def scores(self) -> np.ndarray:

@@ -18,8 +18,8 @@ from tric_sim import scene, shapes
 from tric_sim.robot_model import RobotModel
 from tric_sim.situation import Situation
 
-#: Penetration allowed into the bodies the task lets the hand contact (scene.contacts), m: the
-#: fingers of a firm grip press a few millimetres into them in simulation.
+#: Penetration allowed into the bodies the task lets the hand contact (scene.contacts) by default,
+#: m: the fingers of a firm grip press a few millimetres into them in simulation.
 CONTACT_TOLERANCE = 0.005
 
 
@@ -28,11 +28,13 @@ class SceneCollision:
 
     collision_free(configurations, object_poses) tells, for each configuration, whether the robot
     (but its base, which is mounted on the table) is clear of the scene's bodies, penetrating those
-    that the task lets the hand contact (scene.contacts) by no more than CONTACT_TOLERANCE, and does
-    not collide with itself (non-adjacent links).
+    that the task lets the hand contact (scene.contacts) by no more than contact_tolerance (m), and
+    does not collide with itself (non-adjacent links).
     """
 
-    def __init__(self, robot: RobotModel, situation: Situation):
+    def __init__(
+        self, robot: RobotModel, situation: Situation, contact_tolerance: float = CONTACT_TOLERANCE
+    ):
         self.robot = robot
         self.bodies = scene.scene_bodies(situation)
         self.situation = situation
@@ -48,7 +50,7 @@ class SceneCollision:
         self.self_pairs = [(p.first, p.second) for p in geometry_model.collisionPairs]
         self.body_shapes = [shapes.coal_shape(b.shape, b.dimensions) for b in self.bodies]
         self.allowance = [
-            CONTACT_TOLERANCE if b.name in self.contacts else 0.0 for b in self.bodies
+            contact_tolerance if b.name in self.contacts else 0.0 for b in self.bodies
         ]
         # bounding spheres: (geometry index, centre in the joint frame, radius)
         self.spheres = []

@@ -5,8 +5,10 @@ import pathlib
 
 from tric_control.graph_evaluation import evaluate
 from tric_learning import dpl, model_file
+from tric_learning.bag_dataset import load_dataset
 from tric_learning.dataset import Dataset
-from tric_learning.training import TrainingConfig, train, train_from_bags
+from tric_learning.training import TrainingConfig, train
+from tric_sim.provenance import code_digest
 from tric_sim.robot_model import RobotModel
 from tric_sim.ros_util import private_domain_id
 
@@ -27,28 +29,38 @@ class Runner:
         self.jobs = jobs
         self.robot = RobotModel()
         self.domain_id = private_domain_id()
+        self._datasets = {}
         (out / "models").mkdir(parents=True, exist_ok=True)
+
+    def demonstrations(self, bags: str) -> Dataset:
+        """The dataset of the bags in bags/<bags>, read once."""
+        if bags not in self._datasets:
+            self._datasets[bags] = load_dataset([BAGS / bags], self.robot)
+        return self._datasets[bags]
 
     def model(
         self, name: str, bags: str, kind: str = "tric", hidden_units: int = 30, seed: int = 0
     ) -> pathlib.Path:
-        """The model file out/models/<name>_s<seed>.safetensors, trained on bags/<bags> if it is
-        missing (TRIC: with the defaults but hidden_units; the seed draws the noisy samples and the
-        initial weights, or DPL's initial weights)."""
+        """The model file out/models/<name>_s<seed>.safetensors, trained on bags/<bags> unless a
+        model made as asked is there (model_file.made_as: the kind, hyper-parameters, dataset and
+        training code); TRIC: with the defaults but hidden_units; the seed draws the noisy samples
+        and the initial weights, or DPL's initial weights."""
         path = self.out / "models" / f"{name}_s{seed}.safetensors"
-        if not path.is_file():
+        dataset = self.demonstrations(bags)
+        if kind == "tric":
+            config = TrainingConfig(hidden_units=hidden_units, seed=seed)
+            code = code_digest("tric_learning.training")
+        else:
+            config, code = dpl.DplConfig(seed=seed), code_digest("tric_learning.dpl")
+        if not model_file.made_as(path, kind, config.to_dict(), dataset.fingerprint, code):
             print(f"training {name} (seed {seed}) on {BAGS / bags}", flush=True)
             if kind == "tric":
-                train_from_bags(
-                    [BAGS / bags],
-                    path,
-                    TrainingConfig(hidden_units=hidden_units, seed=seed),
-                    self.robot,
-                )
+                result = model_file.from_training(train(dataset, self.robot, config), dataset)
             else:
-                dpl.train_dpl_from_bags(
-                    [BAGS / bags], path, dpl.DplConfig(seed=seed), self.robot, kind=kind
+                result = dpl.to_model_file(
+                    dpl.train_dpl(dataset, self.robot, config, kind), dataset
                 )
+            result.save(path)
         return path
 
     def over_seeds(self, tests, label: str, max_steps: int = 0, **model) -> dict:
@@ -62,10 +74,11 @@ class Runner:
         }
 
     def trained(self, name: str, dataset: Dataset, config: TrainingConfig) -> pathlib.Path:
-        """The TRIC model file out/models/<name>.safetensors, trained on dataset with config if it
-        is missing."""
+        """The TRIC model file out/models/<name>.safetensors, trained on dataset with config unless
+        a model made as asked is there (model_file.made_as)."""
         path = self.out / "models" / f"{name}.safetensors"
-        if not path.is_file():
+        code = code_digest("tric_learning.training")
+        if not model_file.made_as(path, "tric", config.to_dict(), dataset.fingerprint, code):
             print(f"training {name} on {len(dataset.demos)} demonstrations", flush=True)
             model_file.from_training(train(dataset, self.robot, config), dataset).save(path)
         return path

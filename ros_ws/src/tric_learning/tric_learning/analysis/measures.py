@@ -8,10 +8,19 @@ import pinocchio as pin
 
 from tric_learning.dataset import Dataset
 from tric_learning.training import SELECTED_FRACTION
-from tric_learning.training_problem import MIN_STEP
 from tric_learning.value_function import ValueFunction
 from tric_sim.collision import SceneCollision
 from tric_sim.robot_model import RobotModel
+
+#: The step classes of the gradient measures, rad (|q_{t+1} - q_t|), fixed by the design (section 5)
+#: and issue 24 before any change of the training, and independent of any rule the training uses: a
+#: step that moves at all; the slow steps (a grasp's final approach, a lid lifting); the steps along
+#: which f must fall.
+MOVING_STEP = 1e-3
+SLOW_STEPS = (0.005, 0.03)
+FALLING_STEP = 0.01
+#: The share of the total feature score (Sec. 5.5.1) that the counted features carry.
+WEIGHT_SHARE = 0.95
 
 #: Box openings drawn in Fig. 12 (the paper's 5), and the landmarks of its panels (b) and (c).
 FIG12_DEMOS = 5
@@ -44,16 +53,17 @@ def values_along_demos(model: ValueFunction, dataset: Dataset) -> list:
     return [model.value(demo.y) for demo in dataset.demos]
 
 
-def decreasing_shares(model: ValueFunction, dataset: Dataset):
-    """(share of all steps t -> t+1 along which f decreases, the same over the steps where the
-    demonstration moves by at least training_problem.MIN_STEP rad)."""
-    decreasing, moving = [], []
-    for demo, values in zip(dataset.demos, values_along_demos(model, dataset)):
-        decreasing.append(np.diff(values) < 0)
-        moving.append(np.linalg.norm(np.diff(demo.q, axis=0), axis=1) >= MIN_STEP)
-    decreasing, moving = np.concatenate(decreasing), np.concatenate(moving)
-    return float(decreasing.mean()), float(decreasing[moving].mean()) if moving.any() else float(
-        "nan"
+def step_lengths(dataset: Dataset) -> np.ndarray:
+    """|q_{t+1} - q_t| of every step, (N, T_max - 1) rad for N demos of at most T_max samples, NaN
+    past a demo's end."""
+    return padded([np.linalg.norm(np.diff(demo.q, axis=0), axis=1) for demo in dataset.demos])
+
+
+def value_falls(model: ValueFunction, dataset: Dataset) -> np.ndarray:
+    """Whether f falls along each step, f(y_{t+1}) < f(y_t): (N, T_max - 1) of 1.0 / 0.0, NaN past
+    a demo's end."""
+    return padded(
+        [(np.diff(values) < 0).astype(float) for values in values_along_demos(model, dataset)]
     )
 
 
@@ -80,12 +90,53 @@ def cosines_along_demos(
 
 
 def moving_only(cosines: np.ndarray, dataset: Dataset) -> np.ndarray:
-    """cosines (N, T_max - 1) from cosines_along_demos() with NaN where the step is shorter than
-    MIN_STEP rad: the same as cosines_along_demos(..., MIN_STEP), without computing them again."""
-    lengths = np.full(cosines.shape, np.nan)
-    for i, demo in enumerate(dataset.demos):
-        lengths[i, : demo.length - 1] = np.linalg.norm(np.diff(demo.q, axis=0), axis=1)
-    return np.where(lengths >= MIN_STEP, cosines, np.nan)
+    """cosines (N, T_max - 1) from cosines_along_demos() with NaN where the step moves by
+    MOVING_STEP rad or less."""
+    return np.where(step_lengths(dataset) > MOVING_STEP, cosines, np.nan)
+
+
+def gradient_measures(model: ValueFunction, dataset: Dataset) -> dict:
+    """How well grad_q (f o phi) follows the demonstrations, over every step of every demo with no
+    filter from the training (step classes: MOVING_STEP, SLOW_STEPS, FALLING_STEP):
+
+    cosine_weighted: L_g's cosine averaged with each step's length |dq| as its weight;
+    cosine_moving: its plain mean over the steps that move at all (> MOVING_STEP rad);
+    cosine_slow: its mean over the slow steps (SLOW_STEPS, rad), and slow_steps their count;
+    falls: the share of the steps of at least FALLING_STEP rad along which f falls, and
+    falls_moving the same over the steps that move at all.
+    NaN where a class has no step."""
+    cosines = cosines_along_demos(model, dataset)
+    lengths = step_lengths(dataset)
+    falls = value_falls(model, dataset)
+    defined = np.isfinite(cosines)
+    weights = np.where(defined, lengths, 0.0)
+    moving = lengths > MOVING_STEP
+    slow = (lengths >= SLOW_STEPS[0]) & (lengths < SLOW_STEPS[1])
+
+    def mean(values, where):
+        chosen = values[where & np.isfinite(values)]
+        return float(chosen.mean()) if chosen.size else float("nan")
+
+    return {
+        "cosine_weighted": float(np.sum(np.where(defined, cosines, 0.0) * weights) / weights.sum())
+        if weights.sum() > 0
+        else float("nan"),
+        "cosine_moving": mean(cosines, moving),
+        "cosine_slow": mean(cosines, slow),
+        "slow_steps": int(np.sum(slow)),
+        "falls": mean(falls, lengths >= FALLING_STEP),
+        "falls_moving": mean(falls, moving),
+    }
+
+
+def features_carrying(model: ValueFunction, share: float = WEIGHT_SHARE) -> int:
+    """The fewest kept features whose scores s(y) (Sec. 5.5.1) add up to share of the total (0 for
+    a model whose scores are all zero)."""
+    scores = np.sort(model.scores())[::-1]
+    total = scores.sum()
+    if not total > 0:
+        return 0
+    return int(np.searchsorted(np.cumsum(scores), share * total * (1 - 1e-12)) + 1)
 
 
 def gradients_along_demos(model: ValueFunction, dataset: Dataset) -> np.ndarray:
@@ -229,7 +280,7 @@ def kernel_pca(points: np.ndarray, components: int = 2):
 
 def hidden_layer(model: ValueFunction, u: np.ndarray) -> np.ndarray:
     """z = sigmoid(W1 u) (Eq. 19) of scaled kept features u (..., s): (..., K)."""
-    return 0.5 * (1.0 + np.tanh(0.5 * (np.asarray(u) @ model.w1.T)))
+    return 0.5 * (1.0 + np.tanh(0.5 * (np.asarray(u) @ model.w1.T + model.b1)))
 
 
 def kernel_pca_inputs(
@@ -287,15 +338,13 @@ def feature_over_time(
 
 
 def key_numbers(model: ValueFunction, dataset: Dataset, top: int) -> dict:
-    """The analyses' numbers, JSON-ready: the steps t -> t + 1 of all demos and those that move by
-    >= MIN_STEP rad; the shares of them along which f decreases; the demos that end lower than they
-    start; the mean cosines of Fig. 14a (over the moving steps, over all steps, and over the moving
-    steps before and from step late_from_step, 3/4 of the way); the kept and the selected features
-    (score above SELECTED_FRACTION of the largest); the top features [{name, score}]; and how many
-    of them have a mean gradient (Fig. 17a) that changes sign over time."""
-    all_steps, moving_steps = decreasing_shares(model, dataset)
-    cosines = cosines_along_demos(model, dataset)
-    moving = moving_only(cosines, dataset)
+    """The analyses' numbers, JSON-ready: the demos and their steps t -> t + 1, and those that move
+    at all (> MOVING_STEP rad); gradient_measures(); the demos that end lower than they start; the
+    mean cosines of Fig. 14a over the moving steps before and from step late_from_step, 3/4 of the
+    way; the kept features, the selected ones (score above SELECTED_FRACTION of the largest) and
+    the fewest that carry WEIGHT_SHARE of the total score; the top features [{name, score}]; and how
+    many of them have a mean gradient (Fig. 17a) that changes sign over time."""
+    moving = moving_only(cosines_along_demos(model, dataset), dataset)
     late = int(round(0.75 * moving.shape[1]))
     ranked = ranked_features(model, dataset.definition.feature_names)
     scores = np.array([score for _, score in ranked])
@@ -313,24 +362,17 @@ def key_numbers(model: ValueFunction, dataset: Dataset, top: int) -> dict:
     return {
         "demos": len(dataset.demos),
         "steps": sum(demo.length - 1 for demo in dataset.demos),
-        "moving_steps": int(
-            sum(
-                np.sum(np.linalg.norm(np.diff(demo.q, axis=0), axis=1) >= MIN_STEP)
-                for demo in dataset.demos
-            )
-        ),
-        "decreasing_share_all_steps": all_steps,
-        "decreasing_share_moving_steps": moving_steps,
+        "moving_steps": int(np.sum(step_lengths(dataset) > MOVING_STEP)),
+        **gradient_measures(model, dataset),
         "demos_ending_lower": int(
             sum(values[-1] < values[0] for values in values_along_demos(model, dataset))
         ),
-        "mean_cosine_moving_steps": finite_mean(moving),
-        "mean_cosine_all_steps": finite_mean(cosines),
         "late_from_step": late,
-        "mean_cosine_moving_early": finite_mean(moving[:, :late]),
-        "mean_cosine_moving_late": finite_mean(moving[:, late:]),
+        "cosine_moving_early": finite_mean(moving[:, :late]),
+        "cosine_moving_late": finite_mean(moving[:, late:]),
         "kept_features": len(scores),
         "selected_features": int(np.sum(scores > SELECTED_FRACTION * scores.max())),
+        "features_95": features_carrying(model),
         "top_features": [{"name": name, "score": score} for name, score in ranked[:top]],
         "top_gradients_changing_sign": int(
             np.sum((np.nanmin(mean_gradient, axis=0) < 0) & (np.nanmax(mean_gradient, axis=0) > 0))
