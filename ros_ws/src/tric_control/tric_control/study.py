@@ -17,7 +17,10 @@ draws the noisy samples and the initial weights) and measured:
   falls, L_g's mean cosine over them, and the selected features;
 - offline (tric_control.offline: the controller core on the physics, no nodes) on the task's
   training and validation situations: sphere -> sphere_val; cylinder -> cylinder_train,
-  cylinder_val; box -> box_train, box_val; obstacle -> obstacle_val (with the sphere model).
+  cylinder_val; cylinder_b (the second draw of the cylinder demonstrations, bags/cylinder_b) ->
+  cylinder_b_train, cylinder_val; cylinder_strat and cylinder_strat_b (both draws stratified over
+  the angles) likewise; box -> box_train, box_val; obstacle -> obstacle_val (with the sphere
+  model).
 
 Test sets are never used here: choices are made on training and validation sets; test sets are only
 reported (tric-experiments). Models are kept in DIR/models and re-used; every result is merged into
@@ -57,9 +60,25 @@ BAGS = pathlib.Path("bags")
 TASKS = {
     "sphere": ("sphere", ("sphere_val",), DEFAULT_MAX_STEPS["grasp"]),
     "cylinder": ("cylinder", ("cylinder_train", "cylinder_val"), DEFAULT_MAX_STEPS["grasp"]),
+    # a second draw of the cylinder demonstrations, and both draws stratified over the angles
+    "cylinder_b": ("cylinder_b", ("cylinder_b_train", "cylinder_val"), DEFAULT_MAX_STEPS["grasp"]),
+    "cylinder_strat": (
+        "cylinder_strat",
+        ("cylinder_strat_train", "cylinder_val"),
+        DEFAULT_MAX_STEPS["grasp"],
+    ),
+    "cylinder_strat_b": (
+        "cylinder_strat_b",
+        ("cylinder_strat_b_train", "cylinder_val"),
+        DEFAULT_MAX_STEPS["grasp"],
+    ),
     "box": ("box", ("box_train", "box_val"), DEFAULT_MAX_STEPS["open_box"]),
     "obstacle": ("sphere", ("obstacle_val",), DEFAULT_MAX_STEPS["grasp"]),
 }
+
+
+#: The tasks a study measures unless told otherwise.
+DEFAULT_TASKS = ("sphere", "cylinder", "cylinder_b", "box", "obstacle")
 
 
 #: The analysis' numbers of a model on its own demonstrations that a study records
@@ -337,9 +356,9 @@ def main(argv=None) -> int:
     parser.add_argument(
         "--tasks",
         nargs="+",
-        default=list(TASKS),
+        default=list(DEFAULT_TASKS),
         choices=list(TASKS),
-        help="tasks to measure (default: all)",
+        help=f"tasks to measure (default: {' '.join(DEFAULT_TASKS)})",
     )
     parser.add_argument(
         "--out", default="results/study", help="folder of the models and study.json"

@@ -91,12 +91,18 @@ def cylinder(name, angle: float, seed=0) -> Situation:
     ).validate()
 
 
-def cylinder_set(count: int = 10, seed: int = 3, prefix: str = "cylinder_train") -> list:
-    """Cylinders turned about y by angles drawn uniformly from [0, pi/2] (Sec. 5.3.3)."""
+def cylinder_set(
+    count: int = 10, seed: int = 3, prefix: str = "cylinder_train", stratified: bool = False
+) -> list:
+    """Cylinders turned about y by angles drawn uniformly from [0, pi/2] (Sec. 5.3.3); stratified:
+    the i-th angle drawn uniformly from the i-th of count equal parts of [0, pi/2] (still random in
+    [0, pi/2], but never bunched)."""
     rng = np.random.default_rng(seed)
+    parts = np.arange(count) if stratified else np.zeros(count)
+    width = math.pi / 2 / (count if stratified else 1)
     return [
-        cylinder(f"{prefix}_{i:02d}", float(rng.uniform(0.0, math.pi / 2)), seed)
-        for i in range(count)
+        cylinder(f"{prefix}_{i:02d}", float((part + rng.uniform()) * width), seed)
+        for i, part in enumerate(parts)
     ]
 
 
@@ -184,6 +190,14 @@ DATASETS = {
     ],
     "sphere_test": lambda: sphere_test_set(15, seed=1),
     "cylinder_train": lambda: cylinder_set(10, seed=3, prefix="cylinder_train"),
+    # a second draw of the cylinder training set, and both draws stratified (tric-study's rows)
+    "cylinder_b_train": lambda: cylinder_set(10, seed=15, prefix="cylinder_b_train"),
+    "cylinder_strat_train": lambda: cylinder_set(
+        10, seed=3, prefix="cylinder_strat_train", stratified=True
+    ),
+    "cylinder_strat_b_train": lambda: cylinder_set(
+        10, seed=15, prefix="cylinder_strat_b_train", stratified=True
+    ),
     "cylinder_val": lambda: cylinder_set(10, seed=12, prefix="cylinder_val"),
     "cylinder_test": lambda: cylinder_set(10, seed=5, prefix="cylinder_test"),
     "obstacle_val": lambda: obstacle_set(10, seed=14, prefix="obstacle_val"),
