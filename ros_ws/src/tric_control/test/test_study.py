@@ -3,6 +3,7 @@
 import pytest
 
 from tric_control import study
+from tric_sim.scene import TASK_CONTACTS
 
 
 def test_a_variant_is_a_name_and_training_options():
@@ -66,3 +67,17 @@ def test_controller_settings_are_variant_options_that_do_not_change_the_training
     assert study.training_part(changes) == {"alpha_g": 10.0}
     with pytest.raises(ValueError, match="hand_lead must be >= 0 rad"):
         study.parse_variant("v=hand_lead=-0.1")
+
+
+def test_contact_options_change_the_task_s_contact_rules_only_where_given():
+    _, changes = study.parse_variant("c=grasp_cushion=0.0,lid_beneath_only=false,lid_depth=0.01")
+    assert changes == {"grasp_cushion": 0.0, "lid_beneath_only": False, "lid_depth": 0.01}
+    assert study.training_part(changes) == {}
+    grasp = study.contact_rules(changes, "grasp")["object"]
+    assert grasp.cushion == 0.0 and grasp.depth == TASK_CONTACTS["grasp"]["target"].depth
+    lid = study.contact_rules(changes, "open_box")["lid"]
+    assert lid.side is None and lid.depth == 0.01
+    assert study.contact_rules({"hand_lead": 0.1}, "grasp") is None
+    assert study.contact_rules({"grasp_depth": 0.0}, "open_box") is None
+    with pytest.raises(ValueError, match="contact depths and cushions must be in"):
+        study.parse_variant("v=grasp_depth=0.2")

@@ -52,6 +52,7 @@ from tric_learning.training import TrainingConfig, train
 from tric_sim.metrics import GOOD_GRASP, LID_OPEN_ANGLE
 from tric_sim.provenance import code_digest
 from tric_sim.robot_model import RobotModel
+from tric_sim.scene import TASK_CONTACTS
 from tric_sim.situations import dataset
 
 BAGS = pathlib.Path("bags")
@@ -93,8 +94,18 @@ MODEL_MEASURES = (
 )
 
 
-#: Controller settings a variant may change, with their types.
-CONTROLLER_OPTIONS = {"hand_lead": float, "grasp_steps": int, "box_steps": int}
+#: Controller settings a variant may change, with their types: the hand's lead, the step budgets,
+#: and the task's contact rules (tric_sim.scene.TASK_CONTACTS): how deep the hand may press into a
+#: grasp target and its cushion (m), how deep into the lid (m) and whether only from beneath.
+CONTROLLER_OPTIONS = {
+    "hand_lead": float,
+    "grasp_steps": int,
+    "box_steps": int,
+    "grasp_depth": float,
+    "grasp_cushion": float,
+    "lid_depth": float,
+    "lid_beneath_only": bool,
+}
 #: Training procedures beyond TrainingConfig: rounds of hard negatives
 #: (tric_control.hard_negatives).
 PROCEDURE_OPTIONS = {"hard_negative_rounds": int}
@@ -116,7 +127,7 @@ def parse_variant(text: str):
                 f"variant '{name}': unknown option '{key}' (known: "
                 f"{', '.join([k for k in fields if k != 'seed'] + list(extras))})"
             )
-        kind = extras.get(key) or type(getattr(TrainingConfig(), key))
+        kind = extras[key] if key in extras else type(getattr(TrainingConfig(), key))
         if kind is bool:
             if value.lower() not in ("true", "false"):
                 raise ValueError(f"variant '{name}': {key} must be true or false")
@@ -137,9 +148,42 @@ def parse_variant(text: str):
         raise ValueError(
             f"variant '{name}': hand_lead must be >= 0 rad and the step budgets >= 1 tick"
         )
+    if any(not 0 <= changes.get(key, 0.0) <= 0.05 for key in CONTACT_OPTIONS):
+        raise ValueError(f"variant '{name}': contact depths and cushions must be in [0, 0.05] m")
     if changes.get("hard_negative_rounds", 0) < 0:
         raise ValueError(f"variant '{name}': hard_negative_rounds must be >= 0")
     return name, changes
+
+
+#: The contact options of CONTROLLER_OPTIONS given in metres.
+CONTACT_OPTIONS = ("grasp_depth", "grasp_cushion", "lid_depth")
+
+
+def contact_rules(changes: dict, task: str):
+    """The contacts ({scene body name: tric_sim.scene.Contact}) a variant's contact options make of
+    the task's, or None when it changes none of them."""
+    if task == "open_box":
+        if "lid_depth" not in changes and "lid_beneath_only" not in changes:
+            return None
+        lid = TASK_CONTACTS["open_box"]["lid"]
+        beneath = changes.get("lid_beneath_only", lid.side is not None)
+        return {
+            "lid": dataclasses.replace(
+                lid,
+                depth=changes.get("lid_depth", lid.depth),
+                side=(0.0, 0.0, -1.0) if beneath else None,
+            )
+        }
+    if "grasp_depth" not in changes and "grasp_cushion" not in changes:
+        return None
+    target = TASK_CONTACTS["grasp"]["target"]
+    return {
+        "object": dataclasses.replace(
+            target,
+            depth=changes.get("grasp_depth", target.depth),
+            cushion=changes.get("grasp_cushion", target.cushion),
+        )
+    }
 
 
 def training_part(changes: dict) -> dict:
@@ -261,6 +305,9 @@ class Study:
             lead = np.full(self.robot.n_joints, MAX_LEAD)
             lead[self.robot.hand_indices] = changes["hand_lead"]
             options["max_lead"] = lead
+        contacts = contact_rules(changes, "open_box" if task == "box" else "grasp")
+        if contacts is not None:
+            options["contacts"] = contacts
         path, record = self.model(variant, changes, bags, seed, max_steps)
         row = {
             "variant": variant,
