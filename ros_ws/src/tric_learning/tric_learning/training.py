@@ -48,7 +48,7 @@ RHO_GAIN = 100.0
 #: study draws.
 MEMBER_SEED_STRIDE = 1_000_003
 #: The optimizers TrainingConfig.optimizer names.
-OPTIMIZERS = ("lbfgs", "lbfgsb")
+OPTIMIZERS = ("lbfgs", "lbfgsb", "bfgs")
 #: The weightings of L_g's steps TrainingConfig.lg_weighting names.
 LG_WEIGHTINGS = ("none", "length")
 
@@ -93,7 +93,7 @@ class TrainingConfig:
     members: int = 1
     #: "lbfgs": PyTorch's L-BFGS on the whole loss, |w|_1 included (not smooth at 0); "lbfgsb":
     #: SciPy's L-BFGS-B on w = w+ - w-, w+, w- >= 0, where |w|_1 = sum(w+ + w-) is linear (exact L1,
-    #: sparse).
+    #: sparse); "bfgs": SciPy's BFGS in float64 on the whole loss (the paper's optimizer).
     optimizer: str = "lbfgs"
     #: How deep a noisy sample may press into the bodies the task lets the hand touch, m
     #: (samples.SAMPLE_CONTACT_TOLERANCE: the teacher's own grip).

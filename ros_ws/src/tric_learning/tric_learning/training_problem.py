@@ -1,7 +1,8 @@
 """The optimization problem of TRIC's training (paper Sec. 3.2, Eq. 11, 16 and 17): the loss as a
 torch function of the value function's flattened weights, built from a dataset, its noisy samples
-and the feature scaling, and its minimization by PyTorch's L-BFGS (the default) or by SciPy's
-L-BFGS-B on the weights split into positive and negative parts (exact L1).
+and the feature scaling, and its minimization by PyTorch's L-BFGS (the default), by SciPy's
+L-BFGS-B on the weights split into positive and negative parts (exact L1), or by SciPy's BFGS in
+float64 (the paper's optimizer).
 
 L_g sums over every step of the demonstrations (those shorter than the config's lg_min_step left
 out, none by default; a step of length zero has no direction and adds nothing); the data terms are
@@ -34,7 +35,7 @@ class TrainingProblem:
         config: "TrainingConfig",
     ):
         self.config = config
-        dtype = torch.float64 if config.float64 or config.optimizer == "lbfgsb" else torch.float32
+        dtype = torch.float64 if config.float64 or config.optimizer != "lbfgs" else torch.float32
         self.bias = bool(config.hidden_bias and config.hidden_units)
         self.s, self.k = len(scaling.kept), config.hidden_units
         self.u = torch.tensor(
@@ -118,6 +119,8 @@ class TrainingProblem:
         with deterministic_torch():
             if self.config.optimizer == "lbfgsb":
                 iterations = self._solve_split(report)
+            elif self.config.optimizer == "bfgs":
+                iterations = self._solve_bfgs(report)
             else:
                 iterations = self._solve_lbfgs(report)
         with torch.no_grad():
@@ -195,6 +198,36 @@ class TrainingProblem:
             self.theta.copy_(
                 torch.tensor(result.x[:size] - result.x[size:], dtype=self.theta.dtype)
             )
+        return result.nit
+
+    def _solve_bfgs(self, report) -> int:
+        """SciPy's BFGS (a dense inverse-Hessian estimate, float64), as the paper's MATLAB BFGS, on
+        the whole loss with |w|_1's subgradient sign(w)."""
+        config = self.config
+        state = {"iteration": 0}
+
+        def objective(x):
+            theta = torch.tensor(x, dtype=self.theta.dtype, requires_grad=True)
+            data, terms = self._data_loss(theta)
+            total = data + config.alpha_w * terms[2]
+            total.backward()
+            state["terms"] = [float(t.detach()) for t in terms]
+            return float(total.detach()), theta.grad.numpy().copy()
+
+        def iterated(_x):
+            state["iteration"] += 1
+            self._report(report, state["iteration"], *state["terms"])
+
+        result = scipy.optimize.minimize(
+            objective,
+            self.theta.detach().numpy().copy(),
+            jac=True,
+            method="BFGS",
+            callback=iterated,
+            options={"maxiter": config.max_iterations, "gtol": 1e-10},
+        )
+        with torch.no_grad():
+            self.theta.copy_(torch.tensor(result.x, dtype=self.theta.dtype))
         return result.nit
 
     def _solve_lbfgs(self, report) -> int:
