@@ -403,6 +403,7 @@ def test_analysis_discussion_judges_every_task_and_seed():
             "selected_features": 40,
             "features_95": 55,
             "kept_features": 130,
+            "prop2": {"came_back": 0.5, "undershoot_median": 0.01},
             "top_gradients_changing_sign": 3,
             "top_features": [
                 {"name": "d[object,fingertip_1]", "score": 1.0},
@@ -419,6 +420,7 @@ def test_analysis_discussion_judges_every_task_and_seed():
     assert "sphere: mean cosine -0.950/-0.920/-0.700" in text and "2 of 3 seeds meet" in text
     assert "cylinder: mean cosine" in text and "0 of 3 seeds meet" in text and "box:" in text
     assert "over the slow steps (the lid lifting) -0.810/-0.810/-0.810" in text
+    assert "50/50/50 (mean 50, min 50, max 50)% come back to rest nearer y_T" in text
     assert (
         "3 of 3 at most -0.8" in text and "carrying 95% of the score, all models: 55 to 55" in text
     )

@@ -23,6 +23,13 @@ from tric_learning.analysis import (
     ranked_feature,
     write_figures,
 )
+from tric_learning.analysis.attraction import (
+    ROLLOUTS,
+    SIGMA,
+    TICKS,
+    attraction_numbers,
+    rollouts_from_demo_ends,
+)
 from tric_learning.bag_dataset import load_dataset
 from tric_learning.model_file import ModelFile, value_function
 from tric_sim.output_files import check_output_folder
@@ -60,7 +67,8 @@ def main(argv=None) -> int:
         check_output_folder(args.out, "--out folder")
         robot = RobotModel()
         dataset = load_dataset(args.bags, robot)
-        model = value_function(ModelFile.load(args.model, expected=dataset.definition))
+        model_file = ModelFile.load(args.model, expected=dataset.definition)
+        model = value_function(model_file)
         # refused before any figure
         ranked_feature(model, dataset.definition.feature_names, args.feature_rank)
         paths = write_figures(
@@ -82,6 +90,18 @@ def main(argv=None) -> int:
         f"features: {numbers['features_95']} carry {WEIGHT_SHARE:.0%} of the score; "
         f"{numbers['selected_features']} of {numbers['kept_features']} kept score above 1% of "
         "the largest"
+    )
+    rollouts = rollouts_from_demo_ends(
+        model, dataset, robot, model_file.info["delta"], model_file.info["rho"]
+    )
+    attracted = attraction_numbers(rollouts)
+    print(
+        f"Prop. 2: of {attracted['rollouts']} rollouts of the prior-free step from states around "
+        f"the demonstrations' ends ({ROLLOUTS} per demo, {SIGMA} rad per joint), "
+        f"{attracted['came_back']:.0%} came back to rest nearer y_T, "
+        f"{attracted['at_rest']:.0%} came to rest within {TICKS} ticks; they went below f(y_T) "
+        f"by {attracted['undershoot_median']:.3f} of the demos' fall (median; at most "
+        f"{attracted['undershoot_max']:.3f})"
     )
     print(
         "top features: "

@@ -17,6 +17,7 @@ from tric_control.experiments.targets import (
     WEIGHTED_COSINE_TARGET,
 )
 from tric_learning import analysis, model_file
+from tric_learning.analysis.attraction import attraction_numbers, rollouts_from_demo_ends
 from tric_learning.bag_dataset import load_dataset
 from tric_learning.model_file import ModelFile
 from tric_learning.training import SELECTED_FRACTION
@@ -43,10 +44,16 @@ def run(runner: Runner) -> dict:
         dataset = load_dataset([BAGS / task], runner.robot)
         rows[task] = {}
         for seed in SEEDS:
-            model = model_file.value_function(
-                ModelFile.load(runner.model(name, task, seed=seed), expected=dataset.definition)
+            loaded = ModelFile.load(
+                runner.model(name, task, seed=seed), expected=dataset.definition
             )
+            model = model_file.value_function(loaded)
             rows[task][seed] = analysis.key_numbers(model, dataset, TOP_FEATURES)
+            rows[task][seed]["prop2"] = attraction_numbers(
+                rollouts_from_demo_ends(
+                    model, dataset, runner.robot, loaded.info["delta"], loaded.info["rho"]
+                )
+            )
             if seed == SEEDS[0]:
                 paths = analysis.write_figures(
                     model, dataset, runner.out / "analysis" / task, TOP_FEATURES, robot=runner.robot
@@ -55,7 +62,7 @@ def run(runner: Runner) -> dict:
     lines = [
         f"{'task':9s} {'seed':>4s} {'cos |dq|-wtd':>12s} {'cos moving':>10s} {'cos slow':>8s} "
         f"{'f falls':>7s} {'early':>7s} {'late':>7s} {'demos ending lower':>19s} "
-        f"{'95% weight':>10s} {'selected':>9s}"
+        f"{'95% weight':>10s} {'selected':>9s} {'Prop. 2 back':>12s} {'undershoot':>10s}"
     ]
     for task, seeds in rows.items():
         for seed, n in seeds.items():
@@ -64,7 +71,8 @@ def run(runner: Runner) -> dict:
                 f"{n['cosine_slow']:8.3f} {n['falls']:7.1%} {n['cosine_moving_early']:7.3f} "
                 f"{n['cosine_moving_late']:7.3f} "
                 f"{n['demos_ending_lower']:>12d}/{n['demos']:<6d} "
-                f"{n['features_95']:10d} {n['selected_features']:4d}/{n['kept_features']}"
+                f"{n['features_95']:10d} {n['selected_features']:4d}/{n['kept_features']:<4d} "
+                f"{n['prop2']['came_back']:12.0%} {n['prop2']['undershoot_median']:10.3f}"
             )
     sphere = rows["sphere"][SEEDS[0]]
     lines.append(
@@ -96,6 +104,13 @@ def discussion(rows: dict) -> str:
             f"{COSINE_TARGET}), f falling on {spread(falls, '.3f')} of the steps of at least "
             f"0.01 rad; {met} of {len(numbers)} seeds meet <= {WEIGHTED_COSINE_TARGET} and >= "
             f"{FALLING_TARGET:.0%}"
+        )
+        back = [n["prop2"]["came_back"] for n in numbers]
+        under = [n["prop2"]["undershoot_median"] for n in numbers]
+        text += (
+            f"; Prop. 2, rollouts from states around the demonstrations' ends: "
+            f"{spread([100 * b for b in back], '.0f')}% come back to rest nearer y_T, and f goes "
+            f"below f(y_T) by {spread(under, '.3f')} of the demonstrations' fall (median)"
         )
         if task == "box":
             slow = [n["cosine_slow"] for n in numbers]

@@ -24,8 +24,29 @@ def grasp_row(records) -> dict:
         "lift": s["lift_passed"],
         "collisions": s["collisions"],
         "episodes": len(records),
+        "at_rest": at_rest(s),
         "records": report(records)["episodes"],
     }
+
+
+def at_rest(summary: dict):
+    """Of a controller's episodes (evaluation.summarize's summary) that did their task, how many
+    came to rest before the step budget; None for the teacher's, which run for a fixed time."""
+    controlled = summary["converged"] + summary["step_budget"]
+    return summary["done_converged"] if controlled else None
+
+
+def rest_share(rows) -> float:
+    """Of the episodes that did their task in rows (grasp or box rows, with "at_rest" and "good"
+    or "opened"), the share that came to rest before the step budget (NaN if none did it)."""
+    done = sum(row.get("good", row.get("opened", 0)) for row in rows)
+    return sum(row["at_rest"] for row in rows) / done if done else math.nan
+
+
+def rest_cell(row: dict) -> str:
+    """'at rest/done' of a grasp or box row, '-' for the teacher's."""
+    done = row.get("good", row.get("opened"))
+    return "-" if row["at_rest"] is None else f"{row['at_rest']}/{done}"
 
 
 def grasp_rows(runner, tests, models: dict) -> dict:
@@ -62,6 +83,7 @@ def seeded_grasp_row(by_seed: dict) -> dict:
         "good": [row["good"] for row in seeds.values()],
         "lift": [row["lift"] for row in seeds.values()],
         "collisions": [row["collisions"] for row in seeds.values()],
+        "at_rest": [row["at_rest"] for row in seeds.values()],
         "episodes": next(iter(seeds.values()))["episodes"],
     }
 
@@ -82,14 +104,14 @@ def grasp_table(rows: dict) -> str:
     """One line per agent, or per seed of a seeded agent followed by its spread over the seeds."""
     lines = [
         f"{'agent':18s} {'seed':>4s} {'cost mean':>10s} {'std':>6s} {'max':>6s} {'good':>6s} "
-        f"{'lift':>5s} {'collisions':>10s}"
+        f"{'lift':>5s} {'collisions':>10s} {'good at rest':>12s}"
     ]
 
     def line(name, seed, r):
         return (
             f"{name:18s} {seed:>4s} {r['cost_mean']:10.3f} {r['cost_std']:6.3f} "
             f"{r['cost_max']:6.3f} {r['good']:3d}/{r['episodes']:<2d} {r['lift']:5d} "
-            f"{r['collisions']:10d}"
+            f"{r['collisions']:10d} {rest_cell(r):>12s}"
         )
 
     for name, row in rows.items():

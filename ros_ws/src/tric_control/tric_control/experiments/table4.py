@@ -9,6 +9,8 @@ import numpy as np  # noqa: E402
 from tric_control.evaluation import report, summarize  # noqa: E402
 from tric_control.experiments.paper import PAPER_BOXES, PAPER_REPORTS  # noqa: E402
 from tric_control.experiments.rows import (  # noqa: E402
+    at_rest,
+    rest_cell,
     spread,
 )
 from tric_control.experiments.runner import Runner  # noqa: E402
@@ -46,12 +48,13 @@ def run(runner: Runner) -> dict:
         "episodes": len(tests),
     }
     lines = [
-        f"{'agent':18s} {'seed':>4s} {'opened':>8s} {'lid mean (rad)':>15s} {'collisions':>10s}"
+        f"{'agent':18s} {'seed':>4s} {'opened':>8s} {'lid mean (rad)':>15s} {'collisions':>10s} "
+        f"{'opened at rest':>14s}"
     ]
     for name, row in rows.items():
         lines += [
             f"{name:18s} {str(seed):>4s} {r['opened']:4d}/{r['episodes']:<3d} "
-            f"{r['lid_mean']:15.2f} {r['collisions']:10d}"
+            f"{r['lid_mean']:15.2f} {r['collisions']:10d} {rest_cell(r):>14s}"
             for seed, r in row["seeds"].items()
         ]
         if len(row["seeds"]) > 1:
@@ -85,6 +88,7 @@ def _box_row(records) -> dict:
         "episodes": len(records),
         "lid_mean": s["lid_angle_mean"],
         "collisions": s["collisions"],
+        "at_rest": at_rest(s),
         "records": report(records)["episodes"],
     }
 

@@ -94,12 +94,16 @@ def rollouts_from_demo_ends(
     sigma: float = SIGMA,
     ticks: int = TICKS,
     seed: int = 0,
+    feature_map=None,
 ) -> list:
     """[Rollout] of rollouts starts around each demo's last state (see the module docstring),
-    reproducibly from seed; ValueError for delta or rho not positive."""
+    reproducibly from seed; ValueError for delta or rho not positive. feature_map: phi and its
+    Jacobian (default FeatureMap of the dataset's definition)."""
     if not (delta > 0 and rho > 0):
         raise ValueError("delta and rho must be positive (a model file records both)")
-    feature_map = FeatureMap(dataset.definition, robot)
+    if rollouts < 1 or ticks < 1 or not sigma > 0:
+        raise ValueError("rollouts and ticks must be at least 1 and sigma positive")
+    feature_map = feature_map or FeatureMap(dataset.definition, robot)
     rng = np.random.default_rng(seed)
     found = []
     for i, demo in enumerate(dataset.demos):
