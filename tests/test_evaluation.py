@@ -264,7 +264,7 @@ def test_grasp_rows_evaluate_the_teacher_then_each_model_over_its_seeds():
     assert [bar.get_height() for bar in axis.patches] == pytest.approx([0.03, 0.1, 0.1])
 
 
-def grasp_row(mean, good=15, lift=15, collisions=0, std=0.01, episodes=15):
+def grasp_row(mean, good=15, lift=15, collisions=0, std=0.01, episodes=15, at_rest=0):
     return {
         "cost_mean": mean,
         "cost_std": std,
@@ -273,6 +273,7 @@ def grasp_row(mean, good=15, lift=15, collisions=0, std=0.01, episodes=15):
         "lift": lift,
         "collisions": collisions,
         "episodes": episodes,
+        "at_rest": at_rest,
     }
 
 
@@ -344,24 +345,34 @@ def test_discussions_follow_the_numbers():
     assert "still a clear gain" in text and "both terms together are best" in text
     assert "The means of N = 3, M = 60 (4/15 good) are pulled up by their failed grasps" in text
 
+    def good_tric():
+        return seeded(
+            grasp_row(0.1, good=9, lift=8, episodes=10, at_rest=9),
+            grasp_row(0.08, good=10, lift=9, episodes=10, at_rest=10),
+            grasp_row(0.11, good=9, lift=9, episodes=10, at_rest=8),
+        )
+
     cylinders = {
         "teacher": grasp_row(0.02, episodes=10),
         "TRIC K = 0": seeded(*(grasp_row(0.3, good=6, episodes=10) for _ in range(3))),
-        "TRIC K = 30": seeded(
-            grasp_row(0.1, good=9, lift=8, episodes=10),
-            grasp_row(0.08, good=10, lift=9, episodes=10),
-            grasp_row(0.11, good=9, lift=9, episodes=10),
-        ),
+        "TRIC K = 30": good_tric(),
+        table3.SECOND_DRAW: good_tric(),
+        "TRIC K = 30" + table3.VALIDATION: good_tric(),
+        table3.SECOND_DRAW + table3.VALIDATION: good_tric(),
     }
     text = table3.discussion(cylinders)
     assert (
-        "Every seed meets the design's targets" in text
+        "Every seed and draw meets the design's targets" in text
         and "K = 30 beats K = 0 with every seed" in text
     )
+    assert "Of TRIC K = 30's good test grasps, 96% came to rest" in text
     cylinders["TRIC K = 30"]["seeds"][1] = grasp_row(0.35, good=7, lift=4, episodes=10)
+    cylinders[table3.SECOND_DRAW + table3.VALIDATION]["seeds"][2] = grasp_row(
+        0.2, good=8, lift=8, episodes=10
+    )
     text = table3.discussion(cylinders)
     assert (
-        "seed 1 miss the design's targets" in text
+        "TRIC K = 30: seed 1; TRIC K = 30, 2nd draw (val): seed 2." in text
         and "K = 30 beats K = 0 with seeds 0, 2 only" in text
     )
 
@@ -386,6 +397,26 @@ def test_discussions_follow_the_numbers():
     text = table4.discussion(boxes([24, 12, 25], [2, 13, 3], [9, 8, 7]))
     assert "TRIC misses the design's 23 with 1 of 3 seeds (at worst 12)" in text
     assert "A DPL variant opens as many as 13 with one seed" in text
+
+    def seeded_boxes(opened, episodes, at_rest):
+        return {
+            "seeds": {
+                s: {"opened": o, "at_rest": a} for s, (o, a) in enumerate(zip(opened, at_rest))
+            },
+            "opened": opened,
+            "episodes": episodes,
+        }
+
+    rows = boxes([24, 23, 25], [2, 1, 3], [9, 8, 7])
+    rows["TRIC"] = seeded_boxes([24, 23, 25], 25, [24, 20, 25])
+    rows["TRIC (val)"] = seeded_boxes([23, 24, 23], 25, [23, 24, 23])
+    rows["TRIC (train)"] = seeded_boxes([10, 9, 10], 10, [10, 9, 10])
+    text = table4.discussion(rows)
+    assert "On the validation boxes TRIC opens 23/24/23" in text
+    assert "the design's targets hold there too" in text
+    assert "Of TRIC's opened boxes, 98% came to rest" in text
+    rows["TRIC (train)"] = seeded_boxes([10, 8, 10], 10, [0, 0, 0])
+    assert "short of the design's 23 and 9" in table4.discussion(rows)
 
 
 def test_analysis_discussion_judges_every_task_and_seed():
