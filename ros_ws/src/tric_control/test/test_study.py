@@ -81,3 +81,14 @@ def test_contact_options_change_the_task_s_contact_rules_only_where_given():
     assert study.contact_rules({"grasp_depth": 0.0}, "open_box") is None
     with pytest.raises(ValueError, match="contact depths and cushions must be in"):
         study.parse_variant("v=grasp_depth=0.2")
+
+
+def test_the_domain_damper_can_be_left_out_for_a_study():
+    from tric_control.limits import DomainDamper
+    from tric_control.motion_rate import default_limits
+    from tric_sim.robot_model import RobotModel
+
+    assert study.parse_variant("v=domain_damper=false")[1] == {"domain_damper": False}
+    robot = RobotModel()
+    kinds = [type(limit) for limit in default_limits(robot, {}, domain_damper=False)]
+    assert DomainDamper not in kinds and len(kinds) == len(default_limits(robot, {})) - 1

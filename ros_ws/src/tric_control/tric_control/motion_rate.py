@@ -83,13 +83,14 @@ CONVERGED_WINDOW = 100
 CONVERGED_MOTION = 0.01
 
 
-def default_limits(robot: RobotModel, contacts: dict) -> list:
-    """The controller's limits: joint limits, collision and domain dampers, and the soft side of
-    the task's contacts ({scene body name: tric_sim.scene.Contact})."""
+def default_limits(robot: RobotModel, contacts: dict, domain_damper: bool = True) -> list:
+    """The controller's limits: joint limits, collision and domain dampers (domain_damper: False
+    leaves the domain damper out, for studies), and the soft side of the task's contacts ({scene
+    body name: tric_sim.scene.Contact})."""
     rules = ContactRules(contacts)
     return [
         CollisionDamper(rules, COLLISION_ROWS, SAFETY, SELF_SAFETY, DAMPING),
-        DomainDamper(DOMAIN_ROWS, DAMPING),
+        *([DomainDamper(DOMAIN_ROWS, DAMPING)] if domain_damper else []),
         JointLimits(robot.lower, robot.upper, robot.joint_names, JOINT_MARGIN),
         SoftContact(rules),
     ]
@@ -211,7 +212,8 @@ class MotionRateController:
     proximity.near(q, object_poses, INFLUENCE) -> tric_sim.proximity.Closest: the collision pairs.
     contacts: what the hand may press ({scene body name: tric_sim.scene.Contact}), default the
     proximity's (its situation's task's). limits: the QP's pieces (tric_control.limits.Limit),
-    default default_limits(robot, contacts); the inequality rows are stacked in their order.
+    default default_limits(robot, contacts, domain_damper); the inequality rows are stacked in
+    their order.
     max_lead: how far the command may lead the measured joints, rad, one for all or (n,); default
     MAX_LEAD on the arm and MAX_HAND_LEAD on the hand.
     """
@@ -226,6 +228,7 @@ class MotionRateController:
         contacts: dict = None,
         limits: list = None,
         max_lead=None,
+        domain_damper: bool = True,
     ):
         self.robot, self.proximity, self.objective, self.period = (
             robot,
@@ -241,7 +244,9 @@ class MotionRateController:
             raise ValueError("max_lead must be finite and >= 0 rad")
         if limits is None:
             limits = default_limits(
-                robot, getattr(proximity, "contacts", {}) if contacts is None else contacts
+                robot,
+                getattr(proximity, "contacts", {}) if contacts is None else contacts,
+                domain_damper,
             )
         self.limits = list(limits)
         n = robot.n_joints

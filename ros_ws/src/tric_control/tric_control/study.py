@@ -95,8 +95,9 @@ MODEL_MEASURES = (
 
 
 #: Controller settings a variant may change, with their types: the hand's lead, the step budgets,
-#: and the task's contact rules (tric_sim.scene.TASK_CONTACTS): how deep the hand may press into a
-#: grasp target and its cushion (m), how deep into the lid (m) and whether only from beneath.
+#: the task's contact rules (tric_sim.scene.TASK_CONTACTS): how deep the hand may press into a
+#: grasp target and its cushion (m), how deep into the lid (m) and whether only from beneath; and
+#: whether the domain damper (tric_control.limits.DomainDamper) is among the limits.
 CONTROLLER_OPTIONS = {
     "hand_lead": float,
     "grasp_steps": int,
@@ -105,6 +106,7 @@ CONTROLLER_OPTIONS = {
     "grasp_cushion": float,
     "lid_depth": float,
     "lid_beneath_only": bool,
+    "domain_damper": bool,
 }
 #: Training procedures beyond TrainingConfig: rounds of hard negatives
 #: (tric_control.hard_negatives).
@@ -305,6 +307,8 @@ class Study:
             lead = np.full(self.robot.n_joints, MAX_LEAD)
             lead[self.robot.hand_indices] = changes["hand_lead"]
             options["max_lead"] = lead
+        if "domain_damper" in changes:
+            options["domain_damper"] = changes["domain_damper"]
         contacts = contact_rules(changes, "open_box" if task == "box" else "grasp")
         if contacts is not None:
             options["contacts"] = contacts
