@@ -1,10 +1,11 @@
 """The noisy samples of L_n (tric_learning.samples.generate, Eq. 12-15) on two recorded sphere
 demonstrations: at most M per step t >= 1, at least half of M on every one (the grasp's end
-included), inside the joint limits and collision-free in the scene of step t (the hand pressing
+included), inside the joint limits and collision-free in the scene of step t - 1 (the hand pressing
 into the sphere by at most the contact tolerance); drawn around q_{t-1} with standard deviation
 sigma, conditioned on the joint limits (checked with the collision check accepting everything, so
-that no draw is refused); their features at the poses of step t; their weights d_curve to the path
-ahead; the same samples from a seed whatever the number of workers. Units: rad."""
+that no draw is refused); their features at the poses of step t - 1, or of step t when asked;
+their weights d_curve to the path ahead; the same samples from a seed whatever the number of
+workers. Units: rad."""
 
 import os
 
@@ -98,13 +99,13 @@ def test_each_later_step_gets_at_most_m_collision_free_samples_inside_the_limits
         poses = recorded.object_poses
         for t in np.unique(step[demo == i]):
             mine = qs[(demo == i) & (step == t)]
-            for q in mine[~collision.collision_free(mine, poses[t])]:
+            for q in mine[~collision.collision_free(mine, poses[t - 1])]:
                 # steps whose objects moved by less than POSE_TOLERANCE share the check of the first
                 # one
                 assert any(
-                    samples._surface_shift(poses[s], poses[t], extents) < samples.POSE_TOLERANCE
+                    samples._surface_shift(poses[s], poses[t - 1], extents) < samples.POSE_TOLERANCE
                     and collision.collision_free(q[None], poses[s])[0]
-                    for s in range(1, t)
+                    for s in range(t - 1)
                 ), (i, t)
 
 
@@ -165,13 +166,12 @@ def test_samples_are_gaussian_around_the_previous_step(robot, dataset):
 
 
 def test_features_and_weights_of_each_sample(robot, dataset, drawn):
-    """y~ = phi(q~) with the objects where they are at step t (the scene of the y_t it is contrasted
-    with); the weight is d_curve, q~'s distance to the demonstration's path from q_t on (Eq.
-    14-15)."""
+    """y~ = phi(q~) with the objects where they were at step t - 1 (q~ perturbs the state at t - 1);
+    the weight is d_curve, q~'s distance to the demonstration's path from q_t on (Eq. 14-15)."""
     noisy, qs = drawn
     demo, step = demo_of_each_sample(dataset, noisy)
     features = FeatureMap(dataset.definition, robot)
-    poses = [dataset.demos[i].object_poses[t] for i, t in zip(demo, step)]
+    poses = [dataset.demos[i].object_poses[t - 1] for i, t in zip(demo, step)]
     np.testing.assert_allclose(noisy.y, features.batch(qs, poses), rtol=0, atol=1e-12)
     for k in range(len(qs)):
         path = dataset.demos[demo[k]].q[step[k] :]
@@ -179,6 +179,24 @@ def test_features_and_weights_of_each_sample(robot, dataset, drawn):
             float(samples.d_curve(qs[k : k + 1], path)[0]), abs=1e-12
         )
     assert np.all(noisy.weight > 0)
+
+
+def test_samples_may_see_the_scene_of_the_step_they_are_contrasted_with(robot, dataset):
+    """scene_step 0: y~ = phi(q~) with the objects where they are at step t."""
+    monkeypatch = pytest.MonkeyPatch()
+    monkeypatch.setattr(samples, "FeatureMap", SeenFeatureMap)
+    SeenFeatureMap.seen = []
+    try:
+        noisy = samples.generate(dataset, robot, COUNT, SIGMA, SEED, workers=1, scene_step=0)
+    finally:
+        monkeypatch.undo()
+    qs = np.concatenate(SeenFeatureMap.seen)
+    demo, step = demo_of_each_sample(dataset, noisy)
+    poses = [dataset.demos[i].object_poses[t] for i, t in zip(demo, step)]
+    features = FeatureMap(dataset.definition, robot)
+    np.testing.assert_allclose(noisy.y, features.batch(qs, poses), rtol=0, atol=1e-12)
+    with pytest.raises(ValueError, match="scene step must be 0 or -1"):
+        samples.generate(dataset, robot, COUNT, SIGMA, SEED, scene_step=1)
 
 
 def test_a_seed_gives_the_same_samples_with_any_number_of_workers(robot, dataset, drawn):

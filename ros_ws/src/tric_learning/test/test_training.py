@@ -121,7 +121,7 @@ def test_split_l_bfgs_b_gives_exact_zeros_and_a_lower_loss_than_it_starts_from(r
         ({"correlation_threshold": 1.5}, "correlation_threshold must be in (0, 1]"),
         ({"seed": -1}, "seed must be in [0, 2^32)"),
         ({"seed": 2**32}, "seed must be in [0, 2^32)"),
-        ({"optimizer": "adam"}, "optimizer must be one of lbfgs, lbfgsb"),
+        ({"optimizer": "adam"}, "optimizer must be one of lbfgs, lbfgsb, bfgs"),
         ({"members": 0}, "members must be in [1, 20]"),
         ({"members": 21}, "members must be in [1, 20]"),
     ],

@@ -3,13 +3,14 @@
 For demo i and step t (1 <= t < T) the samples are q~ = q_{t-1} + N(0, sigma^2) per joint,
 conditioned on the joint limits (each joint drawn from its Gaussian truncated to its limits: the
 same distribution as drawing and refusing what falls outside, without the refused draws) and kept
-only free of collision with the demo's scene (tric_sim.collision, with the objects where they are
-at step t: the sample and the demonstrated y_t it is contrasted with see one scene, and differ only
-by the robot's configuration). The hand may press into the bodies the task lets it touch by
-contact_tolerance (m), which admits the teacher's own grip. Each sample's weight is d_curve: its
-distance to the demo's path ahead, the polyline q_t, ..., q_{T-1} (Eq. 14-15). Samples do not
-depend on the value function, so they are drawn once per training, reproducibly from a seed.
-Units: rad, m.
+only free of collision with the demo's scene (tric_sim.collision), with the objects where they were
+at step t - 1 by default: a sample is a perturbation of the state at t - 1, an alternative to the
+demonstrated move from it, as Eq. 12 draws it around q_{t-1} (scene_step 0 puts the objects where
+they are at t instead; docs/decisions/paper-fidelity.md). The hand may press into the bodies the
+task lets it touch by contact_tolerance (m), which admits the teacher's own grip. Each sample's
+weight is d_curve: its distance to the demo's path ahead, the polyline q_t, ..., q_{T-1} (Eq.
+14-15). Samples do not depend on the value function, so they are drawn once per training,
+reproducibly from a seed. Units: rad, m.
 """
 
 import concurrent.futures
@@ -97,15 +98,15 @@ def generate(
     progress=None,
     workers: int = 2,
     contact_tolerance: float = SAMPLE_CONTACT_TOLERANCE,
-    scene_step: int = 0,
+    scene_step: int = -1,
 ) -> NoisySamples:
     """count (M) collision-free noisy samples per demo step t >= 1 (fewer only where MAX_ROUNDS of
     resampling could not find them); progress(done, total) is called after each demo. Demos are
     sampled in `workers` forked processes where the platform allows it, each from its own seed
     (seed, demo index): the result does not depend on the number of workers. contact_tolerance: how
     deep (m) a sample may press into the bodies the task lets the hand touch. scene_step: the
-    samples of step t see the objects of step t + scene_step (0: the positive's; -1: those of
-    q_{t-1}, around which they are drawn)."""
+    samples of step t see the objects of step t + scene_step (-1: those of q_{t-1}, around which
+    they are drawn; 0: the positive's)."""
     if count < 1 or not sigma > 0:
         raise ValueError("the noisy sample count must be >= 1 and sigma > 0")
     if not 0 <= contact_tolerance <= 0.1:
