@@ -24,8 +24,8 @@ from tric_learning import model_file
 from tric_learning.bag_dataset import load_dataset
 from tric_learning.training import TrainingConfig, train
 from tric_sim import situations
+from tric_sim.dds_domains import private_domain_id
 from tric_sim.robot_model import RobotModel
-from tric_sim.ros_util import private_domain_id
 
 BAGS = pathlib.Path(__file__).resolve().parent.parent / "bags" / "sphere"
 EPISODES = 100

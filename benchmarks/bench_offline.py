@@ -16,8 +16,8 @@ from tric_control.graph_evaluation import evaluate
 from tric_control.offline import evaluate_offline
 from tric_learning.training import TrainingConfig, train_from_bags
 from tric_sim import situations
+from tric_sim.dds_domains import private_domain_id
 from tric_sim.robot_model import RobotModel
-from tric_sim.ros_util import private_domain_id
 
 BAGS = pathlib.Path(__file__).resolve().parent.parent / "bags" / "sphere"
 

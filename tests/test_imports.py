@@ -35,7 +35,8 @@ def test_imports_without_display(package):
 
 
 def test_tools_load_nothing_of_foxglove_without_viz():
-    """The in-process tools import the visualizer (for --viz) but not foxglove-sdk until asked."""
+    """The in-process tools offer --viz (tric_sim.view_options) but import foxglove-sdk only when
+    asked."""
     code = (
         "import sys, tric_control.demo_cli, tric_control.evaluate_cli, tric_learning.record_cli; "
         "print(sorted(m for m in sys.modules if m.split('.')[0] in ('foxglove', 'websockets')))"
@@ -76,3 +77,36 @@ def test_command_line_tools_import_libraries_never_another_tool():
     for tool in sorted(tools):
         others = imported_modules(tool) & (tools - {tool})
         assert not others, f"{scripts[tool]} ({tool}) imports the tool(s) {sorted(others)}"
+
+
+#: The libraries an answer to --help or to a bad argument must not wait for (issue 25: tric-eval's
+#: --help took 6 s): each takes 0.3 to 3 s to import.
+HEAVY_LIBRARIES = ("torch", "pybullet", "pinocchio", "rclpy", "matplotlib")
+
+
+@pytest.mark.parametrize(
+    "module, bad_arguments",
+    [
+        ("tric_control.evaluate_cli", ["sphere_test", "--teacher", "--jobs", "0"]),
+        ("tric_learning.train_cli", ["some.mcap", "--alpha-g", "-1"]),
+        ("tric_learning.record_cli", ["sphere_train", "--period", "0"]),
+    ],
+)
+def test_help_and_argument_errors_answer_before_the_heavy_libraries(module, bad_arguments):
+    """--help exits 0 and a bad argument 2, each with its text, before torch, pybullet, pinocchio,
+    rclpy or matplotlib is imported."""
+    for arguments, status, text in ((["--help"], 0, "usage:"), (bad_arguments, 2, "must")):
+        code = (
+            f"import sys, {module} as tool\n"
+            "try:\n"
+            f"    status = tool.main({arguments!r})\n"
+            "except SystemExit as end:\n"
+            "    status = end.code\n"
+            f"print('HEAVY', sorted(set({HEAVY_LIBRARIES!r}) & set(sys.modules)), 'STATUS', status)"
+        )
+        proc = subprocess.run(
+            [sys.executable, "-c", code], capture_output=True, text=True, timeout=120
+        )
+        assert proc.returncode == 0, proc.stderr
+        assert f"HEAVY [] STATUS {status}" in proc.stdout, (arguments, proc.stdout, proc.stderr)
+        assert text in proc.stdout + proc.stderr, (arguments, proc.stdout, proc.stderr)

@@ -45,12 +45,12 @@ from tric_control.experiments.targets import MARGIN_TO_TEACHER  # noqa: E402
 from tric_control.graph_evaluation import evaluate  # noqa: E402
 from tric_learning.demonstrations import demonstrate_all  # noqa: E402
 from tric_learning.training import TrainingConfig, train_from_bags  # noqa: E402
+from tric_sim.dds_domains import private_domain_id  # noqa: E402
 from tric_sim.metrics import GOOD_GRASP  # noqa: E402
 from tric_sim.output_files import atomic_path, check_output_folder  # noqa: E402
 from tric_sim.robot_model import RobotModel  # noqa: E402
-from tric_sim.ros_util import private_domain_id  # noqa: E402
 from tric_sim.situations import dataset  # noqa: E402
-from tric_sim.visualizer_node import add_view_arguments, open_view  # noqa: E402
+from tric_sim.view_options import add_view_arguments, open_view  # noqa: E402
 
 
 def record(out: pathlib.Path, domain_id: int, view=None) -> pathlib.Path:

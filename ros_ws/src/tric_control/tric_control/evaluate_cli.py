@@ -30,14 +30,13 @@ import argparse
 import pathlib
 import sys
 
-from tric_control.evaluation import report, table, write_json
-from tric_control.graph_evaluation import MAX_DOMAIN_ID, evaluate
-from tric_control.offline import evaluate_offline
+# Only what the arguments need: --help and argument errors answer before torch, pybullet,
+# pinocchio and rclpy are imported (main imports the rest once the arguments are checked).
+from tric_sim.dds_domains import MAX_DOMAIN_ID, private_domain_id
 from tric_sim.output_files import check_output_file, check_output_folder
-from tric_sim.ros_util import private_domain_id
 from tric_sim.situation_files import load_situations
 from tric_sim.situations import DATASETS, dataset
-from tric_sim.visualizer_node import add_view_arguments, open_view
+from tric_sim.view_options import add_view_arguments, open_view
 
 
 def main(argv=None) -> int:
@@ -117,6 +116,9 @@ def main(argv=None) -> int:
         if args.snapshots:
             check_output_folder(args.snapshots, "--snapshots folder")
         model = None if args.teacher else args.model
+        from tric_control.graph_evaluation import evaluate
+        from tric_control.offline import evaluate_offline
+
         if args.offline:
             records = evaluate_offline(
                 situations, model, args.max_steps, args.snapshots, jobs=args.jobs
@@ -139,6 +141,8 @@ def main(argv=None) -> int:
     finally:
         if view is not None:
             view.close()
+    from tric_control.evaluation import report, table, write_json
+
     name = "teacher" if args.teacher else args.model
     print(
         table(

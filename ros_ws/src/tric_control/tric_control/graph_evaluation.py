@@ -33,6 +33,7 @@ from tric_msgs.action import Demonstrate, Execute  # noqa: E402
 from tric_msgs.msg import EpisodeEvent  # noqa: E402
 from tric_msgs.srv import EvaluateTask, LoadModel, RenderScene, ResetScene  # noqa: E402
 from tric_sim import messages  # noqa: E402
+from tric_sim.dds_domains import MAX_DOMAIN_ID  # noqa: E402
 from tric_sim.output_files import atomic_path  # noqa: E402
 from tric_sim.ros_util import EVENT_QOS, InProcessGraph, wait  # noqa: E402
 from tric_sim.simulator_node import lockstep_simulator  # noqa: E402
@@ -42,8 +43,6 @@ from tric_sim.visualizer_node import VisualizerNode  # noqa: E402
 #: Wall seconds to wait for a service answer, and for an episode to end.
 SERVICE_TIMEOUT = 60.0
 EPISODE_TIMEOUT = 900.0
-#: The last DDS domain id (Fast DDS: its ports must stay below 65536).
-MAX_DOMAIN_ID = 232
 #: Wall seconds to wait for the recorder to close an episode's bag (--record).
 BAG_TIMEOUT = 30.0
 

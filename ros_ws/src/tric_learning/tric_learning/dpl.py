@@ -24,7 +24,7 @@ train_dpl_from_bags() is the whole job for tric-train --kind and the trainer nod
 """
 
 import time
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 
 import numpy as np
 import torch
@@ -32,51 +32,16 @@ import torch
 from tric_learning.bag_training import BagTraining, train_on_bags
 from tric_learning.dataset import Dataset
 from tric_learning.features import FeatureDefinition
+from tric_learning.hyperparameters import DPL_KINDS, DplConfig
 from tric_learning.lbfgs import deterministic_torch, minimize_lbfgs
 from tric_learning.model_file import ModelFile
-from tric_learning.training import refuse_failed
 from tric_learning.value_function import Scaling, sigmoid
 from tric_sim.provenance import code_digest
 from tric_sim.robot_model import RobotModel
 
-DPL_KINDS = ("dpl_joint", "dpl_finger")
 #: dpl_finger: the landmark whose frame the fingertips are expressed in, and the fingertips' prefix.
 FINGER_FRAME = "box"
 FINGERTIP_PREFIX = "fingertip"
-
-
-@dataclass
-class DplConfig:
-    """Hyper-parameters (l2's default: docs/decisions/dpl-settings.md).
-
-    hidden_units: K sigmoid units (the paper: 60), a count.
-    l2: the weight on |W1|^2 + |W2|^2, relative to the mean squared error of the RMS-normalized
-        targets (dimensionless).
-    max_iterations: L-BFGS iterations at most.
-    correlation_threshold: the input scaling's (as TRIC's), a correlation in (0, 1].
-    seed: the seed of the initial weights.
-    """
-
-    hidden_units: int = 60
-    l2: float = 1e-4
-    max_iterations: int = 300
-    correlation_threshold: float = 0.995
-    seed: int = 0
-
-    def validate(self) -> "DplConfig":
-        """Return self, or ValueError naming the first value out of range."""
-        checks = [
-            (1 <= self.hidden_units <= 1000, "hidden_units must be in [1, 1000] for DPL"),
-            (np.isfinite(self.l2) and self.l2 >= 0, "l2 must be finite and >= 0"),
-            (1 <= self.max_iterations <= 100000, "max_iterations must be in [1, 100000]"),
-            (0 < self.correlation_threshold <= 1, "correlation_threshold must be in (0, 1]"),
-            (0 <= self.seed < 2**32, "seed must be in [0, 2^32)"),
-        ]
-        refuse_failed(checks)
-        return self
-
-    def to_dict(self) -> dict:
-        return asdict(self)
 
 
 @dataclass

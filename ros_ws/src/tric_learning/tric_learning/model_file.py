@@ -16,13 +16,13 @@ from safetensors import SafetensorError, safe_open
 from safetensors.numpy import load_file, save_file
 
 from tric_learning.features import FeatureDefinition
+from tric_learning.hyperparameters import KINDS
 from tric_learning.value_function import Scaling, ValueFunction
 from tric_sim.output_files import atomic_path
 from tric_sim.provenance import code_digest
 
 FORMAT = "tric-model"
 VERSION = 1
-KINDS = ("tric", "dpl_joint", "dpl_finger")
 
 
 @dataclass

@@ -15,12 +15,13 @@ import argparse
 import sys
 import time
 
-from tric_learning.demonstrations import demonstrate_all
+# Only what the arguments need: --help and argument errors answer before pybullet, pinocchio and
+# rclpy are imported (main imports the nodes once the arguments are checked).
+from tric_sim.dds_domains import MAX_DOMAIN_ID, private_domain_id
 from tric_sim.output_files import check_output_folder
-from tric_sim.ros_util import private_domain_id
 from tric_sim.situation_files import load_situations
 from tric_sim.situations import DATASETS, dataset
-from tric_sim.visualizer_node import add_view_arguments, open_view
+from tric_sim.view_options import add_view_arguments, open_view
 
 
 def main(argv=None) -> int:
@@ -68,8 +69,10 @@ def main(argv=None) -> int:
         print(f"tric-record: {error}{hint}", file=sys.stderr)
         return 2
     domain_id = private_domain_id() if args.domain_id is None else args.domain_id
-    if not 0 <= domain_id <= 232:
-        parser.error("--domain-id must be in [0, 232]")
+    if not 0 <= domain_id <= MAX_DOMAIN_ID:
+        parser.error(f"--domain-id must be in [0, {MAX_DOMAIN_ID}]")
+    from tric_learning.demonstrations import demonstrate_all
+
     print(f"tric-record: nodes in DDS domain {domain_id}", file=sys.stderr)
     try:
         view = open_view(args, "tric-record")

@@ -24,6 +24,7 @@ from scipy.special import ndtr, ndtri
 
 from tric_learning.dataset import Dataset
 from tric_learning.features import FeatureMap
+from tric_learning.hyperparameters import SAMPLE_CONTACT_TOLERANCE
 from tric_sim.collision import SceneCollision
 from tric_sim.robot_model import RobotModel
 
@@ -37,10 +38,6 @@ MAX_DRAWS = 25
 #: Consecutive steps whose objects' surfaces moved by less than this share one collision check with
 #: the first step's poses (held objects give by a millimetre or so), m.
 POSE_TOLERANCE = 0.002
-#: How deep a sample may press into the bodies the task lets the hand touch, m: the teacher's own
-#: grip presses 8 to 9 mm into a sphere's collision shape, so this admits its grasps (at 5 mm only
-#: 9% of the last steps' demonstrated states were collision-free).
-SAMPLE_CONTACT_TOLERANCE = 0.015
 
 
 @dataclass

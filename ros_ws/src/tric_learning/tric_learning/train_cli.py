@@ -25,11 +25,9 @@ import sys
 
 from tqdm import tqdm
 
-from tric_learning.bag_dataset import bag_paths
-from tric_learning.dpl import DPL_KINDS, DplConfig, train_dpl_from_bags
-from tric_learning.model_file import KINDS
-from tric_learning.training import SELECTED_FRACTION, TrainingConfig, train_from_bags
-from tric_sim.robot_model import RobotModel
+# Only what the arguments need: --help and argument errors answer before torch, pybullet,
+# pinocchio and rclpy are imported (main imports them once the arguments are checked).
+from tric_learning.hyperparameters import DPL_KINDS, KINDS, DplConfig, TrainingConfig
 
 PROG = "tric-train"
 
@@ -192,6 +190,8 @@ def parse_arguments(argv):
 
 def summary(run) -> str:
     """The lines printed after training."""
+    from tric_learning.training import SELECTED_FRACTION
+
     result, model = run.result, run.result.model
     losses = result.losses
     steps = sum(demo.length for demo in run.dataset.demos)
@@ -249,7 +249,6 @@ def main(argv=None) -> int:
             if args.iterations is None
             else args.iterations,
         )
-        job = functools.partial(train_dpl_from_bags, kind=args.kind)
     else:
         defaults = TrainingConfig()
         config = TrainingConfig(
@@ -264,9 +263,22 @@ def main(argv=None) -> int:
             seed=args.seed,
             members=args.members,
         )
-        job = train_from_bags
     try:
         config.validate()
+    except ValueError as error:
+        print(f"{PROG}: {error}", file=sys.stderr)
+        return 2
+    from tric_learning.bag_dataset import bag_paths
+    from tric_learning.dpl import train_dpl_from_bags
+    from tric_learning.training import train_from_bags
+    from tric_sim.robot_model import RobotModel
+
+    job = (
+        functools.partial(train_dpl_from_bags, kind=args.kind)
+        if args.kind in DPL_KINDS
+        else train_from_bags
+    )
+    try:
         bars = StageBars(
             len(bag_paths(args.bags, args.tolerant, notice=lambda _: None)),
             config.max_iterations,

@@ -60,14 +60,6 @@ def run_node(node_class, prog: str, args=None) -> int:
     return 0
 
 
-def private_domain_id() -> int:
-    """A DDS domain for an in-process graph that no other graph should share: the simulator's
-    topics (/joint_states, /situation, ...) must not mix with those of another simulator or robot
-    on the same network. Chosen from the process id in 1..100 (0 is left to the user's own
-    graph)."""
-    return 1 + os.getpid() % 100
-
-
 class InProcessGraph:
     """Nodes spun by one SingleThreadedExecutor in a background thread, on a context of their own.
 

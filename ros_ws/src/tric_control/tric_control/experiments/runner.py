@@ -8,9 +8,9 @@ from tric_learning import dpl, model_file
 from tric_learning.bag_dataset import load_dataset
 from tric_learning.dataset import Dataset
 from tric_learning.training import TrainingConfig, train
+from tric_sim.dds_domains import private_domain_id
 from tric_sim.provenance import code_digest
 from tric_sim.robot_model import RobotModel
-from tric_sim.ros_util import private_domain_id
 
 BAGS = pathlib.Path("bags")
 
