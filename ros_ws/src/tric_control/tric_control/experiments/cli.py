@@ -1,6 +1,6 @@
 """tric-experiments: the paper's experiments, each one command, through the real nodes.
 
-    tric-experiments [NAME ...] [--out DIR] [--situations N] [--jobs N]
+    tric-experiments [NAME ...] [--out DIR] [--situations N] [--jobs N] [--check | --check-only]
 
 NAME (default: all, in this order):
   table1    spheres: the teacher and TRIC (K = 30) on the 15 sphere test situations (paper Table 1).
@@ -25,10 +25,14 @@ controller nodes at once, each in a process and DDS domain of its own
 (tric_control.graph_evaluation).
 Each experiment writes DIR/<name>.json and its PNG(s) and prints its table and a discussion composed
 from its numbers; DIR/REPORT.md is then rewritten from every experiment's JSON found in DIR, each
-table beside the paper's numbers and followed by its discussion.
+table beside the paper's numbers and followed by its discussion. --check then compares every
+experiment's results found in DIR with the design's targets, each for every seed
+(tric_control.experiments.checks), prints them and exits 1 if one is missed; --check-only does
+that without running anything.
 """
 
 import argparse
+import json
 import os
 import sys
 import time
@@ -40,6 +44,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 
 from tric_control.evaluation import write_json  # noqa: E402
 from tric_control.experiments import EXPERIMENTS  # noqa: E402
+from tric_control.experiments.checks import check_results, check_table  # noqa: E402
 from tric_control.experiments.report import write_report  # noqa: E402
 from tric_control.experiments.runner import Runner  # noqa: E402
 from tric_sim.output_files import atomic_path, check_output_folder  # noqa: E402
@@ -64,6 +69,15 @@ def main(argv=None) -> int:
         help="evaluation graphs run at once, each in a process of its own (default: the CPUs, "
         "%(default)s)",
     )
+    parser.add_argument(
+        "--check",
+        action="store_true",
+        help="after the runs, compare every experiment's results in the folder with the design's "
+        "targets (for every seed); exit 1 if one is missed",
+    )
+    parser.add_argument(
+        "--check-only", action="store_true", help="--check the folder's results, run nothing"
+    )
     args = parser.parse_args(argv)
     if not 1 <= args.situations <= 300:
         parser.error("--situations must be in [1, 300]")
@@ -79,6 +93,8 @@ def main(argv=None) -> int:
     except ValueError as error:
         print(f"tric-experiments: {error}", file=sys.stderr)
         return 2
+    if args.check_only:
+        return check_folder(out)
     runner = Runner(out, args.jobs)
     for name in args.names or list(EXPERIMENTS):
         print(f"\n=== {name}: {EXPERIMENTS[name].TITLE}", flush=True)
@@ -102,7 +118,23 @@ def main(argv=None) -> int:
         print(f"discussion: {result['discussion']}")
         print(f"({name}: {result['wall_s']:.0f} s)", flush=True)
     print(f"\nwrote {write_report(out)}")
-    return 0
+    return check_folder(out) if args.check else 0
+
+
+def check_folder(out) -> int:
+    """Print the checks of the experiments' results in out; 0 if every target is met, 1 if one is
+    missed, 2 if out holds no result with a target."""
+    results = {
+        name: json.loads((out / f"{name}.json").read_text())
+        for name in EXPERIMENTS
+        if (out / f"{name}.json").is_file()
+    }
+    checks = check_results(results)
+    if not checks:
+        print(f"tric-experiments: {out} holds no results with targets", file=sys.stderr)
+        return 2
+    print(f"\nthe design's targets, each for every seed:\n{check_table(checks)}")
+    return 0 if all(check.met for check in checks) else 1
 
 
 if __name__ == "__main__":

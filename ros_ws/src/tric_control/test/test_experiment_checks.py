@@ -1,0 +1,119 @@
+"""tric-experiments --check: hand-made results against the design's targets, at and past each
+bound, and the command on a results folder."""
+
+import json
+import math
+
+from tric_control.experiments import cli
+from tric_control.experiments.checks import check_results, check_table
+
+
+def grasp_seed(cost, good=10, lift=10, at_rest=0, collisions=0, episodes=10):
+    return {
+        "cost_mean": cost,
+        "good": good,
+        "lift": lift,
+        "at_rest": at_rest,
+        "collisions": collisions,
+        "episodes": episodes,
+    }
+
+
+def seeded(*seeds):
+    return {"seeds": {str(i): row for i, row in enumerate(seeds)}}
+
+
+def box_row(opened, at_rest, episodes):
+    return {
+        "opened": list(opened),
+        "episodes": episodes,
+        "seeds": {
+            str(i): {"opened": o, "at_rest": r, "episodes": episodes}
+            for i, (o, r) in enumerate(zip(opened, at_rest))
+        },
+    }
+
+
+def by_target(checks):
+    return {(c.experiment, c.target): c for c in checks}
+
+
+def test_table1_gap_to_the_teacher_is_met_within_the_margin_and_missed_past_it():
+    rows = {
+        "teacher": {"cost_mean": 0.02},
+        "TRIC K = 30": seeded(
+            grasp_seed(0.0499, at_rest=10),
+            grasp_seed(0.049, at_rest=9),
+            grasp_seed(0.03, 10, 10, 9),
+        ),
+    }
+    checks = by_target(check_results({"table1": {"rows": rows}}))
+    gap = checks[("table1", "TRIC within 0.03 of the teacher's mean cost")]
+    assert gap.met and gap.measured == ["+0.030", "+0.029", "+0.010"]
+    assert checks[("table1", "of the episodes that did their task, >= 90% at rest")].met
+    rows["TRIC K = 30"]["seeds"]["1"] = grasp_seed(0.051, good=9, at_rest=8)
+    checks = by_target(check_results({"table1": {"rows": rows}}))
+    assert not checks[("table1", "TRIC within 0.03 of the teacher's mean cost")].met
+    assert not checks[("table1", "TRIC K = 30: every grasp good (< 0.25)")].met
+    assert not checks[("table1", "of the episodes that did their task, >= 90% at rest")].met
+
+
+def test_table3_needs_every_seed_of_every_draw_and_k30_beating_k0():
+    good = grasp_seed(0.12, good=9, lift=8)
+    rows = {
+        "TRIC K = 0": seeded(*[grasp_seed(0.5)] * 3),
+        "TRIC K = 30": seeded(good, good, good),
+        "TRIC K = 30, 2nd draw": seeded(good, good, grasp_seed(0.12, good=9, lift=7)),
+    }
+    checks = check_results({"table3": {"rows": rows}})
+    met = {c.target.split(":")[0]: c.met for c in checks}
+    assert met["TRIC K = 30"] and not met["TRIC K = 30, 2nd draw"]
+    assert met["K = 30 beats K = 0 (its mean cost lower)"]
+
+
+def test_table4_bounds_dpl_and_rest():
+    rows = {
+        "TRIC": box_row((23, 24, 25), (23, 24, 25), 25),
+        "TRIC (val)": box_row((23, 22, 25), (0, 0, 0), 25),
+        "TRIC (train)": box_row((9, 10, 9), (9, 10, 9), 10),
+        "DPL joint space": box_row((22, 1, 1), (0, 0, 0), 25),
+        "DPL finger space": box_row((0, 23, 0), (0, 0, 0), 25),
+    }
+    checks = by_target(check_results({"table4": {"rows": rows}}))
+    assert checks[("table4", "TRIC: >= 23 of 25 boxes opened")].met
+    assert not checks[("table4", "TRIC (val): >= 23 of 25 boxes opened")].met
+    assert checks[("table4", "TRIC (train): >= 9 of 10 boxes opened")].met
+    dpl = checks[("table4", "both DPL variants open fewer boxes than TRIC")]
+    assert dpl.measured == ["-1", "-1", "-24"] and dpl.met
+    rest = checks[("table4", "of the episodes that did their task, >= 90% at rest")]
+    assert not rest.met  # the validation boxes opened never came to rest
+
+
+def test_analysis_targets_and_the_box_slow_steps():
+    numbers = {"cosine_weighted": -0.9, "cosine_moving": -0.8, "falls": 0.95, "cosine_slow": -0.5}
+    rows = {
+        "sphere": {"0": dict(numbers), "1": dict(numbers)},
+        "box": {"0": dict(numbers), "1": {**numbers, "cosine_slow": -0.8, "falls": math.nan}},
+    }
+    checks = by_target(check_results({"analysis": {"rows": rows}}))
+    assert checks[("analysis", "sphere: L_g cosine weighted by |dq| <= -0.9")].met
+    assert checks[("analysis", "sphere: f falls on the steps >= 0.01 rad >= 0.95")].met
+    assert ("analysis", "sphere: L_g cosine over the slow steps <= -0.8") not in checks
+    assert not checks[("analysis", "box: L_g cosine over the slow steps <= -0.8")].met
+    assert not checks[("analysis", "box: f falls on the steps >= 0.01 rad >= 0.95")].met  # NaN
+    table = check_table(list(checks.values()))
+    assert "MISSED" in table and table.endswith(f"of {len(checks)} targets met")
+
+
+def test_check_only_reads_a_folder_and_exits_by_the_targets(tmp_path, capsys):
+    assert cli.main(["--check-only", "--out", str(tmp_path)]) == 2  # nothing to check
+    rows = {
+        "teacher": {"cost_mean": 0.02},
+        "TRIC K = 30": seeded(*[grasp_seed(0.04, 10, 10, 10)] * 3),
+    }
+    (tmp_path / "table1.json").write_text(json.dumps({"rows": rows}))
+    assert cli.main(["--check-only", "--out", str(tmp_path)]) == 0
+    rows["TRIC K = 30"]["seeds"]["2"] = grasp_seed(0.06, 10, 10, 10)
+    (tmp_path / "table1.json").write_text(json.dumps({"rows": rows}))
+    assert cli.main(["--check-only", "--out", str(tmp_path)]) == 1
+    assert "MISSED TRIC within 0.03" in capsys.readouterr().out
