@@ -3,7 +3,7 @@
 
 Each check is one target of one experiment: its text, the measured value of each seed, and whether
 every seed meets it. An experiment without a target (fig8, table2, fig9: curves to look at) has no
-check; one whose JSON is missing is skipped.
+check; one whose JSON is missing, or holds no rows, is skipped.
 """
 
 import math
@@ -40,7 +40,7 @@ def check_results(results: dict) -> list:
     CHECKERS; experiments without targets or not in results give none."""
     checks = []
     for name, checker in CHECKERS.items():
-        if name in results:
+        if "rows" in results.get(name, {}):
             checks.extend(checker(results[name]["rows"]))
     return checks
 

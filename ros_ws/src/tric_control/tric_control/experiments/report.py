@@ -4,11 +4,13 @@ import json
 import pathlib
 
 from tric_control.experiments import EXPERIMENTS
+from tric_control.experiments.checks import check_results, check_table
 from tric_sim.output_files import write_text_atomic
 
 
 def write_report(out: pathlib.Path) -> pathlib.Path:
-    """out/REPORT.md from every experiment JSON in out, in the order of EXPERIMENTS."""
+    """out/REPORT.md from every experiment JSON in out, in the order of EXPERIMENTS, then the
+    design's targets checked against them (checks.py)."""
     lines = [
         "# TRIC experiments",
         "",
@@ -16,11 +18,12 @@ def write_report(out: pathlib.Path) -> pathlib.Path:
         "the paper's numbers follow it, then a discussion composed from our numbers.",
         "",
     ]
+    results = {}
     for name in EXPERIMENTS:
         path = out / f"{name}.json"
         if not path.is_file():
             continue
-        data = json.loads(path.read_text())
+        data = results[name] = json.loads(path.read_text())
         lines += [
             f"## {name}: {EXPERIMENTS[name].TITLE}",
             "",
@@ -35,6 +38,16 @@ def write_report(out: pathlib.Path) -> pathlib.Path:
             lines += [data["discussion"], ""]
         lines += [f"![{name}]({figure})" for figure in data.get("figures", [f"{name}.png"])]
         lines += ["", f"Run {data['date']} in {data['wall_s']:.0f} s.", ""]
+    checks = check_results(results)
+    if checks:
+        lines += [
+            "## The design's targets (design.md section 5), each for every seed",
+            "",
+            "```",
+            check_table(checks),
+            "```",
+            "",
+        ]
     path = out / "REPORT.md"
     write_text_atomic(path, "\n".join(lines))
     return path
