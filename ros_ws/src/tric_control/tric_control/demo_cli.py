@@ -180,7 +180,7 @@ def main(argv=None) -> int:
         else:
             print("[1/4] recording the 27 sphere-grid demonstrations with the teacher")
             bags = record(work, domain_id, view)
-        print("[2/4] training TRIC (K = 30, M = 60, the paper's alphas)")
+        print("[2/4] training TRIC (TrainingConfig's defaults: K = 30, M = 60, docs/fidelity.md)")
         trained = train(bags, work / "tric_sphere.safetensors", config)
         result = trained.result
         print(

@@ -30,8 +30,8 @@ def refuse_failed(checks) -> None:
 
 @dataclass
 class TrainingConfig:
-    """Hyper-parameters: the paper's defaults but alpha_g and max_iterations (see the module
-    docstring).
+    """Hyper-parameters: the paper's defaults but alpha_g, max_iterations and L_g's weighting
+    (tric_learning.training's docstring; each departure measured in docs/fidelity.md).
 
     hidden_units: K sigmoid units of f (0: the linear model), a count.
     noisy_samples: M noisy joint samples per demonstration step (Eq. 12-16), a count.
