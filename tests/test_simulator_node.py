@@ -114,6 +114,17 @@ def test_reset_scene_service_and_latched_situation(ros_context, spin):
     response = call(client, ResetScene, "/simulator/reset_scene", ResetScene.Request(situation=bad))
     assert not response.success and "unknown task" in response.message
     assert simulator.world.situation == box  # untouched
+    in_table = messages.situation_to_msg(box)
+    in_table.name = "arm_in_table"
+    q = HOME.copy()
+    q[[1, 3]] = 1.9, 0.5  # the shoulder down: the arm 10 cm inside the table
+    in_table.initial_joint_positions = q.tolist()
+    response = call(
+        client, ResetScene, "/simulator/reset_scene", ResetScene.Request(situation=in_table)
+    )
+    assert not response.success
+    assert "the robot's arm_5_link reaches 10.4 cm into the table" in response.message
+    assert simulator.world.situation == box
 
 
 def test_evaluate_and_render_services(ros_context, spin):
