@@ -23,6 +23,7 @@ from safetensors.numpy import save_file
 from tric_learning import bag_recorder, model_file, samples, train_cli
 from tric_learning.bag_dataset import load_dataset
 from tric_learning.bag_recorder import BagRecorder
+from tric_learning.bags import writer as bag_writer
 from tric_learning.dataset import Dataset
 from tric_learning.features import FeatureDefinition, FeatureMap
 from tric_learning.model_file import ModelFile, value_function, value_function_arrays
@@ -491,6 +492,29 @@ def test_a_bag_of_other_feature_code_is_refused_by_name(robot, good_bag, tmp_pat
     assert load_dataset([shifted]).demos[0].y[0][0] == pytest.approx(
         load_dataset([good_bag]).demos[0].y[0][0] + 1e-3
     )  # without a robot nothing is recomputed
+
+
+def test_a_bag_of_a_foreign_definition_of_our_type_is_refused_by_name(robot, tmp_path, monkeypatch):
+    """A bag whose samples are named tric_msgs/msg/FeatureSample but defined otherwise (its
+    messages decode, without the fields we read) is refused before any sample is read."""
+    real = bag_writer.message_definition
+    monkeypatch.setattr(
+        bag_writer,
+        "message_definition",
+        lambda name, text=None: real(
+            name,
+            "std_msgs/Header header\nuint32 step\n" if name.endswith("FeatureSample") else text,
+        ),
+    )
+    foreign = write_demo_bag(tmp_path / "foreign.mcap", robot, sphere("foreign"))
+    monkeypatch.undo()
+    with pytest.raises(
+        ValueError,
+        match=r"bag .*foreign\.mcap: topic /tric/samples holds tric_msgs/msg/FeatureSample of "
+        r"another definition than this build's \(its tric_msgs/FeatureSample has the fields "
+        r"\['header', 'step'\], this build's \['header', 'step', 'fingerprint', ",
+    ):
+        load_dataset([foreign], robot)
 
 
 def test_the_dataset_fingerprint_covers_the_object_poses(robot, good_bag):

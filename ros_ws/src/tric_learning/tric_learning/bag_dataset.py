@@ -176,7 +176,11 @@ def _load_demo(path: pathlib.Path, tolerant: bool = False, notice=None):
     }
     try:
         for message in bags.read_bag(
-            path, topics=list(expected), expected_types=expected, tolerant=tolerant
+            path,
+            topics=list(expected),
+            expected_types=expected,
+            optional_fields=messages.LATER_FIELDS,
+            tolerant=tolerant,
         ):
             if message.topic == DEFINITION_TOPIC:
                 definition = definition_from_msg(message.message)

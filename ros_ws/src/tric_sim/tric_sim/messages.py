@@ -175,6 +175,11 @@ def metrics_msg(metrics) -> TaskMetricsMsg:
     )
 
 
+#: Fields added to messages after bags were recorded with them ("pkg/Type" -> names, last fields of
+#: the type): a bag whose definition lacks them is read without them (metrics_dict).
+LATER_FIELDS = {"tric_msgs/TaskMetrics": ("max_joint_overshoot", "overshoot_joint", "failure")}
+
+
 def metrics_dict(msg: TaskMetricsMsg) -> dict:
     """Plain data of a TaskMetrics message (for JSON files and bags' metadata)."""
     return {
