@@ -285,6 +285,49 @@ def test_model_files_with_non_finite_arrays_are_refused(robot, tmp_path, name, b
     assert str(refused.value) == f"the model file's {name} has non-finite values"
 
 
+def _rewrite_arrays(path: pathlib.Path, change) -> None:
+    """Write path again with its metadata and its arrays as change(arrays dict) leaves them."""
+    with safe_open(str(path), framework="numpy") as handle:
+        metadata = handle.metadata()
+        arrays = {name: handle.get_tensor(name) for name in handle.keys()}
+    change(arrays)
+    save_file(arrays, str(path), metadata=metadata)
+
+
+def _flip_lowest_bit(arrays):
+    arrays["w1"].view(np.uint8).flat[0] ^= 1
+
+
+@pytest.mark.parametrize(
+    "change",
+    [
+        _flip_lowest_bit,
+        lambda arrays: arrays.update(w1=arrays["w1"].reshape(-1, 1)),
+        lambda arrays: arrays.update(kept=arrays["kept"].astype(np.int32)),
+        lambda arrays: arrays.update(extra=np.zeros(1)),
+    ],
+    ids=["flipped bit", "reshaped", "other dtype", "extra array"],
+)
+def test_model_files_whose_arrays_are_not_their_digests_are_refused(robot, tmp_path, change):
+    path = _tiny_model_file(robot).save(tmp_path / "model.safetensors")
+    _rewrite_arrays(path, change)
+    with pytest.raises(ValueError) as refused:
+        ModelFile.load(path)
+    assert str(refused.value) == (
+        f"{path}: its arrays do not match the digest recorded with them (the file was damaged or "
+        "edited); train the model again"
+    )
+
+
+def test_model_files_without_a_digest_load_with_a_warning(robot, tmp_path, caplog):
+    model = _tiny_model_file(robot)
+    path = model.save(tmp_path / "old.safetensors")
+    _rewrite_metadata(path, lambda meta: meta.pop("digest"))
+    loaded = ModelFile.load(path)
+    assert all(np.array_equal(loaded.arrays[k], v) for k, v in model.arrays.items())
+    assert f"{path} was written before model files carried a digest" in caplog.text
+
+
 # --- fuzzed inputs ------------------------------------------------------------------------------
 
 FUZZ = settings(
