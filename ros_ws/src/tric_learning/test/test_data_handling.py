@@ -319,6 +319,16 @@ def test_model_files_whose_arrays_are_not_their_digests_are_refused(robot, tmp_p
     )
 
 
+def test_model_metadata_nested_too_deeply_is_refused_clearly(tmp_path):
+    path = tmp_path / "deep.safetensors"
+    save_file({"x": np.zeros(1)}, str(path), metadata={"tric": "[" * 100_000})
+    with pytest.raises(ValueError) as refused:
+        ModelFile.load(path)
+    assert str(refused.value) == (
+        f"model file {path}: its 'tric' metadata is not valid JSON: nesting deeper than 32 levels"
+    )
+
+
 def test_model_files_without_a_digest_load_with_a_warning(robot, tmp_path, caplog):
     model = _tiny_model_file(robot)
     path = model.save(tmp_path / "old.safetensors")

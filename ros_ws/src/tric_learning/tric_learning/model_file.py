@@ -23,6 +23,7 @@ from tric_learning.features import FeatureDefinition
 from tric_learning.value_function import Scaling, ValueFunction
 from tric_sim.output_files import atomic_path
 from tric_sim.provenance import code_digest
+from tric_sim.untrusted import load_data, quoted
 
 FORMAT = "tric-model"
 VERSION = 1
@@ -82,9 +83,10 @@ class ModelFile:
         try:
             arrays = load_file(str(path))
             with safe_open(str(path), framework="numpy") as handle:
-                meta = json.loads((handle.metadata() or {}).get("tric", "null"))
-        except (SafetensorError, OSError, json.JSONDecodeError, ValueError) as error:
-            raise ValueError(f"{path} is not a readable model file: {error}") from None
+                text = (handle.metadata() or {}).get("tric", "null")
+        except (SafetensorError, OSError, ValueError) as error:
+            raise ValueError(f"{path} is not a readable model file: {quoted(str(error))}") from None
+        meta = load_data(text, f"model file {path}: its 'tric' metadata", json_format=True)
         if not isinstance(meta, dict) or meta.get("format") != FORMAT:
             raise ValueError(
                 f"{path} is a safetensors file but not a TRIC model (no 'tric' metadata)"
