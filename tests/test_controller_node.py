@@ -11,7 +11,7 @@ from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState
 
-from conftest import HANG_S, call, run_action, run_periods, wait_for
+from conftest import HANG_S, call, run_action, run_periods, wait_for, wait_future
 from tric_control.controller_node import ControllerNode
 from tric_learning import model_file
 from tric_learning.features import FeatureDefinition
@@ -214,9 +214,7 @@ def test_realtime_holds_on_stale_states_and_missing_poses_and_resumes(
     client = ActionClient(observer, Execute, "/controller/execute")
     assert client.wait_for_server(timeout_sec=HANG_S)
     goal_future = client.send_goal_async(Execute.Goal(max_steps=100000))
-    handle = wait_for(
-        lambda: goal_future.result() if goal_future.done() else None, what="goal response"
-    )
+    handle = wait_future(goal_future, what="goal response")
     assert handle.accepted
 
     def statuses_since(stamp_ns):
@@ -246,9 +244,7 @@ def test_realtime_holds_on_stale_states_and_missing_poses_and_resumes(
     refused = load(observer, model_path)
     assert not refused.success and "episode is running" in refused.message
     second = client.send_goal_async(Execute.Goal(max_steps=10))
-    assert not wait_for(
-        lambda: second.result() if second.done() else None, what="goal response"
-    ).accepted
+    assert not wait_future(second, what="goal response").accepted
 
     # fresh states again: the controller resumes
     feeder.states = True
@@ -274,9 +270,7 @@ def test_realtime_holds_on_stale_states_and_missing_poses_and_resumes(
 
     result_future = handle.get_result_async()
     handle.cancel_goal_async()
-    wrapped = wait_for(
-        lambda: result_future.result() if result_future.done() else None, what="the result"
-    )
+    wrapped = wait_future(result_future, what="the result")
     assert wrapped.status == GoalStatus.STATUS_CANCELED and wrapped.result.outcome == "canceled"
     assert wrapped.result.steps > held_at
     wait_for(
@@ -369,9 +363,7 @@ def test_the_simulator_stopping_mid_episode_leaves_the_robot_held_and_aborts(
     client = ActionClient(observer, Execute, "/controller/execute")
     assert client.wait_for_server(timeout_sec=HANG_S)
     goal_future = client.send_goal_async(Execute.Goal(max_steps=100000))
-    handle = wait_for(
-        lambda: goal_future.result() if goal_future.done() else None, what="goal response"
-    )
+    handle = wait_future(goal_future, what="goal response")
     result_future = handle.get_result_async()
     wait_for(lambda: len(observer.commands) >= 30 or result_future.done(), what="30 commands")
     # an episode that ended before the simulator stopped says why (a stall of the loaded test
@@ -379,9 +371,7 @@ def test_the_simulator_stopping_mid_episode_leaves_the_robot_held_and_aborts(
     assert not result_future.done(), f"the episode ended early: {result_future.result().result}"
     executor.remove_node(simulator)  # the simulator stops in the middle of the episode
     simulator.destroy_node()
-    wrapped = wait_for(
-        lambda: result_future.result() if result_future.done() else None, what="the abort"
-    )
+    wrapped = wait_future(result_future, what="the abort")
     assert wrapped.status == GoalStatus.STATUS_ABORTED and wrapped.result.outcome == "failed"
     assert wrapped.result.message.startswith("no joint states for 2 s: is the")
     # the robot holds: no command moves it on after the last state (lockstep answers states only;

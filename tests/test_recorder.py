@@ -422,10 +422,11 @@ def test_overwrite_replaces_a_bag_of_the_same_name(tmp_path):
     save_situations(situation_file, situations.sphere_grid()[4:5])
     out = tmp_path / "bags"
     arguments = ["--situations-file", str(situation_file), "--out", str(out), "--duration", "1.0"]
-    record_cli.main(arguments)  # a 1 s demonstration does not grasp (status 1), but it is recorded
+    # a 1 s demonstration does not grasp (status 1), but it is recorded
+    assert record_cli.main(arguments) == 1
     first = (out / "sphere_grid_04.mcap").stat().st_ino
     assert record_cli.main(arguments) == 2  # the folder is not empty any more
-    record_cli.main(arguments + ["--overwrite"])
+    assert record_cli.main(arguments + ["--overwrite"]) == 1
     # no sphere_grid_04_1.mcap copy
     assert sorted(p.name for p in out.iterdir()) == ["sphere_grid_04.mcap"]
     assert (out / "sphere_grid_04.mcap").stat().st_ino != first
