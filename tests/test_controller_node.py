@@ -318,6 +318,73 @@ def test_lockstep_episode_aborts_without_joint_states(ros_context, spin, model_p
     assert result.steps == 0 and not observer.commands and not observer.events
 
 
+def _reset_scene(observer, controller):
+    """The simulator's scene reset to another situation."""
+    other = situations.dataset("sphere_test")[1]
+    assert call(
+        observer,
+        ResetScene,
+        "/simulator/reset_scene",
+        ResetScene.Request(situation=messages.situation_to_msg(other)),
+    ).success
+
+
+def _raising_tick(observer, controller):
+    """The controller's next tick raises (a bug)."""
+
+    def tick(*_):
+        raise ZeroDivisionError("a bug")
+
+    controller._tick = tick
+
+
+def _stopping(observer, controller):
+    """The controller begins to shut down (destroy_node sets its stop event first)."""
+    controller._stop.set()
+
+
+@pytest.mark.parametrize(
+    "interrupt, message",
+    [
+        (_reset_scene, "the scene was reset during the episode"),
+        (_raising_tick, "internal error: ZeroDivisionError: a bug"),
+        (_stopping, "the controller is shutting down"),
+    ],
+    ids=["reset", "raising tick", "shutdown"],
+)
+def test_an_episode_interrupted_aborts_with_the_reason_and_an_abort_event(
+    ros_context, spin, model_path, interrupt, message
+):
+    simulator = SimulatorNode(context=ros_context)
+    controller = make_controller(ros_context, model_path=model_path)
+    observer = Observer(ros_context)
+    spin(simulator, controller, observer)
+    situation = situations.dataset("sphere_test")[0]
+    assert call(
+        observer,
+        ResetScene,
+        "/simulator/reset_scene",
+        ResetScene.Request(situation=messages.situation_to_msg(situation)),
+    ).success
+    wait_for(
+        lambda: controller.scene is not None and controller.scene.situation == situation,
+        what="the situation",
+    )
+    client = ActionClient(observer, Execute, "/controller/execute")
+    assert client.wait_for_server(timeout_sec=HANG_S)
+    handle = wait_future(client.send_goal_async(Execute.Goal(max_steps=100000)), what="goal")
+    result_future = handle.get_result_async()
+    wait_for(lambda: len(observer.commands) >= 10 or result_future.done(), what="10 commands")
+    assert not result_future.done(), f"the episode ended early: {result_future.result().result}"
+    interrupt(observer, controller)
+    wrapped = wait_future(result_future, what="the abort")
+    assert wrapped.status == GoalStatus.STATUS_ABORTED
+    assert (wrapped.result.outcome, wrapped.result.message) == ("failed", message)
+    wait_for(lambda: len(observer.events) >= 2, what="START and ABORT")
+    assert [e.event for e in observer.events] == [EpisodeEvent.START, EpisodeEvent.ABORT]
+    client.destroy()
+
+
 @pytest.mark.parametrize(
     "name, value, reason",
     [
