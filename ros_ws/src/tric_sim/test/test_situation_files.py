@@ -139,3 +139,9 @@ def test_every_built_in_situation_name_names_a_file():
     for dataset in S.DATASETS:
         for situation in S.dataset(dataset):
             assert check_name(situation.name) == situation.name
+
+
+def test_unknown_names_are_quoted_at_most_80_characters():
+    for look_up in (S.dataset, S.find_situation):
+        with pytest.raises(ValueError, match=r"'x{80}\.\.\. \(100000 chars\)'"):
+            look_up(LONG)
