@@ -95,6 +95,15 @@ def wait_for(predicate, timeout=HANG_S, what="condition"):
     raise AssertionError(f"timed out after {timeout} s waiting for {what}")
 
 
+def wait_future(future, timeout=HANG_S, what="future"):
+    """Wait for an rclpy future (its node spun elsewhere) through its done callback; its result,
+    or an AssertionError after timeout s."""
+    done = threading.Event()
+    future.add_done_callback(lambda _: done.set())
+    assert done.wait(timeout), f"timed out after {timeout} s waiting for {what}"
+    return future.result()
+
+
 def call(node, srv_type, name, request, timeout=HANG_S):
     """Call a service from node (spun elsewhere) and return the response."""
     client = node.create_client(srv_type, name)
@@ -115,18 +124,12 @@ def run_action(node, action_type, name, goal, timeout=HANG_S):
     goal_future = client.send_goal_async(
         goal, feedback_callback=lambda msg: feedback.append(msg.feedback)
     )
-    handle = wait_for(
-        lambda: goal_future.result() if goal_future.done() else None, HANG_S, "goal response"
-    )
+    handle = wait_future(goal_future, HANG_S, "goal response")
     if not handle.accepted:
         client.destroy()
         return None, None, feedback
     result_future = handle.get_result_async()
-    wrapped = wait_for(
-        lambda: result_future.result() if result_future.done() else None,
-        timeout,
-        f"the result of {name}",
-    )
+    wrapped = wait_future(result_future, timeout, f"the result of {name}")
     client.destroy()
     return wrapped.status, wrapped.result, feedback
 

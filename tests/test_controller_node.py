@@ -11,7 +11,7 @@ from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState
 
-from conftest import HANG_S, call, run_action, run_periods, wait_for
+from conftest import HANG_S, call, run_action, run_periods, wait_for, wait_future
 from tric_control.controller_node import ControllerNode
 from tric_learning import model_file
 from tric_learning.features import FeatureDefinition
@@ -214,9 +214,7 @@ def test_realtime_holds_on_stale_states_and_missing_poses_and_resumes(
     client = ActionClient(observer, Execute, "/controller/execute")
     assert client.wait_for_server(timeout_sec=HANG_S)
     goal_future = client.send_goal_async(Execute.Goal(max_steps=100000))
-    handle = wait_for(
-        lambda: goal_future.result() if goal_future.done() else None, what="goal response"
-    )
+    handle = wait_future(goal_future, what="goal response")
     assert handle.accepted
 
     def statuses_since(stamp_ns):
@@ -246,9 +244,7 @@ def test_realtime_holds_on_stale_states_and_missing_poses_and_resumes(
     refused = load(observer, model_path)
     assert not refused.success and "episode is running" in refused.message
     second = client.send_goal_async(Execute.Goal(max_steps=10))
-    assert not wait_for(
-        lambda: second.result() if second.done() else None, what="goal response"
-    ).accepted
+    assert not wait_future(second, what="goal response").accepted
 
     # fresh states again: the controller resumes
     feeder.states = True
@@ -274,9 +270,7 @@ def test_realtime_holds_on_stale_states_and_missing_poses_and_resumes(
 
     result_future = handle.get_result_async()
     handle.cancel_goal_async()
-    wrapped = wait_for(
-        lambda: result_future.result() if result_future.done() else None, what="the result"
-    )
+    wrapped = wait_future(result_future, what="the result")
     assert wrapped.status == GoalStatus.STATUS_CANCELED and wrapped.result.outcome == "canceled"
     assert wrapped.result.steps > held_at
     wait_for(
@@ -324,6 +318,73 @@ def test_lockstep_episode_aborts_without_joint_states(ros_context, spin, model_p
     assert result.steps == 0 and not observer.commands and not observer.events
 
 
+def _reset_scene(observer, controller):
+    """The simulator's scene reset to another situation."""
+    other = situations.dataset("sphere_test")[1]
+    assert call(
+        observer,
+        ResetScene,
+        "/simulator/reset_scene",
+        ResetScene.Request(situation=messages.situation_to_msg(other)),
+    ).success
+
+
+def _raising_tick(observer, controller):
+    """The controller's next tick raises (a bug)."""
+
+    def tick(*_):
+        raise ZeroDivisionError("a bug")
+
+    controller._tick = tick
+
+
+def _stopping(observer, controller):
+    """The controller begins to shut down (destroy_node sets its stop event first)."""
+    controller._stop.set()
+
+
+@pytest.mark.parametrize(
+    "interrupt, message",
+    [
+        (_reset_scene, "the scene was reset during the episode"),
+        (_raising_tick, "internal error: ZeroDivisionError: a bug"),
+        (_stopping, "the controller is shutting down"),
+    ],
+    ids=["reset", "raising tick", "shutdown"],
+)
+def test_an_episode_interrupted_aborts_with_the_reason_and_an_abort_event(
+    ros_context, spin, model_path, interrupt, message
+):
+    simulator = SimulatorNode(context=ros_context)
+    controller = make_controller(ros_context, model_path=model_path)
+    observer = Observer(ros_context)
+    spin(simulator, controller, observer)
+    situation = situations.dataset("sphere_test")[0]
+    assert call(
+        observer,
+        ResetScene,
+        "/simulator/reset_scene",
+        ResetScene.Request(situation=messages.situation_to_msg(situation)),
+    ).success
+    wait_for(
+        lambda: controller.scene is not None and controller.scene.situation == situation,
+        what="the situation",
+    )
+    client = ActionClient(observer, Execute, "/controller/execute")
+    assert client.wait_for_server(timeout_sec=HANG_S)
+    handle = wait_future(client.send_goal_async(Execute.Goal(max_steps=100000)), what="goal")
+    result_future = handle.get_result_async()
+    wait_for(lambda: len(observer.commands) >= 10 or result_future.done(), what="10 commands")
+    assert not result_future.done(), f"the episode ended early: {result_future.result().result}"
+    interrupt(observer, controller)
+    wrapped = wait_future(result_future, what="the abort")
+    assert wrapped.status == GoalStatus.STATUS_ABORTED
+    assert (wrapped.result.outcome, wrapped.result.message) == ("failed", message)
+    wait_for(lambda: len(observer.events) >= 2, what="START and ABORT")
+    assert [e.event for e in observer.events] == [EpisodeEvent.START, EpisodeEvent.ABORT]
+    client.destroy()
+
+
 @pytest.mark.parametrize(
     "name, value, reason",
     [
@@ -369,9 +430,7 @@ def test_the_simulator_stopping_mid_episode_leaves_the_robot_held_and_aborts(
     client = ActionClient(observer, Execute, "/controller/execute")
     assert client.wait_for_server(timeout_sec=HANG_S)
     goal_future = client.send_goal_async(Execute.Goal(max_steps=100000))
-    handle = wait_for(
-        lambda: goal_future.result() if goal_future.done() else None, what="goal response"
-    )
+    handle = wait_future(goal_future, what="goal response")
     result_future = handle.get_result_async()
     wait_for(lambda: len(observer.commands) >= 30 or result_future.done(), what="30 commands")
     # an episode that ended before the simulator stopped says why (a stall of the loaded test
@@ -379,9 +438,7 @@ def test_the_simulator_stopping_mid_episode_leaves_the_robot_held_and_aborts(
     assert not result_future.done(), f"the episode ended early: {result_future.result().result}"
     executor.remove_node(simulator)  # the simulator stops in the middle of the episode
     simulator.destroy_node()
-    wrapped = wait_for(
-        lambda: result_future.result() if result_future.done() else None, what="the abort"
-    )
+    wrapped = wait_future(result_future, what="the abort")
     assert wrapped.status == GoalStatus.STATUS_ABORTED and wrapped.result.outcome == "failed"
     assert wrapped.result.message.startswith("no joint states for 2 s: is the")
     # the robot holds: no command moves it on after the last state (lockstep answers states only;

@@ -28,6 +28,8 @@ MESSAGES = [
 ]
 SERVICES = ["ResetScene", "EvaluateTask", "RenderScene", "Train", "LoadModel"]
 ACTIONS = ["Demonstrate", "Execute"]
+RR = ("Request", "Response")
+GFR = ("Goal", "Feedback", "Result")
 
 
 def filled(msg_class, seed=1):
@@ -48,16 +50,16 @@ def _value(type_name, seed):
     if type_name in ("string", "wstring") or type_name.startswith("string<"):
         return f"value-{seed}"
     if type_name == "boolean":
-        return seed % 2 == 0
+        return True  # the only value that is not the default
     if type_name in ("float", "double"):
         return seed + 0.25
     if type_name in ("octet", "char", "uint8", "byte"):
-        return seed % 200 if type_name != "octet" else bytes([seed % 200])
+        return seed % 200 + 1 if type_name != "octet" else bytes([seed % 200 + 1])
     if "/" in type_name:  # nested message, e.g. geometry_msgs/Pose
         package, name = type_name.split("/")
         return filled(getattr(importlib.import_module(package + ".msg"), name), seed)
     if "int" in type_name:
-        return seed % 100
+        return seed % 100 + 1
     raise AssertionError(f"unhandled field type {type_name}")
 
 
@@ -70,10 +72,30 @@ def as_dict(value):
     return value
 
 
-def test_filled_messages_are_not_defaults():
-    for name in MESSAGES:
-        cls = getattr(tric_msgs.msg, name)
-        assert as_dict(filled(cls)) != as_dict(cls()), name
+def defaults_left(value, where="msg"):
+    """The fields of a message (nested ones, and the elements of arrays, included) that hold their
+    type's default: False, 0, 0.0, "", b"\\x00" or an empty array."""
+    if hasattr(value, "get_fields_and_field_types"):
+        return [
+            path
+            for name in value.get_fields_and_field_types()
+            for path in defaults_left(getattr(value, name), f"{where}.{name}")
+        ]
+    if isinstance(value, (list, tuple, np.ndarray)) or type(value).__name__ == "array":
+        if len(value) == 0:
+            return [where]
+        return [path for k, v in enumerate(value) for path in defaults_left(v, f"{where}[{k}]")]
+    return [where] if value in (False, b"\x00", "") or value == type(value)() else []
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3, 7, 100])
+def test_filled_messages_set_every_field_to_a_non_default(seed):
+    interfaces = [getattr(tric_msgs.msg, name) for name in MESSAGES]
+    interfaces += [getattr(getattr(tric_msgs.srv, n), part) for n in SERVICES for part in RR]
+    interfaces += [getattr(getattr(tric_msgs.action, n), part) for n in ACTIONS for part in GFR]
+    for cls in interfaces:
+        assert defaults_left(filled(cls, seed)) == [], cls.__name__
+    assert defaults_left(tric_msgs.msg.TaskMetrics(lift_tested=True)) != []  # it can fail
 
 
 @pytest.mark.parametrize("name", MESSAGES)

@@ -293,6 +293,44 @@ def test_an_aborted_episode_leaves_no_bag_and_the_next_one_is_recorded(ros_conte
     assert json.loads(info.custom_data["tric.outcome"])["success"] is True
 
 
+def test_bags_without_an_outcome_are_closed_complete_and_named_as_such(ros_context, spin, tmp_path):
+    """A START before the last episode finished closes the last bag without an outcome; an ended
+    episode whose outcome never comes is closed without one after outcome_timeout_s. Both bags are
+    complete, carry no outcome, and training refuses them as such."""
+    recorder = RecorderNode(
+        context=ros_context,
+        parameter_overrides=[
+            Parameter("output_dir", value=str(tmp_path)),
+            Parameter("outcome_timeout_s", value=0.01),
+        ],
+    )
+    situation = situations.sphere_grid()[4]
+    player = spin(recorder, EpisodePlayer(ros_context, situation))[1]
+    wait_for(
+        lambda: all(
+            player.count_subscribers(topic)
+            for topic in ("/episode", "/joint_states", "/object_poses")
+        ),
+        what="the recorder's subscriptions",
+    )
+    player.event(EpisodeEvent.START, "cut", 1_000_000_000)
+    last = player.states(1_000_000_000, 30)
+    player.event(EpisodeEvent.START, "silent", last + 10_000_000)
+    wait_for(lambda: recorder.finished, what="the first bag closed by the second START")
+    last = player.states(last + 10_000_000, 30)
+    player.event(EpisodeEvent.END, "silent", last)
+    wait_for(lambda: len(recorder.finished) == 2, what="the second bag closed by the timeout")
+    assert recorder.finished == [tmp_path / "cut.mcap", tmp_path / "silent.mcap"]
+    assert recorder.failed == [] and not recorder.busy
+    for path in recorder.finished:
+        info = bags.bag_info(path)
+        assert info.complete and "tric.outcome" not in info.custom_data, path
+        assert info.topics["/joint_states"].message_count == 30, path
+    with pytest.raises(ValueError, match="2 of 2 bags are not successful") as refused:
+        load_dataset([tmp_path])
+    assert str(refused.value).count("(no recorded outcome)") == 2
+
+
 def test_recorder_killed_mid_demonstration_keeps_finished_bags(tmp_path):
     env = dict(os.environ)
     process = subprocess.Popen(
@@ -422,10 +460,11 @@ def test_overwrite_replaces_a_bag_of_the_same_name(tmp_path):
     save_situations(situation_file, situations.sphere_grid()[4:5])
     out = tmp_path / "bags"
     arguments = ["--situations-file", str(situation_file), "--out", str(out), "--duration", "1.0"]
-    record_cli.main(arguments)  # a 1 s demonstration does not grasp (status 1), but it is recorded
+    # a 1 s demonstration does not grasp (status 1), but it is recorded
+    assert record_cli.main(arguments) == 1
     first = (out / "sphere_grid_04.mcap").stat().st_ino
     assert record_cli.main(arguments) == 2  # the folder is not empty any more
-    record_cli.main(arguments + ["--overwrite"])
+    assert record_cli.main(arguments + ["--overwrite"]) == 1
     # no sphere_grid_04_1.mcap copy
     assert sorted(p.name for p in out.iterdir()) == ["sphere_grid_04.mcap"]
     assert (out / "sphere_grid_04.mcap").stat().st_ino != first

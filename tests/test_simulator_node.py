@@ -9,13 +9,13 @@ from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, QoSProfile
 from sensor_msgs.msg import JointState
 
-from conftest import call, wait_for
+from conftest import call, run_periods, wait_for
 from tric_msgs.msg import ObjectPoses
 from tric_msgs.msg import Situation as SituationMsg
 from tric_msgs.srv import EvaluateTask, RenderScene, ResetScene
 from tric_sim import messages, situations
 from tric_sim.robot_model import HOME
-from tric_sim.simulator_node import SimulatorNode
+from tric_sim.simulator_node import IN_PROCESS_LOCKSTEP_TIMEOUT_S, SimulatorNode
 
 
 class Commander(Node):
@@ -87,6 +87,44 @@ def test_bad_commands_are_refused_and_the_joints_hold(ros_context, spin):
     assert np.allclose(simulator.world.targets[1:], HOME[1:])
 
 
+def test_lockstep_commands_of_another_stamp_are_dropped(ros_context, spin):
+    """Lockstep: only a command stamped with the current state's stamp (or zero) is applied and
+    steps the world; an answer to an older or a later state changes nothing and steps nothing."""
+    # steps only when answered: a timeout step would need a minute
+    simulator = make_simulator(ros_context, timeout=IN_PROCESS_LOCKSTEP_TIMEOUT_S)
+    commander = Commander(ros_context)
+    spin(simulator, commander)
+    wait_for(
+        lambda: (
+            simulator.state_pub.get_subscription_count()
+            and commander.publisher.get_subscription_count()
+        ),
+        what="the commander and the simulator matched",
+    )
+
+    def command(stamp_ns, joint, position):
+        msg = JointState(name=[joint], position=[position])
+        msg.header.stamp = messages.time_msg(stamp_ns)
+        commander.publisher.publish(msg)
+
+    def newest():
+        return messages.time_ns(commander.states[-1].header.stamp) if commander.states else -1
+
+    command(0, "arm_3_joint", 0.0)  # zero stamp: answers whatever state is current
+    first = wait_for(lambda: max(newest(), 0), what="a step")
+    command(first, "arm_3_joint", 0.0)
+    wait_for(lambda: newest() == first + 10_000_000, what="the step of an answer")
+    current, count = newest(), len(commander.states)
+    command(first, "arm_1_joint", 0.3)  # an answer to an older state
+    command(current + 10_000_000, "arm_1_joint", 0.3)  # to a state not yet published
+    command(current, "arm_2_joint", -0.1)
+    wait_for(lambda: newest() == current + 10_000_000, what="the step of the current answer")
+    run_periods(commander)
+    assert len(commander.states) == count + 1  # nothing else stepped the world
+    assert simulator.world.targets[0] == HOME[0] and simulator.world.targets[1] == -0.1
+    assert simulator.world.time_ns == current + 10_000_000
+
+
 def test_reset_scene_service_and_latched_situation(ros_context, spin):
     simulator = make_simulator(ros_context, mode="realtime")
     client = Node("test_client", context=ros_context)
@@ -114,6 +152,17 @@ def test_reset_scene_service_and_latched_situation(ros_context, spin):
     response = call(client, ResetScene, "/simulator/reset_scene", ResetScene.Request(situation=bad))
     assert not response.success and "unknown task" in response.message
     assert simulator.world.situation == box  # untouched
+    in_table = messages.situation_to_msg(box)
+    in_table.name = "arm_in_table"
+    q = HOME.copy()
+    q[[1, 3]] = 1.9, 0.5  # the shoulder down: the arm 10 cm inside the table
+    in_table.initial_joint_positions = q.tolist()
+    response = call(
+        client, ResetScene, "/simulator/reset_scene", ResetScene.Request(situation=in_table)
+    )
+    assert not response.success
+    assert "the robot's arm_5_link reaches 10.4 cm into the table" in response.message
+    assert simulator.world.situation == box
 
 
 def test_evaluate_and_render_services(ros_context, spin):

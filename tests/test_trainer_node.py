@@ -12,7 +12,7 @@ import pytest
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 
-from conftest import HANG_S, call, wait_for
+from conftest import HANG_S, call, wait_for, wait_future
 from tric_learning import analysis, analyze_cli, train_cli, trainer_node
 from tric_learning.demonstrations import demonstrate_all
 from tric_learning.features import FeatureDefinition
@@ -116,9 +116,7 @@ def test_train_round_trip_with_progress_and_a_busy_answer(
     )
     assert not busy.success and busy.message.startswith("busy"), busy.message
     held.release.set()
-    response = wait_for(
-        lambda: first.result() if first.done() else None, what="the training's answer"
-    )
+    response = wait_future(first, what="the training's answer")
     assert response.success, response.message
     assert not (tmp_path / "second.safetensors").exists()
 

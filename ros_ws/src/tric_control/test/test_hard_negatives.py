@@ -9,7 +9,7 @@ import pytest
 from tric_control.hard_negatives import contrasts, train_with_hard_negatives
 from tric_learning.bag_dataset import bag_paths, load_dataset
 from tric_learning.samples import step_offsets
-from tric_learning.training import TrainingConfig
+from tric_learning.training import TrainingConfig, train
 from tric_sim.robot_model import RobotModel
 
 BAGS = pathlib.Path(__file__).resolve().parents[4] / "bags" / "sphere"
@@ -59,6 +59,11 @@ def test_rounds_train_again_with_the_rollout_states(robot, demos):
         progress=lambda round_, k: rounds.append((round_, k)),
     )
     assert rounds == [(0, 0), (0, 1)]
-    assert result.mean_samples_per_step > 0
+    # the same noisy samples (the same seed) plus one contrast per rollout state: a state at tick 0
+    # and at most at ticks 20 and 40 of each of the two situations
+    plain = train(demos, robot, config)
+    later_steps = sum(demo.length - 1 for demo in demos.demos)
+    added = (result.mean_samples_per_step - plain.mean_samples_per_step) * later_steps
+    assert added == pytest.approx(round(added), abs=1e-9) and 2 <= round(added) <= 6
     with pytest.raises(ValueError, match="rounds must be >= 0"):
         train_with_hard_negatives(demos, robot, config, rounds=-1, max_steps=60)

@@ -237,3 +237,32 @@ def test_reference_dataset_loads_and_rosbags_reads_the_same_samples(
             ]
         assert np.array_equal([message.q for message in read], demo.q), bag.name
         assert np.array_equal([message.y for message in read], demo.y), bag.name
+
+
+EXPECTED = {"/samples": FeatureSample}
+
+
+@pytest.mark.parametrize(
+    "definition, refusal",
+    [
+        ("# a comment of another version\n" + "\n", None),  # comments do not decode
+        ("float64 x\n", r"its tric_msgs/FeatureSample has the fields \['x'\]"),
+        ("float64 9x\n", "it does not parse: .*9x"),
+    ],
+)
+def test_a_definition_that_is_not_ours_is_refused_by_name(tmp_path, definition, refusal):
+    ours = bags.message_definition("tric_msgs/msg/FeatureSample").split("\n" + "=" * 80)[0]
+    text = ours if refusal is None else ""
+    path = tmp_path / "foreign.mcap"
+    with bags.BagWriter(path) as writer:
+        writer.add_topic_definition("/samples", "tric_msgs/msg/FeatureSample", definition + text)
+    for tolerant in (False, True):  # checked from the summary, or on meeting the topic
+        if refusal is None:
+            assert list(bags.read_bag(path, expected_types=EXPECTED, tolerant=tolerant)) == []
+            continue
+        with pytest.raises(
+            ValueError,
+            match=r"bag .*foreign\.mcap: topic /samples holds tric_msgs/msg/FeatureSample of "
+            rf"another definition than this build's \({refusal}",
+        ):
+            list(bags.read_bag(path, expected_types=EXPECTED, tolerant=tolerant))

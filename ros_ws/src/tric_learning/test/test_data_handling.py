@@ -23,6 +23,7 @@ from safetensors.numpy import save_file
 from tric_learning import bag_recorder, model_file, samples, train_cli
 from tric_learning.bag_dataset import load_dataset
 from tric_learning.bag_recorder import BagRecorder
+from tric_learning.bags import writer as bag_writer
 from tric_learning.dataset import Dataset
 from tric_learning.features import FeatureDefinition, FeatureMap
 from tric_learning.model_file import ModelFile, value_function, value_function_arrays
@@ -284,6 +285,59 @@ def test_model_files_with_non_finite_arrays_are_refused(robot, tmp_path, name, b
     assert str(refused.value) == f"the model file's {name} has non-finite values"
 
 
+def _rewrite_arrays(path: pathlib.Path, change) -> None:
+    """Write path again with its metadata and its arrays as change(arrays dict) leaves them."""
+    with safe_open(str(path), framework="numpy") as handle:
+        metadata = handle.metadata()
+        arrays = {name: handle.get_tensor(name) for name in handle.keys()}
+    change(arrays)
+    save_file(arrays, str(path), metadata=metadata)
+
+
+def _flip_lowest_bit(arrays):
+    arrays["w1"].view(np.uint8).flat[0] ^= 1
+
+
+@pytest.mark.parametrize(
+    "change",
+    [
+        _flip_lowest_bit,
+        lambda arrays: arrays.update(w1=arrays["w1"].reshape(-1, 1)),
+        lambda arrays: arrays.update(kept=arrays["kept"].astype(np.int32)),
+        lambda arrays: arrays.update(extra=np.zeros(1)),
+    ],
+    ids=["flipped bit", "reshaped", "other dtype", "extra array"],
+)
+def test_model_files_whose_arrays_are_not_their_digests_are_refused(robot, tmp_path, change):
+    path = _tiny_model_file(robot).save(tmp_path / "model.safetensors")
+    _rewrite_arrays(path, change)
+    with pytest.raises(ValueError) as refused:
+        ModelFile.load(path)
+    assert str(refused.value) == (
+        f"{path}: its arrays do not match the digest recorded with them (the file was damaged or "
+        "edited); train the model again"
+    )
+
+
+def test_model_metadata_nested_too_deeply_is_refused_clearly(tmp_path):
+    path = tmp_path / "deep.safetensors"
+    save_file({"x": np.zeros(1)}, str(path), metadata={"tric": "[" * 100_000})
+    with pytest.raises(ValueError) as refused:
+        ModelFile.load(path)
+    assert str(refused.value) == (
+        f"model file {path}: its 'tric' metadata is not valid JSON: nesting deeper than 32 levels"
+    )
+
+
+def test_model_files_without_a_digest_load_with_a_warning(robot, tmp_path, caplog):
+    model = _tiny_model_file(robot)
+    path = model.save(tmp_path / "old.safetensors")
+    _rewrite_metadata(path, lambda meta: meta.pop("digest"))
+    loaded = ModelFile.load(path)
+    assert all(np.array_equal(loaded.arrays[k], v) for k, v in model.arrays.items())
+    assert f"{path} was written before model files carried a digest" in caplog.text
+
+
 # --- fuzzed inputs ------------------------------------------------------------------------------
 
 FUZZ = settings(
@@ -491,6 +545,29 @@ def test_a_bag_of_other_feature_code_is_refused_by_name(robot, good_bag, tmp_pat
     assert load_dataset([shifted]).demos[0].y[0][0] == pytest.approx(
         load_dataset([good_bag]).demos[0].y[0][0] + 1e-3
     )  # without a robot nothing is recomputed
+
+
+def test_a_bag_of_a_foreign_definition_of_our_type_is_refused_by_name(robot, tmp_path, monkeypatch):
+    """A bag whose samples are named tric_msgs/msg/FeatureSample but defined otherwise (its
+    messages decode, without the fields we read) is refused before any sample is read."""
+    real = bag_writer.message_definition
+    monkeypatch.setattr(
+        bag_writer,
+        "message_definition",
+        lambda name, text=None: real(
+            name,
+            "std_msgs/Header header\nuint32 step\n" if name.endswith("FeatureSample") else text,
+        ),
+    )
+    foreign = write_demo_bag(tmp_path / "foreign.mcap", robot, sphere("foreign"))
+    monkeypatch.undo()
+    with pytest.raises(
+        ValueError,
+        match=r"bag .*foreign\.mcap: topic /tric/samples holds tric_msgs/msg/FeatureSample of "
+        r"another definition than this build's \(its tric_msgs/FeatureSample has the fields "
+        r"\['header', 'step'\], this build's \['header', 'step', 'fingerprint', ",
+    ):
+        load_dataset([foreign], robot)
 
 
 def test_the_dataset_fingerprint_covers_the_object_poses(robot, good_bag):

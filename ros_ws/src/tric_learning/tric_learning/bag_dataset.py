@@ -2,7 +2,6 @@
 files the paths name (bag_paths), and every bag checked, by its feature definition, robot and
 recorded outcome, before it joins the dataset (load_dataset)."""
 
-import json
 import logging
 import pathlib
 
@@ -18,6 +17,7 @@ from tric_msgs.msg import FeatureDefinition as FeatureDefinitionMsg
 from tric_msgs.msg import Situation as SituationMsg
 from tric_sim import messages
 from tric_sim.robot_model import RobotModel
+from tric_sim.untrusted import load_data
 
 _log = logging.getLogger(__name__)
 
@@ -176,7 +176,11 @@ def _load_demo(path: pathlib.Path, tolerant: bool = False, notice=None):
     }
     try:
         for message in bags.read_bag(
-            path, topics=list(expected), expected_types=expected, tolerant=tolerant
+            path,
+            topics=list(expected),
+            expected_types=expected,
+            optional_fields=messages.LATER_FIELDS,
+            tolerant=tolerant,
         ):
             if message.topic == DEFINITION_TOPIC:
                 definition = definition_from_msg(message.message)
@@ -198,10 +202,9 @@ def _load_demo(path: pathlib.Path, tolerant: bool = False, notice=None):
     stamps, qs, ys, jacobians, poses = zip(*samples)
     name = info.custom_data.get("tric.episode_id", path.stem)
     if not metrics and "tric.outcome" in info.custom_data:
-        try:
-            metrics = json.loads(info.custom_data["tric.outcome"])
-        except json.JSONDecodeError:
-            raise ValueError(f"bag {path}: its recorded outcome is not JSON") from None
+        metrics = load_data(
+            info.custom_data["tric.outcome"], f"bag {path}: its recorded outcome", json_format=True
+        )
         if not isinstance(metrics, dict):
             raise ValueError(f"bag {path}: its recorded outcome is not a mapping")
     demo = Demo(

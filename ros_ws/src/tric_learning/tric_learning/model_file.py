@@ -3,11 +3,15 @@
 A model file holds the arrays of a learned model and a "tric" metadata entry: the model kind, the
 feature definition it was trained with, the kept features and their scaling, the hyper-parameters,
 the dataset's fingerprint, the final loss terms, training times, the controller's delta, and each
-kept feature's score s(y) (Sec. 5.5.1). Loading checks the file against the feature definition it is
-used with and refuses anything else with a message that says why.
+kept feature's score s(y) (Sec. 5.5.1), and a digest of the arrays (tensor_digest). Loading checks
+the digest, and the file against the feature definition it is used with, and refuses anything else
+with a message that says why. A file written before model files carried a digest loads with a
+warning: its arrays cannot be checked.
 """
 
+import hashlib
 import json
+import logging
 import pathlib
 from dataclasses import dataclass, field
 
@@ -20,9 +24,23 @@ from tric_learning.hyperparameters import KINDS
 from tric_learning.value_function import Scaling, ValueFunction
 from tric_sim.output_files import atomic_path
 from tric_sim.provenance import code_digest
+from tric_sim.untrusted import load_data, quoted
 
 FORMAT = "tric-model"
 VERSION = 1
+_log = logging.getLogger(__name__)
+
+
+def tensor_digest(arrays: dict) -> str:
+    """ "sha256:<hex>" over the arrays in name order: each one's name, dtype, shape and bytes (C
+    order)."""
+    digest = hashlib.sha256()
+    for name in sorted(arrays):
+        array = np.ascontiguousarray(arrays[name])
+        header = json.dumps([name, array.dtype.str, list(array.shape)])
+        digest.update(f"{len(header)}:{header}".encode())
+        digest.update(array.tobytes())
+    return f"sha256:{digest.hexdigest()}"
 
 
 @dataclass
@@ -38,6 +56,7 @@ class ModelFile:
         """Write atomically (a temporary file renamed into place; removed again if writing
         fails)."""
         path = pathlib.Path(path)
+        arrays = {k: np.ascontiguousarray(v) for k, v in self.arrays.items()}
         meta = {
             "format": FORMAT,
             "version": VERSION,
@@ -45,19 +64,17 @@ class ModelFile:
             "definition": self.definition.to_dict(),
             "fingerprint": self.definition.fingerprint,
             "info": self.info,
+            "digest": tensor_digest(arrays),
         }
         with atomic_path(path) as temporary:
-            save_file(
-                {k: np.ascontiguousarray(v) for k, v in self.arrays.items()},
-                str(temporary),
-                metadata={"tric": json.dumps(meta)},
-            )
+            save_file(arrays, str(temporary), metadata={"tric": json.dumps(meta)})
         return path
 
     @classmethod
     def load(cls, path, expected: FeatureDefinition = None) -> "ModelFile":
-        """Read a model file; ValueError if unreadable, not a TRIC model, or (when expected is
-        given) trained on another feature definition."""
+        """Read a model file; ValueError if unreadable, not a TRIC model, its arrays not those its
+        digest was made of, or (when expected is given) trained on another feature definition. A
+        file without a digest (older) is read with a warning logged."""
         path = pathlib.Path(path)
         if path.is_dir():
             raise ValueError(f"model file {path} is a folder, not a model file")
@@ -66,9 +83,10 @@ class ModelFile:
         try:
             arrays = load_file(str(path))
             with safe_open(str(path), framework="numpy") as handle:
-                meta = json.loads((handle.metadata() or {}).get("tric", "null"))
-        except (SafetensorError, OSError, json.JSONDecodeError, ValueError) as error:
-            raise ValueError(f"{path} is not a readable model file: {error}") from None
+                text = (handle.metadata() or {}).get("tric", "null")
+        except (SafetensorError, OSError, ValueError) as error:
+            raise ValueError(f"{path} is not a readable model file: {quoted(str(error))}") from None
+        meta = load_data(text, f"model file {path}: its 'tric' metadata", json_format=True)
         if not isinstance(meta, dict) or meta.get("format") != FORMAT:
             raise ValueError(
                 f"{path} is a safetensors file but not a TRIC model (no 'tric' metadata)"
@@ -76,6 +94,16 @@ class ModelFile:
         if meta.get("version") != VERSION:
             raise ValueError(
                 f"{path} has model format version {meta.get('version')}; this reads {VERSION}"
+            )
+        if "digest" not in meta:
+            _log.warning(
+                "%s was written before model files carried a digest: its arrays are not checked",
+                path,
+            )
+        elif meta["digest"] != tensor_digest(arrays):
+            raise ValueError(
+                f"{path}: its arrays do not match the digest recorded with them (the file was "
+                "damaged or edited); train the model again"
             )
         if meta.get("kind") not in KINDS:
             raise ValueError(f"{path} holds an unknown model kind '{meta.get('kind')}'")

@@ -1,6 +1,9 @@
 """Fail before work, never after: output paths checked and written atomically; situations that
-cannot physically be refused; generated (fuzzed) situation data refused clearly or accepted."""
+cannot physically be (the object or an obstacle in the robot or the table, the robot in the table
+or in itself) refused with the pair named; generated (fuzzed) situation data refused clearly or
+accepted."""
 
+import dataclasses
 import math
 
 import pytest
@@ -16,7 +19,7 @@ from tric_sim.output_files import (
     write_text_atomic,
 )
 from tric_sim.physics import PhysicsWorld
-from tric_sim.robot_model import RobotModel
+from tric_sim.robot_model import HOME, RobotModel
 from tric_sim.scene_check import check_scene
 from tric_sim.situation import WORKSPACE_HIGH, WORKSPACE_LOW, Obstacle, Situation
 from tric_sim.situation_files import load_situations
@@ -72,6 +75,14 @@ def test_atomic_writes_replace_whole_files_or_leave_the_old_one(tmp_path):
     assert [p.name for p in path.parent.iterdir()] == ["result.json"]  # no temporary left
 
 
+def _home_with(changes: dict) -> list:
+    """The robot's home configuration with some joints (index -> rad) changed."""
+    q = HOME.copy()
+    for index, value in changes.items():
+        q[index] = value
+    return q.tolist()
+
+
 @pytest.mark.parametrize(
     "situation, reason",
     [
@@ -103,6 +114,20 @@ def test_atomic_writes_replace_whole_files_or_leave_the_old_one(tmp_path):
                 obstacles=(Obstacle("box", (0.3, 0.3, 0.3), (0.0, 0.0, 0.4)),),
             ),
             "obstacle 0 \\(box\\) intersects the robot's",
+        ),
+        (
+            dataclasses.replace(
+                S.sphere("arm_in_table", (0.6, 0.0, 0.3)),
+                initial_joint_positions=tuple(_home_with({1: 1.9, 3: 0.5})),
+            ),
+            "the robot's arm_5_link reaches 10.4 cm into the table in its initial configuration",
+        ),
+        (
+            dataclasses.replace(
+                S.sphere("wrist_folded", (0.6, 0.0, 0.3)),
+                initial_joint_positions=tuple(_home_with({5: 2.0})),
+            ),
+            "the robot's arm_5_link intersects its arm_7_link in its initial configuration",
         ),
     ],
 )

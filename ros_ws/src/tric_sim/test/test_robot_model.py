@@ -24,7 +24,9 @@ def test_fourteen_actuated_joints_with_limits(robot):
 
 def test_landmark_frames_exist(robot):
     for frame in (PALM, *FINGERTIPS, *FINGER_BASES):
-        robot.frame_id(frame)
+        assert robot.model.frames[robot.frame_id(frame)].name == frame
+    with pytest.raises(ValueError, match="unknown robot frame 'no_such_link'"):
+        robot.frame_id("no_such_link")
 
 
 def test_knuckle_turns_fingers_two_and_three_in_opposition(robot):

@@ -14,7 +14,7 @@ from shape_msgs.msg import SolidPrimitive
 from tric_msgs.msg import ObjectPoses
 from tric_msgs.msg import Situation as SituationMsg
 from tric_msgs.msg import TaskMetrics as TaskMetricsMsg
-from tric_sim.situation import Obstacle, Situation
+from tric_sim.situation import Obstacle, Situation, check_name
 
 SHAPE_TYPES = {
     "box": SolidPrimitive.BOX,
@@ -70,6 +70,7 @@ def situation_to_msg(situation: Situation) -> SituationMsg:
 
 def situation_from_msg(msg: SituationMsg, n_joints: int = 14) -> Situation:
     """A validated Situation from its message, or ValueError saying what is wrong."""
+    check_name(msg.name)  # before it is quoted
     if len(msg.obstacles) != len(msg.obstacle_poses):
         raise ValueError(
             f"situation '{msg.name}': {len(msg.obstacles)} obstacles but "
@@ -172,6 +173,11 @@ def metrics_msg(metrics) -> TaskMetricsMsg:
         overshoot_joint=metrics.overshoot_joint,
         failure=metrics.failure,
     )
+
+
+#: Fields added to messages after bags were recorded with them ("pkg/Type" -> names, last fields of
+#: the type): a bag whose definition lacks them is read without them (metrics_dict).
+LATER_FIELDS = {"tric_msgs/TaskMetrics": ("max_joint_overshoot", "overshoot_joint", "failure")}
 
 
 def metrics_dict(msg: TaskMetricsMsg) -> dict:

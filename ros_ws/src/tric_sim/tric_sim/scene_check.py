@@ -1,6 +1,8 @@
-"""Whether a situation can physically be: its object (or the box's lid) not reaching into the table
-by more than TABLE_TOLERANCE, and its object, lid and obstacles clear of the robot in its initial
-configuration, measured with coal on the robot's collision model."""
+"""Whether a situation can physically be: the robot in its initial configuration clear of the table
+(its links but the base, mounted on it, reaching into it by no more than TABLE_TOLERANCE) and of
+itself (the self-collision pairs of RobotModel), its object (or the box's lid) not reaching into the
+table by more than TABLE_TOLERANCE, and its object, lid and obstacles clear of the robot, measured
+with coal on the robot's collision model."""
 
 import numpy as np
 
@@ -11,10 +13,12 @@ TABLE_TOLERANCE = 1e-3
 
 
 def check_scene(situation: Situation, robot) -> Situation:
-    """situation, or ValueError if it cannot physically be: its object (or the box's lid) reaching
-    into the table by more than TABLE_TOLERANCE, or its object, lid or an obstacle intersecting the
-    robot (any link, its base too) in its initial configuration (initial_joint_positions, else the
-    robot's home). robot: a tric_sim.robot_model.RobotModel."""
+    """situation, or ValueError naming the pair if it cannot physically be, in the robot's initial
+    configuration (initial_joint_positions, else the robot's home): a robot link (not the base)
+    reaching into the table by more than TABLE_TOLERANCE, two robot links of a self-collision pair
+    intersecting, its object (or the box's lid) reaching into the table by more than
+    TABLE_TOLERANCE, or its object, lid or an obstacle intersecting the robot (any link, its base
+    too). robot: a tric_sim.robot_model.RobotModel."""
     # imported here: Pinocchio and coal only once a scene is checked
     import coal
     import pinocchio as pin
@@ -30,6 +34,7 @@ def check_scene(situation: Situation, robot) -> Situation:
         (robot.model.frames[g.parentFrame].name, g.geometry, placement)
         for g, placement in zip(robot.collision_model.geometryObjects, geometry_data.oMg)
     ]
+    moving = [g.parentJoint != 0 for g in robot.collision_model.geometryObjects]
     table, *bodies = scene_bodies(situation)
     table_shape, table_placement = (
         coal_shape(table.shape, table.dimensions),
@@ -46,6 +51,22 @@ def check_scene(situation: Situation, robot) -> Situation:
             coal.DistanceResult(),
         )
 
+    for (link, robot_shape, robot_placement), is_moving in zip(robot_parts, moving):
+        depth = -distance(robot_shape, robot_placement, table_shape, table_placement)
+        if is_moving and depth > TABLE_TOLERANCE:
+            raise ValueError(
+                f"{where}: the robot's {link} reaches {depth * 100:.1f} cm into the table in its "
+                "initial configuration"
+            )
+    for pair in robot.collision_model.collisionPairs:
+        (link, shape, placement), (other, other_shape, other_placement) = (
+            robot_parts[pair.first],
+            robot_parts[pair.second],
+        )
+        if distance(shape, placement, other_shape, other_placement) < 0.0:
+            raise ValueError(
+                f"{where}: the robot's {link} intersects its {other} in its initial configuration"
+            )
     for body in bodies:
         what = body.name.replace("_", " ") if body.role == "obstacle" else f"the {body.name}"
         shape, placement = (

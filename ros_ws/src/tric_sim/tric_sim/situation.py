@@ -11,6 +11,8 @@ from dataclasses import MISSING, asdict, dataclass, fields
 
 import numpy as np
 
+from tric_sim.untrusted import quoted
+
 #: Object kinds each task accepts.
 TASK_OBJECTS = {"grasp": ("sphere", "cylinder"), "open_box": ("box",)}
 #: Number of dimensions each shape takes: sphere (radius), cylinder (height, radius), box.
@@ -21,6 +23,12 @@ WORKSPACE_LOW = np.array([-0.2, -0.8, -0.05])
 WORKSPACE_HIGH = np.array([1.2, 0.8, 1.2])
 
 IDENTITY = (0.0, 0.0, 0.0, 1.0)
+#: The longest situation name, bytes of UTF-8: a file is named after it, with suffixes such as
+#: ".mcap.part" and a temporary file's, within the file systems' 255 (NAME_MAX).
+NAME_MAX_BYTES = 128
+#: The most characters of a name an error message quotes (with the rest of the message within
+#: tric_sim.untrusted.QUOTE_LIMIT characters of input).
+NAME_QUOTE = 60
 
 
 @dataclass(frozen=True)
@@ -51,16 +59,16 @@ class Situation:
     def validate(self, n_joints: int = 14, robot=None) -> "Situation":
         """Return self, or raise ValueError naming the first problem. With a robot
         (tric_sim.robot_model.RobotModel), the scene is checked against it too (see check_scene)."""
-        where = f"situation '{self.name}'"
-        if not self.name or not isinstance(self.name, str):
-            raise ValueError("a situation needs a non-empty name")
+        check_name(self.name)
+        where = f"situation '{quoted(self.name, NAME_QUOTE)}'"
         if not isinstance(self.task, str) or self.task not in TASK_OBJECTS:
             raise ValueError(
-                f"{where}: unknown task '{self.task}' (known: {', '.join(TASK_OBJECTS)})"
+                f"{where}: unknown task '{quoted(self.task, 40)}' "
+                f"(known: {', '.join(TASK_OBJECTS)})"
             )
         if not isinstance(self.object_kind, str) or self.object_kind not in TASK_OBJECTS[self.task]:
             raise ValueError(
-                f"{where}: object kind '{self.object_kind}' does not fit task "
+                f"{where}: object kind '{quoted(self.object_kind, 40)}' does not fit task "
                 f"'{self.task}' (expected one of {', '.join(TASK_OBJECTS[self.task])})"
             )
         _check_vector(
@@ -73,7 +81,9 @@ class Situation:
         _check_quaternion(self.object_orientation, f"{where}: object_orientation")
         for k, obstacle in enumerate(self.obstacles):
             if not isinstance(obstacle.shape, str) or obstacle.shape not in OBSTACLE_DIMENSIONS:
-                raise ValueError(f"{where}: obstacle {k} has unknown shape '{obstacle.shape}'")
+                raise ValueError(
+                    f"{where}: obstacle {k} has unknown shape '{quoted(obstacle.shape, 40)}'"
+                )
             _check_vector(
                 obstacle.dimensions,
                 OBSTACLE_DIMENSIONS[obstacle.shape],
@@ -108,18 +118,17 @@ class Situation:
         """Build and validate a situation from plain data; unknown or missing keys are refused."""
         if not isinstance(data, dict):
             raise ValueError(f"a situation must be a mapping, got {type(data).__name__}")
+        name = quoted(data.get("name", "?"), NAME_QUOTE)
         known = {f.name for f in fields(cls)}
         unknown = set(data) - known
         if unknown:
             raise ValueError(
-                f"situation '{data.get('name', '?')}': unknown field(s) {sorted(unknown)}"
+                f"situation '{name}': unknown field(s) {quoted(sorted(map(str, unknown)), 100)}"
             )
         required = {f.name for f in fields(cls) if f.default is MISSING}
         missing = required - set(data)
         if missing:
-            raise ValueError(
-                f"situation '{data.get('name', '?')}': missing field(s) {sorted(missing)}"
-            )
+            raise ValueError(f"situation '{name}': missing field(s) {sorted(missing)}")
         values = dict(data)
         try:
             values["obstacles"] = tuple(_obstacle_from_dict(o) for o in data.get("obstacles", ()))
@@ -132,8 +141,32 @@ class Situation:
                 if key in values:
                     values[key] = tuple(float(v) for v in values[key])
         except (TypeError, ValueError) as error:
-            raise ValueError(f"situation '{data.get('name', '?')}': {error}") from None
+            raise ValueError(f"situation '{name}': {quoted(str(error), 120)}") from None
         return cls(**values).validate()
+
+
+def check_name(name) -> str:
+    """name, or ValueError unless it can name a file: a non-empty string of at most NAME_MAX_BYTES
+    bytes of UTF-8, without "/", NUL or other control characters (or lone surrogates), not starting
+    with "." (nor "." or "..")."""
+    if not isinstance(name, str) or not name:
+        raise ValueError("a situation needs a non-empty name")
+    size = len(name.encode("utf-8", "surrogatepass"))
+    problem = ""
+    if size > NAME_MAX_BYTES:
+        problem = f"is {size} bytes long, over {NAME_MAX_BYTES}"
+    elif "/" in name:
+        problem = "holds a '/'"
+    elif any(ord(c) < 32 or ord(c) == 127 or 0xD800 <= ord(c) < 0xE000 for c in name):
+        problem = "holds a control character or a lone surrogate"
+    elif name.startswith("."):
+        problem = "starts with '.'"
+    if problem:
+        raise ValueError(
+            f"situation name {quoted(repr(name), NAME_QUOTE)} "
+            f"{problem}: it names the situation's files"
+        )
+    return name
 
 
 def _obstacle_from_dict(data) -> Obstacle:
@@ -144,8 +177,8 @@ def _obstacle_from_dict(data) -> Obstacle:
         or not {"shape", "dimensions", "position"} <= set(data)
     ):
         raise ValueError(
-            f"bad obstacle entry {data!r} (expected the keys shape, dimensions, position and "
-            "optionally orientation)"
+            f"bad obstacle entry {quoted(data, 80)} (expected the keys shape, dimensions, "
+            "position and optionally orientation)"
         )
     return Obstacle(
         shape=data["shape"],
@@ -169,7 +202,7 @@ def _check_vector(values, size, what, positive=False):
     try:
         array = np.asarray(values, dtype=float)
     except (TypeError, ValueError):
-        raise ValueError(f"{what} must be {size} number(s), got {values!r}") from None
+        raise ValueError(f"{what} must be {size} number(s), got {quoted(values, 80)}") from None
     if array.shape != (size,):
         raise ValueError(f"{what} must have {size} value(s), got {array.size}")
     if not np.all(np.isfinite(array)):

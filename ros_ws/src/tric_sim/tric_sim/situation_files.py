@@ -10,6 +10,7 @@ import yaml
 from tric_sim.output_files import write_text_atomic
 from tric_sim.scene_check import check_scene
 from tric_sim.situation import Situation
+from tric_sim.untrusted import read_data_file
 
 
 def save_situations(path, situations) -> None:
@@ -25,25 +26,11 @@ def save_situations(path, situations) -> None:
 
 
 def load_situations(path, robot=None) -> list:
-    """Read a situations file (YAML or JSON, a list or {"situations": [...]}); each is validated and
-    its scene checked against robot (check_scene; default: a new RobotModel)."""
+    """Read a situations file (YAML or JSON, a list or {"situations": [...]}; size, depth and
+    aliases limited as tric_sim.untrusted.read_data_file says); each is validated and its scene
+    checked against robot (check_scene; default: a new RobotModel)."""
     path = pathlib.Path(path)
-    try:
-        text = path.read_text()
-    except OSError as error:
-        raise ValueError(f"cannot read situations file {path}: {error.strerror}") from None
-    try:
-        data = json.loads(text) if path.suffix == ".json" else yaml.safe_load(text)
-    except (json.JSONDecodeError, yaml.YAMLError) as error:
-        mark = getattr(error, "problem_mark", None)  # YAML's own message spans lines: say it in one
-        detail = (
-            f"{error.problem} at line {mark.line + 1}, column {mark.column + 1}"
-            if mark is not None
-            else str(error)
-        )
-        raise ValueError(
-            f"{path} is not valid {'JSON' if path.suffix == '.json' else 'YAML'}: {detail}"
-        ) from None
+    data = read_data_file(path, "situations file")
     if isinstance(data, dict):
         data = data.get("situations")
     if not isinstance(data, list) or not data:

@@ -12,6 +12,7 @@ import numpy as np
 
 from tric_sim.situation import Obstacle, Situation
 from tric_sim.situation_files import load_situations
+from tric_sim.untrusted import quoted
 
 SPHERE_RADIUS = 0.04
 CYLINDER_HEIGHT, CYLINDER_RADIUS = 0.30, 0.05
@@ -211,7 +212,7 @@ DATASETS = {
 def dataset(name: str) -> list:
     """A named data set (see DATASETS), or ValueError listing the known names."""
     if name not in DATASETS:
-        raise ValueError(f"unknown data set '{name}' (known: {', '.join(DATASETS)})")
+        raise ValueError(f"unknown data set '{quoted(name, 80)}' (known: {', '.join(DATASETS)})")
     return DATASETS[name]()
 
 
@@ -224,4 +225,6 @@ def find_situation(name: str, path=None) -> Situation:
     for situation in candidates:
         if situation.name == name:
             return situation
-    raise ValueError(f"no situation named '{name}' in {path or 'the built-in data sets'}")
+    raise ValueError(
+        f"no situation named '{quoted(name, 80)}' in {path or 'the built-in data sets'}"
+    )

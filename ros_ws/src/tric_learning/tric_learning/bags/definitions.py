@@ -1,5 +1,6 @@
 """Message definitions as rosbag2 records them: type names, the .msg text with its dependencies,
-the type hash; and the check that an rclpy class matches its definition."""
+the fields a definition text declares, the type hash; and the check that an rclpy class matches its
+definition."""
 
 from __future__ import annotations
 
@@ -97,6 +98,24 @@ def message_definition(type_name: str, text: str | None = None) -> str:
         return text
 
     return text_with_dependencies(type_name, text)
+
+
+def definition_fields(type_name: str, text: str) -> dict[str, tuple]:
+    """ "pkg/Type" -> its fields ((type, name), ...), for a message type and every type its full
+    definition text (as message_definition writes it, or rosbag2) includes: what decoding depends
+    on, without comments, constants and defaults. ValueError (or what rosidl's parser raises) when
+    the text does not parse."""
+    package, name = _package_and_name(type_name)
+    fields = {}
+    for k, section in enumerate(text.split(f"\n{'=' * 80}\n")):
+        if k:
+            header, _, section = section.partition("\n")
+            if not header.startswith("MSG: "):
+                raise ValueError(f"a section starts with {header[:40]!r}, not 'MSG: pkg/Type'")
+            package, name = _package_and_name(header[len("MSG: ") :].strip())
+        spec = parse_message_string(package, name, section)
+        fields[f"{package}/{name}"] = tuple((str(f.type), f.name) for f in spec.fields)
+    return fields
 
 
 def _check_generated_class(msg_class: type, checked: set | None = None) -> None:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import logging
 import os
 import struct
@@ -9,7 +10,6 @@ from collections.abc import Iterable, Iterator, Mapping
 from pathlib import Path
 from typing import Any, NamedTuple
 
-import yaml
 import zstandard
 from mcap.exceptions import McapError
 from mcap.opcode import Opcode
@@ -19,7 +19,13 @@ from mcap.stream_reader import StreamReader
 from mcap.summary import Summary
 from mcap_ros2.decoder import DecoderFactory
 
-from tric_learning.bags.definitions import _package_and_name, ros_type_name
+from tric_learning.bags.definitions import (
+    _package_and_name,
+    definition_fields,
+    message_definition,
+    ros_type_name,
+)
+from tric_sim.untrusted import load_data, quoted
 
 _MCAP_MAGIC = b"\x89MCAP0\r\n"
 _FOOTER_RECORD_SIZE = 1 + 8 + 20  # opcode, record length, summary start, summary offset start, CRC
@@ -164,13 +170,56 @@ def _strict_error(damage: _Damage) -> ValueError:
     return ValueError(f"{damage} (an unfinished recording?); tric-train --tolerant reads those")
 
 
-def _check_type(path: Path, topic: str, type_name: str, expected: Mapping[str, Any]) -> None:
-    if topic in expected:
-        want = (
-            expected[topic] if isinstance(expected[topic], str) else ros_type_name(expected[topic])
+def _check_type(
+    path: Path,
+    topic: str,
+    schema: Schema,
+    expected: Mapping[str, Any],
+    optional: Mapping[str, Iterable[str]],
+) -> None:
+    """ValueError naming the bag, topic and type unless a topic of expected has the expected type
+    name and, field for field, this build's definition of it (the schema's text), but for trailing
+    fields that optional ("pkg/Type" -> field names) lets a bag lack."""
+    if topic not in expected:
+        return
+    want = expected[topic] if isinstance(expected[topic], str) else ros_type_name(expected[topic])
+    if _package_and_name(want) != _package_and_name(schema.name):
+        raise ValueError(f"bag {path}: topic {topic} has type {schema.name}, expected {want}")
+    try:
+        theirs = definition_fields(schema.name, schema.data.decode("utf-8"))
+    except Exception as error:  # rosidl's parser raises its own kinds; UnicodeDecodeError
+        problem = f"it does not parse: {quoted(str(error), 120)}"
+    else:
+        problem = next(
+            (
+                f"its {name} has the fields {quoted([f[1] for f in theirs.get(name, ())], 60)}, "
+                f"this build's {quoted([f[1] for f in fields], 60)}"
+                for name, fields in _our_fields(want).items()
+                if not _older_version(theirs.get(name), fields, optional.get(name, ()))
+            ),
+            "",
         )
-        if _package_and_name(want) != _package_and_name(type_name):
-            raise ValueError(f"bag {path}: topic {topic} has type {type_name}, expected {want}")
+    if problem:
+        raise ValueError(
+            f"bag {path}: topic {topic} holds {schema.name} of another definition than this "
+            f"build's ({problem}); it was recorded by another version of its package, or is "
+            "not a TRIC bag"
+        )
+
+
+def _older_version(theirs: tuple | None, ours: tuple, optional: Iterable[str]) -> bool:
+    """Whether a type's fields theirs are ours, or ours less trailing fields that are optional."""
+    return (
+        theirs is not None
+        and ours[: len(theirs)] == theirs
+        and {name for _, name in ours[len(theirs) :]} <= set(optional)
+    )
+
+
+@functools.cache
+def _our_fields(type_name: str) -> dict[str, tuple]:
+    """definition_fields of a type as installed here."""
+    return definition_fields(type_name, message_definition(type_name))
 
 
 def read_bag(
@@ -178,13 +227,17 @@ def read_bag(
     topics: Iterable[str] | None = None,
     *,
     expected_types: Mapping[str, str | type] | None = None,
+    optional_fields: Mapping[str, Iterable[str]] | None = None,
     tolerant: bool = False,
 ) -> Iterator[BagMessage]:
     """The messages of a bag in file order (the order they were written), decoded.
 
     topics: read only these (default: all). expected_types: topic -> type ("pkg/msg/Type" or message
-    class); a topic of another type raises ValueError before any of its messages (before any message
-    at all for a finished bag read strictly); topics missing from the bag are not an error.
+    class); a topic of another type, or of another definition of it (field names and types, the
+    types it nests included), raises ValueError before any of its messages (before any message at
+    all for a finished bag read strictly); topics missing from the bag are not an error.
+    optional_fields: "pkg/Type" -> names of its last fields that a bag's definition may lack (added
+    after it was recorded; its reader must do without them).
     tolerant: False refuses (ValueError) a file that is not a finished bag, saying how many messages
     precede the damage; True yields those messages and logs a warning where the damage starts (use
     it for a ".part" left by a killed writer).
@@ -193,7 +246,7 @@ def read_bag(
     """
     path = Path(path)
     selected = None if topics is None else frozenset(topics)
-    expected = dict(expected_types or {})
+    expected, optional = dict(expected_types or {}), dict(optional_fields or {})
     with _open_bag(path) as file:
         finished = _is_finished(file)
         if not finished and not tolerant:
@@ -203,13 +256,17 @@ def read_bag(
             for channel in summary.channels.values() if summary else ():
                 if channel.schema_id in summary.schemas:
                     _check_type(
-                        path, channel.topic, summary.schemas[channel.schema_id].name, expected
+                        path,
+                        channel.topic,
+                        summary.schemas[channel.schema_id],
+                        expected,
+                        optional,
                     )
-    return _messages(path, selected, expected, tolerant)
+    return _messages(path, selected, expected, optional, tolerant)
 
 
 def _messages(
-    path: Path, selected: frozenset | None, expected: dict, tolerant: bool
+    path: Path, selected: frozenset | None, expected: dict, optional: Mapping, tolerant: bool
 ) -> Iterator[BagMessage]:
     schemas: dict[int, Schema] = {}
     # id -> (channel, decoder or None when not selected)
@@ -223,7 +280,7 @@ def _messages(
                 schema = schemas.get(record.schema_id)
                 if schema is None:
                     raise ValueError(f"bag {path}: topic {record.topic} has no schema")
-                _check_type(path, record.topic, schema.name, expected)
+                _check_type(path, record.topic, schema, expected, optional)
                 decoder = None
                 if selected is None or record.topic in selected:
                     decoder = _decoder(path, decoders, record, schema)
@@ -278,9 +335,9 @@ def _latched(channel: Channel) -> bool:
     """Whether a channel's offered QoS profiles are transient local (rosbag2 v9 names or v8
     numbers)."""
     try:
-        profiles = yaml.safe_load(channel.metadata.get("offered_qos_profiles", "")) or []
+        profiles = load_data(channel.metadata.get("offered_qos_profiles", ""), "QoS") or []
         return any(p.get("durability") in ("transient_local", 1) for p in profiles)
-    except (yaml.YAMLError, AttributeError, TypeError):
+    except (ValueError, AttributeError, TypeError):
         return False
 
 
@@ -289,10 +346,9 @@ def _custom_data(path: Path, metadata: list[Metadata]) -> dict[str, str]:
     records = [m for m in metadata if m.name == "rosbag2" and "serialized_metadata" in m.metadata]
     if not records:
         return {}
+    what = f"bag {path}: its rosbag2 metadata record"
+    information = load_data(records[-1].metadata["serialized_metadata"], what)
     try:
-        information = yaml.safe_load(records[-1].metadata["serialized_metadata"])
         return {str(k): str(v) for k, v in (information.get("custom_data") or {}).items()}
-    except (yaml.YAMLError, AttributeError) as error:
-        raise ValueError(
-            f"bag {path}: its rosbag2 metadata record does not read: {error}"
-        ) from None
+    except (AttributeError, TypeError):
+        raise ValueError(f"{what} does not hold a custom_data mapping") from None

@@ -1,0 +1,115 @@
+"""Input from files a user hands over, treated as hostile: YAML and JSON read and parsed with limits
+on size, nesting depth and aliases (read_data_file, load_data), and input quoted in error messages
+at most QUOTE_LIMIT characters at a time (quoted)."""
+
+import json
+import pathlib
+
+import yaml
+
+#: The largest file load_data reads, bytes (a situations file of 1000 situations is about 0.5 MB).
+MAX_BYTES = 16 * 2**20
+#: The deepest nesting of lists and mappings accepted (a situations file nests 4 deep).
+MAX_DEPTH = 32
+#: The most characters of the input an error message quotes.
+QUOTE_LIMIT = 200
+
+
+def quoted(value, limit: int = QUOTE_LIMIT) -> str:
+    """str(value) for a string, else repr(value), cut to at most limit characters (the cut marked
+    with "..." and the length it had). The data load_data returns is a tree (aliases refused), so
+    its repr grows only as the file does."""
+    text = value if isinstance(value, str) else repr(value)
+    return text if len(text) <= limit else f"{text[:limit]}... ({len(text)} chars)"
+
+
+class _LimitedLoader(yaml.SafeLoader):
+    """PyYAML's safe loader that refuses aliases and nesting deeper than MAX_DEPTH, as the parser
+    meets them (before anything is built)."""
+
+    def __init__(self, stream):
+        super().__init__(stream)
+        self._depth = 0
+
+    def compose_node(self, parent, index):
+        if self.check_event(yaml.AliasEvent):
+            event = self.peek_event()
+            raise yaml.composer.ComposerError(
+                None,
+                None,
+                f"an alias (*{quoted(event.anchor, 40)}): aliases are not accepted",
+                event.start_mark,
+            )
+        self._depth += 1
+        try:
+            if self._depth > MAX_DEPTH:
+                raise yaml.composer.ComposerError(
+                    None,
+                    None,
+                    f"nesting deeper than {MAX_DEPTH} levels",
+                    self.peek_event().start_mark,
+                )
+            return super().compose_node(parent, index)
+        finally:
+            self._depth -= 1
+
+
+def read_data_file(path, what: str):
+    """The data of a YAML file (JSON for a .json suffix), read by load_data's rules, or ValueError
+    naming what and path: unreadable, larger than MAX_BYTES (read no further), not UTF-8, or
+    refused by load_data."""
+    path = pathlib.Path(path)
+    source = f"{what} {path}"
+    try:
+        with path.open("rb") as file:
+            raw = file.read(MAX_BYTES + 1)
+    except OSError as error:
+        raise ValueError(f"cannot read {source}: {error.strerror}") from None
+    if len(raw) > MAX_BYTES:
+        raise ValueError(f"{source} is larger than {MAX_BYTES // 2**20} MiB")
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as error:
+        raise ValueError(f"{source} is not UTF-8 text (byte {error.start})") from None
+    return load_data(text, source, json_format=path.suffix == ".json")
+
+
+def load_data(text: str, source: str, json_format: bool = False):
+    """The data of a YAML (or, json_format, JSON) text, or ValueError in one line that names
+    source: larger than MAX_BYTES, nested deeper than MAX_DEPTH, a YAML alias, or not parsing."""
+    kind = "JSON" if json_format else "YAML"
+    if len(text.encode("utf-8", "surrogatepass")) > MAX_BYTES:
+        raise ValueError(f"{source} is larger than {MAX_BYTES // 2**20} MiB")
+    try:
+        data = json.loads(text) if json_format else yaml.load(text, Loader=_LimitedLoader)
+    except json.JSONDecodeError as error:
+        raise ValueError(f"{source} is not valid JSON: {quoted(str(error))}") from None
+    except yaml.YAMLError as error:
+        mark = getattr(error, "problem_mark", None)  # YAML's own message spans lines: say it in one
+        detail = (
+            f"{error.problem} at line {mark.line + 1}, column {mark.column + 1}"
+            if mark is not None
+            else str(error)
+        )
+        raise ValueError(f"{source} is not valid YAML: {quoted(detail)}") from None
+    except RecursionError:  # the JSON parser recurses per level
+        depth = MAX_DEPTH + 1
+    else:
+        depth = _depth(data)
+    if depth > MAX_DEPTH:
+        raise ValueError(f"{source} is not valid {kind}: nesting deeper than {MAX_DEPTH} levels")
+    return data
+
+
+def _depth(data) -> int:
+    """How deep lists and mappings nest in data (0 for a scalar), without recursion."""
+    deepest, stack = 0, [(data, 1)]
+    while stack:
+        item, level = stack.pop()
+        if isinstance(item, (list, dict)):
+            deepest = max(deepest, level)
+            if level <= MAX_DEPTH:
+                stack += [
+                    (v, level + 1) for v in (item.values() if isinstance(item, dict) else item)
+                ]
+    return deepest
