@@ -131,6 +131,22 @@ def test_output_paths_and_impossible_situations_are_refused_before_the_first_epi
             "file",
         ),
         (["--model", str(tmp_path), "sphere_test"], f"model file {tmp_path} is a folder"),
+        (
+            ["--model", str(tmp_path / "plain"), "sphere_test", "--json", str(tmp_path / "plain")],
+            f"--json file {tmp_path / 'plain'} is an input of this run",
+        ),
+        (
+            ["--teacher", "sphere_test", "--json", str(tmp_path / "plain")],
+            f"--json file {tmp_path / 'plain'} exists; give --overwrite to replace it",
+        ),
+        (
+            ["--teacher", "sphere_test", "--json", "/dev/null", "--overwrite"],
+            "--json file /dev/null exists and is not a regular file",
+        ),
+        (
+            ["--teacher", "sphere_test", "--json", str(tmp_path / ("n" * 256 + ".json"))],
+            "is longer than the 255 bytes the file system takes",
+        ),
     ]
     inside = situations.sphere("inside_the_base", (0.0, 0.0, 0.05))
     save_situations(tmp_path / "impossible.yaml", [inside])

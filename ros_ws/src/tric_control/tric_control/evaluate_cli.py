@@ -1,8 +1,8 @@
 """tric-eval: run a model (or the teacher) on situations through the real nodes, and judge it.
 
-    tric-eval (--model MODEL | --teacher) (DATASET | --situations-file FILE) [--json OUT]
-              [--max-steps N] [--snapshots DIR] [--domain-id N] [--jobs N] [--offline] [--record
-              DIR] [--viz [--viz-port P]]
+    tric-eval (--model MODEL | --teacher) (DATASET | --situations-file FILE) [--json OUT
+              [--overwrite]] [--max-steps N] [--snapshots DIR] [--domain-id N] [--jobs N]
+              [--offline] [--record DIR] [--viz [--viz-port P]]
 
 Runs the simulator (lockstep), the teacher and the controller nodes in one process. For each
 situation: reset the scene (/simulator/reset_scene); the teacher demonstrates it
@@ -12,7 +12,8 @@ situation: reset the scene (/simulator/reset_scene); the teacher demonstrates it
 per-episode records and their summary to the --json file. DATASET is a built-in data set
 (sphere_test, cylinder_test, obstacle_test, box_test, ...); any YAML/JSON situations file of one
 task works too. --snapshots DIR writes a PNG of each final state (before the lift test). The --json
-file and the --snapshots folder are checked before the first episode, and written atomically. The
+file and the --snapshots folder are checked before the first episode (the --json file must not be
+the model or the situations file, nor exist unless --overwrite), and written atomically. The
 nodes run in a private DDS domain unless --domain-id names one. --jobs N runs N such graphs at once,
 each in a worker process of its own on its own domain (the base one and the N - 1 above it), the
 situations shared out one at a time; the records keep the situations' order. --offline runs the same
@@ -20,7 +21,7 @@ episodes without nodes: the controller core (or the teacher's) on the physics di
 (tric_control.offline), several times faster, for sweeps; the table and JSON are the same. --record
 DIR writes one bag per episode (the recorder node: the joint states, poses, samples and outcome, the
 controller's status of every tick, and /tf, /robot_description and /scene_markers for Foxglove to
-replay it in 3D). --viz serves a live Foxglove view of the run (tric_sim.visualizer_node) on
+replay it in 3D). --viz serves a live Foxglove view of the run (tric_sim.foxglove_view) on
 ws://127.0.0.1:P (default 8765); it shows one graph, so it takes --jobs 1. --record and --viz need
 the nodes (not --offline). Exits 0 when every episode ran (whatever its score), 1 when one could not
 be run, 2 on bad arguments.
@@ -38,6 +39,9 @@ from tric_sim.situation_files import load_situations
 from tric_sim.situations import DATASETS, dataset
 from tric_sim.view_options import add_view_arguments, open_view
 
+#: What --json takes per episode at most, bytes (a record is about 600).
+JSON_BYTES_PER_EPISODE = 4096
+
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(prog="tric-eval", description=__doc__.splitlines()[0])
@@ -49,6 +53,9 @@ def main(argv=None) -> int:
     parser.add_argument("dataset", nargs="?", choices=sorted(DATASETS), help="a built-in data set")
     parser.add_argument("--situations-file", help="a YAML/JSON situations file instead of DATASET")
     parser.add_argument("--json", help="write the per-episode records and the summary to this file")
+    parser.add_argument(
+        "--overwrite", action="store_true", help="replace the --json file if it exists"
+    )
     parser.add_argument(
         "--max-steps",
         type=int,
@@ -112,7 +119,13 @@ def main(argv=None) -> int:
                 + ("is a folder" if pathlib.Path(args.model).is_dir() else "does not exist")
             )
         if args.json:
-            check_output_file(args.json, what="--json file")
+            check_output_file(
+                args.json,
+                what="--json file",
+                inputs=(args.model, args.situations_file),
+                overwrite=args.overwrite,
+                expected_bytes=JSON_BYTES_PER_EPISODE * len(situations),
+            )
         if args.snapshots:
             check_output_folder(args.snapshots, "--snapshots folder")
         model = None if args.teacher else args.model
@@ -152,7 +165,11 @@ def main(argv=None) -> int:
         )
     )
     if args.json:
-        print(f"wrote {write_json(args.json, {'agent': name, **report(records)})}")
+        try:
+            print(f"wrote {write_json(args.json, {'agent': name, **report(records)})}")
+        except OSError as error:
+            print(f"tric-eval: {error.strerror}", file=sys.stderr)
+            return 2
     return 1 if any(r.failed for r in records) else 0
 
 

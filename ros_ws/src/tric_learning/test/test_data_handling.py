@@ -193,14 +193,18 @@ def test_a_demonstration_without_collision_free_samples_is_named_with_its_bag(
 
 def test_tric_train_checks_its_output_before_training(robot, good_bag, tmp_path, capsys):
     (tmp_path / "folder.safetensors").mkdir()
+    (tmp_path / "earlier.safetensors").write_bytes(b"an earlier model")
     for out, reason in (
         ("/proc/x.safetensors", "/proc refuses new files"),
         (str(tmp_path / "folder.safetensors"), "is a folder"),
+        (str(tmp_path / "earlier.safetensors"), "exists; give --overwrite to replace it"),
+        (str(tmp_path / ("m" * 250 + ".safetensors")), "bytes the file system takes"),
     ):
         assert train_cli.main([str(good_bag), "--out", out, "--quiet"]) == 2
         error = capsys.readouterr().err
-        assert error.startswith(f"tric-train: the model path {out} ") and reason in error
+        assert error.startswith(f"tric-train: the model path {out[:150]}") and reason in error
         assert error.count("\n") == 1
+    assert (tmp_path / "earlier.safetensors").read_bytes() == b"an earlier model"
 
 
 def test_tric_train_names_what_it_includes_with_include_failed_and_tolerant(

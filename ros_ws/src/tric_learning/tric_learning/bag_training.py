@@ -25,11 +25,16 @@ class BagTraining:
     result: object
 
 
-def model_output_path(output_path, first_bag: pathlib.Path) -> pathlib.Path:
+def model_output_path(
+    output_path, first_bag: pathlib.Path, inputs=(), overwrite: bool = True
+) -> pathlib.Path:
     """Where the model goes: output_path, or DEFAULT_MODEL_NAME next to first_bag when output_path
-    is empty; ValueError if it is not a writable .safetensors file path."""
+    is empty; ValueError if it is not a writable .safetensors file path, is one of inputs, or
+    exists and overwrite is False (tric_sim.output_files.check_output_file)."""
     path = pathlib.Path(output_path) if output_path else first_bag.parent / DEFAULT_MODEL_NAME
-    return check_output_file(path, (MODEL_SUFFIX,), "the model path")
+    return check_output_file(
+        path, (MODEL_SUFFIX,), "the model path", inputs=inputs, overwrite=overwrite
+    )
 
 
 def train_on_bags(

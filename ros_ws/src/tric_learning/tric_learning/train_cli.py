@@ -4,10 +4,11 @@ a model file.
     tric-train BAGS... [--kind {tric,dpl_joint,dpl_finger}] [--out MODEL] [--hidden-units K]
                [--noisy-samples M] [--sigma RAD] [--alpha-n A] [--alpha-g A] [--alpha-w A] [--l2 W]
                [--iterations N] [--correlation-threshold C] [--seed S] [--include-failed]
-               [--tolerant]
+               [--tolerant] [--overwrite]
 
 BAGS are MCAP bags written by tric-record or the recorder node, or folders of them. MODEL defaults
-to model.safetensors next to the first bag; the hyper-parameters default to the paper's (Sec. 5.2).
+to model.safetensors next to the first bag, and must not exist unless --overwrite; the
+hyper-parameters default to the paper's (Sec. 5.2) but where docs/fidelity.md says.
 --kind dpl_joint / dpl_finger trains the DPL baseline instead (tric_learning.dpl, Sec. 5.3.2): it
 takes --hidden-units, --l2, --iterations, --correlation-threshold and --seed; the other
 hyper-parameters are TRIC's and ignored.
@@ -184,6 +185,9 @@ def parse_arguments(argv):
         action="store_true",
         help="read unfinished (.part) and damaged bags up to their damage",
     )
+    parser.add_argument(
+        "--overwrite", action="store_true", help="replace the model file if it exists"
+    )
     parser.add_argument("--quiet", action="store_true", help="no progress bars")
     return parser.parse_args(argv)
 
@@ -269,6 +273,7 @@ def main(argv=None) -> int:
         print(f"{PROG}: {error}", file=sys.stderr)
         return 2
     from tric_learning.bag_dataset import bag_paths
+    from tric_learning.bag_training import model_output_path
     from tric_learning.dpl import train_dpl_from_bags
     from tric_learning.training import train_from_bags
     from tric_sim.robot_model import RobotModel
@@ -279,8 +284,10 @@ def main(argv=None) -> int:
         else train_from_bags
     )
     try:
+        files = bag_paths(args.bags, args.tolerant, notice=lambda _: None)
+        model_output_path(args.out, files[0], inputs=files, overwrite=args.overwrite)
         bars = StageBars(
-            len(bag_paths(args.bags, args.tolerant, notice=lambda _: None)),
+            len(files),
             config.max_iterations,
             enabled=not args.quiet,
             members=getattr(config, "members", 1),

@@ -219,3 +219,36 @@ def test_generated_situation_data_is_refused_clearly_or_valid(robot, data):
     except ValueError as error:
         assert f"situation '{situation.name}'" in str(error)
         event("valid, physically impossible")
+
+
+def test_a_write_that_fails_names_the_path_and_keeps_the_file_before(tmp_path, monkeypatch):
+    """A disk that fills during the write (os.replace standing in for the failing call): one
+    OSError naming the path and the cause, the earlier file intact, no temporary file left."""
+    import errno
+
+    from tric_sim import output_files
+
+    target = tmp_path / "result.json"
+    target.write_text("the earlier result")
+
+    def full_disk(*_):
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(output_files.os, "replace", full_disk)
+    with pytest.raises(OSError) as failed:
+        output_files.write_text_atomic(target, "a new result")
+    assert failed.value.errno == errno.ENOSPC
+    assert failed.value.strerror == f"{target} could not be written (No space left on device)"
+    assert target.read_text() == "the earlier result"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["result.json"]
+
+
+def test_output_files_refuse_too_little_free_space_and_keep_temporary_names_short(tmp_path):
+    from tric_sim import output_files
+
+    with pytest.raises(ValueError, match="MB are needed"):
+        output_files.check_output_file(tmp_path / "x.json", expected_bytes=10**18)
+    longest = "n" * (255 - len(".json")) + ".json"  # the longest name the file system takes
+    assert output_files.check_output_file(tmp_path / longest).name == longest
+    output_files.write_text_atomic(tmp_path / longest, "fits")
+    assert (tmp_path / longest).read_text() == "fits"

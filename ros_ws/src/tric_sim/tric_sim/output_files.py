@@ -1,6 +1,12 @@
 """Where the tools write: every output path checked before any work starts, every result written
-atomically (to a temporary file in the same folder, then renamed into place), so that a run never
-ends in a traceback after its work, and a reader never sees half a file.
+atomically (to a temporary file in the same folder, synced, then renamed into place), so that a run
+never ends in a traceback after its work, a reader never sees half a file, and a write that fails
+all the same (a disk filled meanwhile) leaves what was there before and says so in one line.
+
+Before any work an output file must: not be an input of the same run, nor an existing special
+file (a device, a pipe, a folder); not exist unless the tool was asked to overwrite; have a name,
+and a temporary sibling's name, that the file system takes; and go into a folder that can hold new
+files, with room for the expected size.
 
 The checks try the folder for real (a probe file is created and removed in the nearest folder that
 exists): permission bits alone would pass /proc, or anything else, for root.
@@ -9,7 +15,14 @@ exists): permission bits alone would pass /proc, or anything else, for root.
 import contextlib
 import os
 import pathlib
+import shutil
 import uuid
+
+#: The longest file name when the file system does not say (bytes; Linux's NAME_MAX).
+DEFAULT_NAME_MAX = 255
+#: Bytes the temporary sibling's name may take beyond the target's suffix
+#: (".tric-<8 hex>.tmp").
+TEMPORARY_NAME_BYTES = 18
 
 
 def _probe_folder(folder: pathlib.Path, what: str) -> None:
@@ -31,23 +44,75 @@ def _nearest_existing(path: pathlib.Path) -> pathlib.Path:
     return next(candidate for candidate in (path, *path.parents) if candidate.exists())
 
 
-def check_output_file(path, suffixes=(), what: str = "output file") -> pathlib.Path:
+def _name_max(folder: pathlib.Path) -> int:
+    """The longest file name folder's file system takes, bytes."""
+    try:
+        return os.pathconf(folder, "PC_NAME_MAX")
+    except (OSError, ValueError):
+        return DEFAULT_NAME_MAX
+
+
+def check_output_file(
+    path,
+    suffixes=(),
+    what: str = "output file",
+    *,
+    inputs=(),
+    overwrite: bool = True,
+    expected_bytes: int = 0,
+) -> pathlib.Path:
     """path as a Path if a file can be written there (its missing folders created on writing);
-    ValueError naming what and why otherwise: the path is a folder, its suffix is not one of
-    suffixes (when given), or the folder it goes in cannot hold new files. Creates nothing."""
+    ValueError naming what and why otherwise: the path names no file or a folder; its suffix is
+    not one of suffixes (when given); it is one of inputs (paths this run reads) or an existing
+    special file; it exists and overwrite is False; its name, or its temporary sibling's, is too
+    long for the file system; the folder it goes in cannot hold new files, or has less than
+    expected_bytes free. Creates nothing."""
     path = pathlib.Path(path)
     where = f"{what} {path}"
     if not str(path) or path.name in ("", ".", ".."):
         raise ValueError(f"{where} names no file")
     if suffixes and path.suffix not in suffixes:
         raise ValueError(f"{where} must end in {' or '.join(suffixes)}")
+    existing = _nearest_existing(path.parent)
+    name_max = _name_max(existing)
+    longest = max(path.name, _temporary_name(path), key=lambda name: len(name.encode()))
+    if len(longest.encode()) > name_max:
+        raise ValueError(
+            f"{what} {str(path)[:200]}: the name {longest[:80]}... is longer than the "
+            f"{name_max} bytes the file system takes"
+        )
     if path.is_dir():
         raise ValueError(f"{where} is a folder; give a file path")
-    existing = _nearest_existing(path.parent)
+    for source in inputs:
+        if source and _same_file(path, pathlib.Path(source)):
+            raise ValueError(f"{where} is an input of this run ({source}); give another path")
+    if path.exists() and not path.is_file():
+        raise ValueError(f"{where} exists and is not a regular file (a device, pipe or socket)")
+    if path.exists() and not overwrite:
+        raise ValueError(f"{where} exists; give --overwrite to replace it")
     if not existing.is_dir():
         raise ValueError(f"{where} cannot be written: {existing} is a file, not a folder")
     _probe_folder(existing, where)
+    free = shutil.disk_usage(existing).free
+    if free < expected_bytes:
+        raise ValueError(
+            f"{where} cannot be written: {existing} has {free / 1e6:.1f} MB free, "
+            f"{expected_bytes / 1e6:.1f} MB are needed"
+        )
     return path
+
+
+def _same_file(a: pathlib.Path, b: pathlib.Path) -> bool:
+    """Whether a and b name the same existing file (links and relative paths resolved)."""
+    try:
+        return a.exists() and b.exists() and os.path.samefile(a, b)
+    except OSError:
+        return False
+
+
+def _temporary_name(path: pathlib.Path) -> str:
+    """A fresh name, beside path, for the file that becomes path: short whatever path's name."""
+    return f".tric-{uuid.uuid4().hex[:8]}.tmp{path.suffix}"
 
 
 def check_output_folder(
@@ -75,18 +140,27 @@ def check_output_folder(
 @contextlib.contextmanager
 def atomic_path(path):
     """A context manager giving a temporary path, next to path with the same suffix, to write the
-    result to; on a normal exit it is synced and renamed onto path (replacing any file there), on
-    an exception removed. The folder of path is created if missing."""
+    result to; on a normal exit it is synced and renamed onto path (replacing any file there, the
+    folder synced after), on an exception removed. The folder of path is created if missing. A
+    write that fails (OSError: a full disk, a folder removed) raises OSError naming path and the
+    cause, and leaves any earlier file at path as it was."""
     path = pathlib.Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    temporary = path.with_name(
-        f".{path.stem}.{os.getpid()}-{uuid.uuid4().hex[:8]}.tmp{path.suffix}"
-    )
+    temporary = path.with_name(_temporary_name(path))
     try:
+        path.parent.mkdir(parents=True, exist_ok=True)
         yield temporary
         with open(temporary, "rb+") as written:
             os.fsync(written.fileno())
         os.replace(temporary, path)
+        folder = os.open(path.parent, os.O_RDONLY)
+        try:
+            os.fsync(folder)
+        finally:
+            os.close(folder)
+    except OSError as error:
+        raise OSError(
+            error.errno, f"{path} could not be written ({error.strerror or error})"
+        ) from None
     finally:
         temporary.unlink(missing_ok=True)
 
