@@ -46,6 +46,7 @@ from tric_control.graph_evaluation import evaluate  # noqa: E402
 from tric_learning.demonstrations import demonstrate_all  # noqa: E402
 from tric_learning.training import TrainingConfig, train_from_bags  # noqa: E402
 from tric_sim.dds_domains import private_domain_id  # noqa: E402
+from tric_sim.interrupts import run_interruptible  # noqa: E402
 from tric_sim.metrics import GOOD_GRASP  # noqa: E402
 from tric_sim.output_files import atomic_path, check_output_folder  # noqa: E402
 from tric_sim.robot_model import RobotModel  # noqa: E402
@@ -129,6 +130,12 @@ def plot(teacher, tric, snapshot: pathlib.Path, out: pathlib.Path):
 
 
 def main(argv=None) -> int:
+    return run_interruptible(
+        "tric-demo", run, argv, "the demonstrations recorded so far kept as bags"
+    )
+
+
+def run(argv) -> int:
     parser = argparse.ArgumentParser(prog="tric-demo", description=__doc__.splitlines()[0])
     parser.add_argument(
         "--reuse",

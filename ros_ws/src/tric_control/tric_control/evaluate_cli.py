@@ -34,6 +34,7 @@ import sys
 # Only what the arguments need: --help and argument errors answer before torch, pybullet,
 # pinocchio and rclpy are imported (main imports the rest once the arguments are checked).
 from tric_sim.dds_domains import MAX_DOMAIN_ID, private_domain_id
+from tric_sim.interrupts import run_interruptible
 from tric_sim.output_files import check_output_file, check_output_folder
 from tric_sim.situation_files import load_situations
 from tric_sim.situations import DATASETS, dataset
@@ -44,6 +45,10 @@ JSON_BYTES_PER_EPISODE = 4096
 
 
 def main(argv=None) -> int:
+    return run_interruptible("tric-eval", run, argv, "no records written")
+
+
+def run(argv) -> int:
     parser = argparse.ArgumentParser(prog="tric-eval", description=__doc__.splitlines()[0])
     agent = parser.add_mutually_exclusive_group(required=True)
     agent.add_argument("--model", help="a model file (from tric-train or the trainer node)")

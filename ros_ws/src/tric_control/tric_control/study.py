@@ -49,6 +49,7 @@ from tric_control.offline import evaluate_offline
 from tric_learning import analysis, model_file
 from tric_learning.bag_dataset import bag_paths, load_dataset
 from tric_learning.training import TrainingConfig, train
+from tric_sim.interrupts import run_interruptible
 from tric_sim.metrics import GOOD_GRASP, LID_OPEN_ANGLE
 from tric_sim.provenance import code_digest
 from tric_sim.robot_model import RobotModel
@@ -393,6 +394,10 @@ def seed_summary(rows: list) -> str:
 
 
 def main(argv=None) -> int:
+    return run_interruptible("tric-study", run, argv, "the rows measured so far kept in study.json")
+
+
+def run(argv) -> int:
     parser = argparse.ArgumentParser(prog="tric-study", description=__doc__.splitlines()[0])
     parser.add_argument(
         "--variant",

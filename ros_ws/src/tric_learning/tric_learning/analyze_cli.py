@@ -32,6 +32,7 @@ from tric_learning.analysis.attraction import (
 )
 from tric_learning.bag_dataset import load_dataset
 from tric_learning.model_file import ModelFile, value_function
+from tric_sim.interrupts import run_interruptible
 from tric_sim.output_files import check_output_folder
 from tric_sim.robot_model import RobotModel
 
@@ -39,6 +40,10 @@ PROG = "tric-analyze"
 
 
 def main(argv=None) -> int:
+    return run_interruptible("tric-analyze", run, argv, "")
+
+
+def run(argv) -> int:
     parser = argparse.ArgumentParser(prog=PROG, description=__doc__.splitlines()[0])
     parser.add_argument("model", metavar="MODEL", help="a TRIC model file (.safetensors)")
     parser.add_argument("bags", nargs="+", metavar="BAGS", help="MCAP bags, or folders of them")

@@ -18,6 +18,7 @@ import time
 # Only what the arguments need: --help and argument errors answer before pybullet, pinocchio and
 # rclpy are imported (main imports the nodes once the arguments are checked).
 from tric_sim.dds_domains import MAX_DOMAIN_ID, private_domain_id
+from tric_sim.interrupts import run_interruptible
 from tric_sim.output_files import check_output_folder
 from tric_sim.situation_files import load_situations
 from tric_sim.situations import DATASETS, dataset
@@ -25,6 +26,12 @@ from tric_sim.view_options import add_view_arguments, open_view
 
 
 def main(argv=None) -> int:
+    return run_interruptible(
+        "tric-record", run, argv, "the bags of the finished demonstrations kept"
+    )
+
+
+def run(argv) -> int:
     parser = argparse.ArgumentParser(prog="tric-record", description=__doc__.splitlines()[0])
     parser.add_argument("dataset", nargs="?", choices=sorted(DATASETS), help="a built-in data set")
     parser.add_argument("--situations-file", help="a YAML/JSON situations file instead of DATASET")

@@ -29,6 +29,7 @@ from tqdm import tqdm
 # Only what the arguments need: --help and argument errors answer before torch, pybullet,
 # pinocchio and rclpy are imported (main imports them once the arguments are checked).
 from tric_learning.hyperparameters import DPL_KINDS, KINDS, DplConfig, TrainingConfig
+from tric_sim.interrupts import run_interruptible
 
 PROG = "tric-train"
 
@@ -239,6 +240,10 @@ def dpl_summary(run) -> str:
 
 
 def main(argv=None) -> int:
+    return run_interruptible(PROG, run, argv, "no model written")
+
+
+def run(argv) -> int:
     args = parse_arguments(argv)
     if args.kind in DPL_KINDS:
         dpl_defaults = DplConfig()
@@ -308,9 +313,6 @@ def main(argv=None) -> int:
     except (ValueError, OSError) as error:
         print(f"{PROG}: {error}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
-        print(f"{PROG}: interrupted", file=sys.stderr)
-        return 130
     print(dpl_summary(run) if args.kind in DPL_KINDS else summary(run))
     return 0
 

@@ -20,9 +20,8 @@ import uuid
 
 #: The longest file name when the file system does not say (bytes; Linux's NAME_MAX).
 DEFAULT_NAME_MAX = 255
-#: Bytes the temporary sibling's name may take beyond the target's suffix
-#: (".tric-<8 hex>.tmp").
-TEMPORARY_NAME_BYTES = 18
+#: The temporary files of the writes in progress in this process (atomic_path).
+_temporaries = set()
 
 
 def _probe_folder(folder: pathlib.Path, what: str) -> None:
@@ -146,6 +145,7 @@ def atomic_path(path):
     cause, and leaves any earlier file at path as it was."""
     path = pathlib.Path(path)
     temporary = path.with_name(_temporary_name(path))
+    _temporaries.add(temporary)
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         yield temporary
@@ -162,6 +162,13 @@ def atomic_path(path):
             error.errno, f"{path} could not be written ({error.strerror or error})"
         ) from None
     finally:
+        temporary.unlink(missing_ok=True)
+        _temporaries.discard(temporary)
+
+
+def remove_temporaries() -> None:
+    """Remove the temporary files of the writes in progress (a tool ending on a signal)."""
+    for temporary in list(_temporaries):
         temporary.unlink(missing_ok=True)
 
 

@@ -11,6 +11,7 @@ import rclpy
 from rclpy.context import Context
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.signals import SignalHandlerOptions
 
 #: The periodic state topics (/joint_states, /object_poses, /clock, /joint_command, ~/status):
 #: reliable, shallow.
@@ -69,7 +70,13 @@ class InProcessGraph:
     def __init__(self, domain_id: int = None):
         os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
         self.context = Context()
-        rclpy.init(context=self.context, domain_id=domain_id)
+        # The tool owns SIGINT and SIGTERM (tric_sim.interrupts): its main thread ends the run and
+        # closes this graph; rclpy's own handlers would shut the context under the running nodes.
+        rclpy.init(
+            context=self.context,
+            domain_id=domain_id,
+            signal_handler_options=SignalHandlerOptions.NO,
+        )
         self.executor = SingleThreadedExecutor(context=self.context)
         self.nodes = []
         self._thread = None

@@ -18,6 +18,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
+from tric_sim.interrupts import run_interruptible  # noqa: E402
 from tric_sim.output_files import atomic_path, check_output_folder  # noqa: E402
 from tric_sim.physics import PhysicsWorld  # noqa: E402
 from tric_sim.robot_model import RobotModel  # noqa: E402
@@ -53,6 +54,10 @@ def demonstration_strip(
 
 
 def main(argv=None) -> int:
+    return run_interruptible("tric-snapshot", run, argv, "the pictures finished so far kept")
+
+
+def run(argv) -> int:
     parser = argparse.ArgumentParser(prog="tric-snapshot", description=__doc__.splitlines()[0])
     parser.add_argument("situations", nargs="+", metavar="SITUATION")
     parser.add_argument("--out", default=".", help="output folder (default: .)")

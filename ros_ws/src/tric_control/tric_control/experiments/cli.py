@@ -47,10 +47,15 @@ from tric_control.experiments import EXPERIMENTS  # noqa: E402
 from tric_control.experiments.checks import check_results, check_table  # noqa: E402
 from tric_control.experiments.report import write_report  # noqa: E402
 from tric_control.experiments.runner import Runner  # noqa: E402
+from tric_sim.interrupts import run_interruptible  # noqa: E402
 from tric_sim.output_files import atomic_path, check_output_folder  # noqa: E402
 
 
 def main(argv=None) -> int:
+    return run_interruptible("tric-experiments", run, argv, "the experiments finished so far kept")
+
+
+def run(argv) -> int:
     parser = argparse.ArgumentParser(prog="tric-experiments", description=__doc__.splitlines()[0])
     parser.add_argument(
         "names",
