@@ -19,7 +19,7 @@ help:
 	@echo "make setup        create .venv, install pinned ROS 2 Jazzy wheels and libraries, colcon build"
 	@echo "make test         run the test suite (unit + in-process integration tests)"
 	@echo "make lint         ruff check and ruff format --check over every Python file (ruff.toml)"
-	@echo "make bench        run the benchmarks, write results/bench.json"
+	@echo "make bench        run the benchmarks, write results/bench.json (BENCH_ARGS=--check: against the targets)"
 	@echo "make constraints  re-pin constraints.txt from the current .venv"
 	@echo "make clean        remove build outputs (keeps .venv)"
 
@@ -53,7 +53,7 @@ lint: setup
 	$(IN_ENV) ruff format --check $(LINT_PATHS)
 
 bench: setup
-	$(IN_ENV) python benchmarks/run.py
+	$(IN_ENV) python benchmarks/run.py $(BENCH_ARGS)
 
 constraints: $(DEPS_STAMP)
 	scripts/pin_constraints.sh

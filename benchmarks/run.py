@@ -2,9 +2,11 @@
 
 Each module benchmarks/bench_*.py defines `run() -> dict` returning flat {key: number} results (keys
 are named in the issues, e.g. "sim_lockstep_rtf"). This runner calls them in name order, merges
-their results with a description of the machine, prints the object and writes it.
+their results with a description of the machine, prints the object and writes it. --check then
+compares every key that has a target (TARGETS: design.md section 5 and the issues) with it, prints
+the comparison and exits 1 if one is missed; --check-only does that for an existing results file.
 
-    python benchmarks/run.py [--only NAME ...] [--out results/bench.json]
+    python benchmarks/run.py [--only NAME ...] [--out results/bench.json] [--check | --check-only]
 """
 
 import argparse
@@ -16,7 +18,47 @@ import platform
 import sys
 import time
 
+from tric_sim.output_files import write_text_atomic
+
 HERE = pathlib.Path(__file__).resolve().parent
+
+#: key -> (at most / at least, bound, where the target comes from).
+TARGETS = {
+    "train_default_s": ("<=", 15.0, "design.md: training the default model"),
+    "controller_tick_p99_ms": ("<=", 0.5, "design.md: one controller tick, p99"),
+    "controller_vs_pink": ("<", 1.0, "design.md: tick p50 below pin-pink's solve_ik"),
+    "offline_speedup": (">=", 5.0, "design.md: offline evaluation against the nodes"),
+    "sim_lockstep_period_ratio": ("<=", 1.5, "design.md: lockstep period over raw physics"),
+    "sim_lockstep_rtf": (">=", 20.0, "the lockstep simulator's real-time factor (an issue)"),
+    "main_job_s": ("<=", 300.0, "design.md: the whole main job"),
+    "help_max_s": ("<", 0.5, "design.md: --help of every tool"),
+    "features_us": ("<=", 100.0, "phi and dphi/dq of the grasp task (an issue)"),
+    "eval_rss_growth_mb": ("<", 50.0, "memory over 100 episodes (an issue)"),
+}
+COMPARE = {"<=": float.__le__, "<": float.__lt__, ">=": float.__ge__}
+
+
+def derived(results: dict) -> dict:
+    """Keys computed from others: the lockstep period over the raw physics period."""
+    if "sim_lockstep_period_us" in results and "sim_physics_period_us" in results:
+        ratio = results["sim_lockstep_period_us"] / results["sim_physics_period_us"]
+        return {"sim_lockstep_period_ratio": round(ratio, 2)}
+    return {}
+
+
+def check(results: dict) -> int:
+    """Print each key with a target against it; 1 if one is missed, 0 otherwise."""
+    missed = 0
+    for key, (relation, bound, source) in TARGETS.items():
+        if key not in results:
+            continue
+        met = COMPARE[relation](float(results[key]), bound)
+        missed += not met
+        print(
+            f"{'met   ' if met else 'MISSED'} {key:28s} {results[key]:>10.4g} {relation} "
+            f"{bound:<8g} {source}"
+        )
+    return 1 if missed else 0
 
 
 def machine() -> dict:
@@ -44,7 +86,15 @@ def main(argv=None) -> int:
         help="benchmark module names to run (e.g. bench_sim); default: all",
     )
     parser.add_argument("--out", default="results/bench.json", help="output JSON file")
+    parser.add_argument(
+        "--check", action="store_true", help="compare the keys with their targets; 1 if one missed"
+    )
+    parser.add_argument(
+        "--check-only", action="store_true", help="--check the --out file, run nothing"
+    )
     args = parser.parse_args(argv)
+    if args.check_only:
+        return check(json.loads(pathlib.Path(args.out).read_text()))
     results = machine()
     modules = sorted(HERE.glob("bench_*.py"))
     if args.only:
@@ -60,12 +110,11 @@ def main(argv=None) -> int:
         start = time.perf_counter()
         results.update(load(path).run())
         print(f"[bench] {path.stem} done in {time.perf_counter() - start:.1f} s", file=sys.stderr)
-    out = pathlib.Path(args.out)
-    out.parent.mkdir(parents=True, exist_ok=True)
+    results.update(derived(results))
     text = json.dumps(results, indent=2, sort_keys=True)
-    out.write_text(text + "\n")
+    write_text_atomic(args.out, text + "\n")
     print(text)
-    return 0
+    return check(results) if args.check else 0
 
 
 if __name__ == "__main__":

@@ -1,0 +1,29 @@
+"""benchmarks/run.py --check: each key with a target compared with it, on hand-made results."""
+
+import importlib.util
+import json
+import pathlib
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+
+
+def bench_runner():
+    spec = importlib.util.spec_from_file_location("bench_run", ROOT / "benchmarks" / "run.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_check_only_exits_by_the_targets_and_derives_the_lockstep_ratio(tmp_path, capsys):
+    runner = bench_runner()
+    results = {"train_default_s": 15.0, "help_max_s": 0.2, "machine_cpus": 2}
+    results.update(runner.derived({"sim_lockstep_period_us": 300, "sim_physics_period_us": 200}))
+    assert results["sim_lockstep_period_ratio"] == 1.5
+    path = tmp_path / "bench.json"
+    path.write_text(json.dumps(results))
+    assert runner.main(["--check-only", "--out", str(path)]) == 0
+    printed = capsys.readouterr().out
+    assert "met    train_default_s" in printed and "machine_cpus" not in printed
+    path.write_text(json.dumps({**results, "help_max_s": 0.5}))  # the target is under 0.5 s
+    assert runner.main(["--check-only", "--out", str(path)]) == 1
+    assert "MISSED help_max_s" in capsys.readouterr().out
