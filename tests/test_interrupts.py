@@ -3,14 +3,26 @@ exit status 130 or 143, every finished bag complete, the unfinished one only as 
 bag never replaced by a cut-short one, and no result file written half."""
 
 import os
+import pathlib
+import shutil
 import signal
 import subprocess
 import sys
+import tempfile
 
 import pytest
+from hypothesis import HealthCheck, settings
+from hypothesis import strategies as st
+from hypothesis.stateful import RuleBasedStateMachine, invariant, rule
 
 from conftest import HANG_S
 from tric_learning.bags.info import bag_info
+
+
+def finished_demonstration(bag) -> bool:
+    """Whether bag is a whole demonstration: a finished MCAP file with the teacher's outcome."""
+    info = bag_info(bag)
+    return info.complete and "tric.outcome" in info.custom_data
 
 
 def start(module: str, *arguments) -> subprocess.Popen:
@@ -55,7 +67,7 @@ def test_tric_record_interrupted_keeps_finished_bags_and_leaves_the_rest_as_part
     finished = sorted(out.glob("*.mcap"))
     assert len(finished) >= 2
     for bag in finished:
-        assert bag_info(bag).complete
+        assert finished_demonstration(bag), bag
     assert all(p.suffix in (".mcap", ".part") for p in out.iterdir())
     assert len(list(out.glob("*.part"))) <= 1
 
@@ -74,7 +86,7 @@ def test_tric_record_overwrite_terminated_keeps_the_earlier_bag(tmp_path):
     assert "tric-record: terminated; the bags of the finished demonstrations kept" in rest
     assert set(earlier) <= {bag.name for bag in out.glob("*.mcap")}
     for bag in out.glob("*.mcap"):
-        assert bag_info(bag).complete, bag
+        assert finished_demonstration(bag), bag
 
 
 def test_tric_eval_interrupted_writes_no_json_and_ends_its_workers(tmp_path):
@@ -87,3 +99,55 @@ def test_tric_eval_interrupted_writes_no_json_and_ends_its_workers(tmp_path):
     assert "tric-eval: terminated; no records written" in rest
     assert "Traceback" not in rest and "Fatal Python error" not in rest
     assert list(tmp_path.iterdir()) == []  # no JSON, no temporary file
+
+
+class RecordingInterrupted(RuleBasedStateMachine):
+    """tric-record into one folder, again and again with --overwrite, each run ended by SIGINT or
+    SIGTERM after a drawn number of its log lines (any moment: starting, demonstrating, writing a
+    bag) or let finish: no finished bag is ever lost or left incomplete, and nothing unfinished
+    carries a bag's final name."""
+
+    def __init__(self):
+        super().__init__()
+        self.out = pathlib.Path(tempfile.mkdtemp(prefix="tric-interrupts-")) / "bags"
+        self.finished = set()
+
+    @rule(lines=st.integers(1, 40), signum=st.sampled_from([signal.SIGINT, signal.SIGTERM]))
+    def record_and_interrupt(self, lines, signum):
+        recorder = start(
+            "tric_learning.record_cli", "sphere_train", "--out", str(self.out), "--overwrite"
+        )
+        seen = 0
+        for _ in recorder.stderr:
+            seen += 1
+            if seen >= lines:
+                recorder.send_signal(signum)
+                break
+        rest = recorder.communicate(timeout=HANG_S)[1]
+        assert "Traceback" not in rest and "Fatal Python error" not in rest, rest
+        if seen >= lines:
+            assert recorder.returncode == 128 + signum, rest
+        self.finished |= {bag.name for bag in self.out.glob("*.mcap")}
+
+    @invariant()
+    def finished_bags_stay_complete(self):
+        if not self.out.exists():
+            return
+        names = {bag.name for bag in self.out.glob("*.mcap")}
+        assert self.finished <= names
+        for bag in self.out.glob("*.mcap"):
+            assert finished_demonstration(bag), bag
+        assert all(p.name.endswith((".mcap", ".mcap.part")) for p in self.out.iterdir())
+
+    def teardown(self):
+        shutil.rmtree(self.out.parent, ignore_errors=True)
+
+
+RecordingInterrupted.TestCase.settings = settings(
+    max_examples=2,
+    stateful_step_count=3,
+    deadline=None,
+    derandomize=True,
+    suppress_health_check=list(HealthCheck),
+)
+test_recording_interrupted_at_any_moment = RecordingInterrupted.TestCase

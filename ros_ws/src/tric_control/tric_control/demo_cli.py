@@ -150,7 +150,7 @@ def run(argv) -> int:
         "--iterations",
         type=int,
         default=TrainingConfig.max_iterations,
-        help="L-BFGS iterations (default: the paper's 100)",
+        help="L-BFGS iterations (default: TrainingConfig's, %(default)s)",
     )
     parser.add_argument(
         "--jobs",

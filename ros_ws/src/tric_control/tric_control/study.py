@@ -404,7 +404,7 @@ def run(argv) -> int:
         action="append",
         default=[],
         metavar="NAME=OPTIONS",
-        help="a training variant (repeatable; default: 'default=' the paper's settings)",
+        help="a training variant (repeatable; default: 'default=', TrainingConfig's settings)",
     )
     parser.add_argument(
         "--seeds", type=int, nargs="+", default=[0, 1, 2], help="training seeds (default 0 1 2)"
