@@ -252,3 +252,16 @@ def test_output_files_refuse_too_little_free_space_and_keep_temporary_names_shor
     assert output_files.check_output_file(tmp_path / longest).name == longest
     output_files.write_text_atomic(tmp_path / longest, "fits")
     assert (tmp_path / longest).read_text() == "fits"
+
+
+def test_output_folders_and_files_under_a_name_too_long_are_refused_before_work(tmp_path):
+    """A folder name over the file system's limit (tric-record --out, a --json path inside it) is
+    one ValueError, not an OSError after the work."""
+    from tric_sim import output_files
+
+    long_folder = tmp_path / ("d" * 300)
+    with pytest.raises(ValueError, match="is longer than the 255 bytes"):
+        output_files.check_output_folder(long_folder, "--out")
+    with pytest.raises(ValueError, match="is longer than the 255 bytes"):
+        output_files.check_output_file(long_folder / "x.json", what="--json file")
+    assert list(tmp_path.iterdir()) == []

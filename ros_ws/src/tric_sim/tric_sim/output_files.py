@@ -38,9 +38,14 @@ def _probe_folder(folder: pathlib.Path, what: str) -> None:
 
 
 def _nearest_existing(path: pathlib.Path) -> pathlib.Path:
-    """path, or its nearest ancestor that exists."""
-    path = path.absolute()
-    return next(candidate for candidate in (path, *path.parents) if candidate.exists())
+    """path, or its nearest ancestor that exists (a name too long to look up counts as missing)."""
+    for candidate in (path.absolute(), *path.absolute().parents):
+        try:
+            if candidate.exists():
+                return candidate
+        except OSError:
+            continue
+    return pathlib.Path(path.absolute().anchor)
 
 
 def _name_max(folder: pathlib.Path) -> int:
@@ -72,6 +77,7 @@ def check_output_file(
         raise ValueError(f"{where} names no file")
     if suffixes and path.suffix not in suffixes:
         raise ValueError(f"{where} must end in {' or '.join(suffixes)}")
+    _check_name_lengths(path.parent, what)
     existing = _nearest_existing(path.parent)
     name_max = _name_max(existing)
     longest = max(path.name, _temporary_name(path), key=lambda name: len(name.encode()))
@@ -101,6 +107,17 @@ def check_output_file(
     return path
 
 
+def _check_name_lengths(path: pathlib.Path, what: str) -> None:
+    """ValueError if a part of path is longer than its file system takes."""
+    name_max = _name_max(_nearest_existing(path))
+    for part in path.parts:
+        if len(part.encode()) > name_max:
+            raise ValueError(
+                f"{what} {str(path)[:200]}: the name {part[:80]}... is longer than the "
+                f"{name_max} bytes the file system takes"
+            )
+
+
 def _same_file(a: pathlib.Path, b: pathlib.Path) -> bool:
     """Whether a and b name the same existing file (links and relative paths resolved)."""
     try:
@@ -121,7 +138,8 @@ def check_output_folder(
     naming what and why otherwise: it is a file, it cannot hold new files, or (must_be_empty) it
     holds files already. Creates nothing."""
     path = pathlib.Path(path)
-    where = f"{what} {path}"
+    where = f"{what} {str(path)[:200]}"
+    _check_name_lengths(path, what)
     existing = _nearest_existing(path)
     if not existing.is_dir():
         raise ValueError(f"{where} cannot be used: {existing} is a file, not a folder")
