@@ -5,37 +5,67 @@ at a time on it. Workers are spawned, never forked: a forked process may hold rc
 import concurrent.futures
 import multiprocessing
 
+from tric_control.evaluation import EpisodeRecord, unjudged_fields
+
 #: A worker process's evaluator, or the error that building it raised (re-raised by each of its
 #: runs).
 _worker = {}
 
 
-def run_in_workers(situations, snapshot, jobs: int, bar, make_evaluator, args: tuple) -> list:
+#: Pools run at most: a worker that dies (a segfault, the OOM killer) breaks its pool; the episodes
+#: it took down with it are run again in a new one.
+POOLS = 2
+
+
+def run_in_workers(situations, snapshot, jobs: int, bar, make_evaluator, make_args, agent) -> list:
     """evaluator.run(situation, snapshot) for every situation, in jobs spawned worker processes
-    whose evaluators are make_evaluator(*args) (make_evaluator: a module-level function, so that
-    it is picklable); [EpisodeRecord] in the situations' order. bar (a tqdm bar) is advanced as
-    each episode ends. On an error the episodes not started are canceled and the error raised."""
+    whose evaluators are make_evaluator(*make_args()) (make_evaluator: a module-level function, so
+    that it is picklable; make_args() is called for each pool); [EpisodeRecord] in the situations'
+    order. bar (a tqdm bar) is advanced as each episode ends. The episodes a dying worker takes
+    down with its pool run again in a new pool, up to POOLS; one still not run then is a failed
+    record that says so (of the other records' agent, or of agent when none ended). Any other
+    error cancels the episodes not started and is raised."""
     spawn = multiprocessing.get_context("spawn")
     records = [None] * len(situations)
+    pending = list(range(len(situations)))
+    for _ in range(POOLS):
+        if not pending:
+            break
+        pending = _run_pool(
+            spawn, situations, pending, records, snapshot, jobs, bar, make_evaluator, make_args()
+        )
+    agent = next((record.agent for record in records if record is not None), agent)
+    for k in pending:
+        records[k] = EpisodeRecord(
+            **unjudged_fields(situations[k], agent),
+            wall_time_s=0.0,
+            outcome="failed",
+            message=f"its evaluation worker process died, in {POOLS} tries",
+        )
+        bar.update()
+    return records
+
+
+def _run_pool(spawn, situations, pending, records, snapshot, jobs, bar, make_evaluator, args):
+    """Run the pending episodes (indices into situations) in one pool, filling records; the
+    indices its breaking (a worker that died) left without a record."""
     with concurrent.futures.ProcessPoolExecutor(
-        jobs,
-        mp_context=spawn,
-        initializer=_start_worker,
-        initargs=(make_evaluator, args),
+        jobs, mp_context=spawn, initializer=_start_worker, initargs=(make_evaluator, args)
     ) as pool:
-        futures = {
-            pool.submit(_run_in_worker, situation, snapshot): k
-            for k, situation in enumerate(situations)
-        }
+        futures = {pool.submit(_run_in_worker, situations[k], snapshot): k for k in pending}
         try:
             for future in concurrent.futures.as_completed(futures):
-                records[futures[future]] = future.result()
-                bar.set_postfix_str(situations[futures[future]].name)
+                k = futures[future]
+                try:
+                    records[k] = future.result()
+                except concurrent.futures.process.BrokenProcessPool:
+                    continue
+                bar.set_postfix_str(situations[k].name)
                 bar.update()
         except BaseException:
             pool.shutdown(wait=True, cancel_futures=True)
             raise
-    return records
+    return [k for k in pending if records[k] is None]
 
 
 def _start_worker(make_evaluator, args):

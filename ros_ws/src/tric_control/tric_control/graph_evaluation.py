@@ -367,19 +367,17 @@ def _evaluate_in_workers(
         raise ValueError(
             f"{jobs} workers from DDS domain {base} on would pass the last domain {MAX_DOMAIN_ID}"
         )
-    # never fork a process that may hold rclpy's threads
-    spawn = multiprocessing.get_context("spawn")
-    domain_ids = spawn.Queue()
-    for offset in range(jobs):
-        domain_ids.put(base + offset)
-    return run_in_workers(
-        situations,
-        snapshot,
-        jobs,
-        bar,
-        _worker_evaluator,
-        (task, model, max_steps, domain_ids, record),
-    )
+
+    def pool_arguments():
+        """The workers' arguments for one pool: its DDS domains, one for each worker."""
+        # never fork a process that may hold rclpy's threads
+        domain_ids = multiprocessing.get_context("spawn").Queue()
+        for offset in range(jobs):
+            domain_ids.put(base + offset)
+        return task, model, max_steps, domain_ids, record
+
+    agent = "teacher" if model is None else "model"
+    return run_in_workers(situations, snapshot, jobs, bar, _worker_evaluator, pool_arguments, agent)
 
 
 def _worker_evaluator(task, model, max_steps, domain_ids, record) -> Evaluator:

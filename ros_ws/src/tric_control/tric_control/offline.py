@@ -183,7 +183,8 @@ def evaluate_offline(
             jobs,
             bar,
             _worker_evaluator,
-            (task, model, max_steps, controller_options),
+            lambda: (task, model, max_steps, controller_options),
+            "teacher" if model is None else "model",
         )
 
 
