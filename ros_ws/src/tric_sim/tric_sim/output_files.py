@@ -24,6 +24,14 @@ DEFAULT_NAME_MAX = 255
 _temporaries = set()
 
 
+class WriteFailed(OSError):
+    """A result that could not be written all the same (atomic_path); its text is one line naming
+    the path and the cause, for a tool to print as its answer."""
+
+    def __str__(self) -> str:
+        return self.strerror
+
+
 def _probe_folder(folder: pathlib.Path, what: str) -> None:
     """ValueError unless a file can be created in the existing folder."""
     probe = folder / f".tric-probe-{os.getpid()}-{uuid.uuid4().hex[:8]}"
@@ -141,8 +149,8 @@ def atomic_path(path):
     """A context manager giving a temporary path, next to path with the same suffix, to write the
     result to; on a normal exit it is synced and renamed onto path (replacing any file there, the
     folder synced after), on an exception removed. The folder of path is created if missing. A
-    write that fails (OSError: a full disk, a folder removed) raises OSError naming path and the
-    cause, and leaves any earlier file at path as it was."""
+    write that fails (OSError: a full disk, a folder removed) raises WriteFailed naming path and
+    the cause, and leaves any earlier file at path as it was."""
     path = pathlib.Path(path)
     temporary = path.with_name(_temporary_name(path))
     _temporaries.add(temporary)
@@ -158,7 +166,7 @@ def atomic_path(path):
         finally:
             os.close(folder)
     except OSError as error:
-        raise OSError(
+        raise WriteFailed(
             error.errno, f"{path} could not be written ({error.strerror or error})"
         ) from None
     finally:
