@@ -95,3 +95,13 @@ def test_the_domain_damper_can_be_left_out_for_a_study():
     robot = RobotModel()
     kinds = [type(limit) for limit in default_limits(robot, {}, domain_damper=False)]
     assert DomainDamper not in kinds and len(kinds) == len(default_limits(robot, {})) - 1
+
+
+def test_tric_study_checks_its_results_file_before_any_training(tmp_path, capsys):
+    """study.json that is a folder is refused with one line before a model is trained."""
+    (tmp_path / "study.json").mkdir()
+    assert study.main(["--out", str(tmp_path), "--tasks", "sphere", "--seeds", "0"]) == 2
+    assert capsys.readouterr().err == (
+        f"tric-study: study file {tmp_path / 'study.json'} is a folder; give a file path\n"
+    )
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["study.json"]

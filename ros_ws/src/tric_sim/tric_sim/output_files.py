@@ -100,13 +100,18 @@ def check_output_file(
     if not existing.is_dir():
         raise ValueError(f"{where} cannot be written: {existing} is a file, not a folder")
     _probe_folder(existing, where)
-    free = shutil.disk_usage(existing).free
+    _check_room(existing, where, expected_bytes)
+    return path
+
+
+def _check_room(folder: pathlib.Path, where: str, expected_bytes: int) -> None:
+    """ValueError unless folder's file system has expected_bytes free."""
+    free = shutil.disk_usage(folder).free
     if free < expected_bytes:
         raise ValueError(
-            f"{where} cannot be written: {existing} has {free / 1e6:.1f} MB free, "
+            f"{where} cannot be written: {folder} has {free / 1e6:.1f} MB free, "
             f"{expected_bytes / 1e6:.1f} MB are needed"
         )
-    return path
 
 
 def _same_file(a: pathlib.Path, b: pathlib.Path) -> bool:
@@ -123,11 +128,11 @@ def _temporary_name(path: pathlib.Path) -> str:
 
 
 def check_output_folder(
-    path, what: str = "output folder", must_be_empty: bool = False
+    path, what: str = "output folder", must_be_empty: bool = False, expected_bytes: int = 0
 ) -> pathlib.Path:
     """path as a Path if files can be written into it (created on writing if missing); ValueError
-    naming what and why otherwise: it is a file, it cannot hold new files, or (must_be_empty) it
-    holds files already. Creates nothing."""
+    naming what and why otherwise: it is a file, it cannot hold new files, (must_be_empty) it
+    holds files already, or it has less than expected_bytes free. Creates nothing."""
     path = pathlib.Path(path)
     where = f"{what} {path}"
     existing = _nearest_existing(path)
@@ -141,6 +146,7 @@ def check_output_folder(
             )
             raise ValueError(f"{where} is not empty ({shown})")
     _probe_folder(existing, where)
+    _check_room(existing, where, expected_bytes)
     return path
 
 
