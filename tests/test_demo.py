@@ -12,7 +12,7 @@ import pathlib
 import pytest
 
 from conftest import REFERENCE_BAGS
-from tric_control import demo_cli
+from tric_control import demo, demo_cli
 from tric_learning.training import TrainingConfig
 from tric_sim import situations
 
@@ -23,7 +23,7 @@ PNG = b"\x89PNG\r\n\x1a\n"
 def cut_down(monkeypatch, train=(), test=()):
     """Make tric-demo's sphere_train and sphere_test data sets these situations."""
     chosen = {"sphere_train": list(train), "sphere_test": list(test)}
-    monkeypatch.setattr(demo_cli, "dataset", lambda name: chosen[name])
+    monkeypatch.setattr(demo, "dataset", lambda name: chosen[name])
 
 
 @pytest.mark.slow
@@ -44,7 +44,7 @@ def test_tric_demo_on_the_reference_bags(tmp_path, monkeypatch, capsys, referenc
         asked.append((pathlib.Path(bags), config))
         return reference_sphere_training
 
-    monkeypatch.setattr(demo_cli, "train", trained)
+    monkeypatch.setattr(demo, "train", trained)
     out = tmp_path / "results"
     status = demo_cli.main(["--reuse", str(BAGS), "--out", str(out), "--check", "--jobs", "2"])
     assert asked == [(BAGS, TrainingConfig())]
@@ -59,11 +59,11 @@ def test_tric_demo_on_the_reference_bags(tmp_path, monkeypatch, capsys, referenc
             ), record
             assert record["max_joint_overshoot"] <= 0.01
     assert report["tric_lift_passed"] == 2 and report["tric"]["summary"]["good_grasps"] == 2
-    within = report["tric_cost_mean"] <= report["teacher_cost_mean"] + demo_cli.MARGIN_TO_TEACHER
+    within = report["tric_cost_mean"] <= report["teacher_cost_mean"] + demo.MARGIN_TO_TEACHER
     printed = capsys.readouterr().out
     assert "[1/4] reusing the demonstrations in" in printed
     assert (
-        f"TRIC mean within {demo_cli.MARGIN_TO_TEACHER} of the teacher: "
+        f"TRIC mean within {demo.MARGIN_TO_TEACHER} of the teacher: "
         f"{'met' if within else 'NOT met'}; every TRIC grasp below 0.25: met"
     ) in printed
     assert status == (0 if within else 1)

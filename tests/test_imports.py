@@ -83,19 +83,30 @@ def test_command_line_tools_import_libraries_never_another_tool():
 #: --help took 6 s): each takes 0.3 to 3 s to import.
 HEAVY_LIBRARIES = ("torch", "pybullet", "pinocchio", "rclpy", "matplotlib")
 
+#: Each command-line tool: arguments it refuses, and a part of its refusal.
+BAD_ARGUMENTS = {
+    "tric_control.evaluate_cli": (["sphere_test", "--teacher", "--jobs", "0"], "must"),
+    "tric_control.demo_cli": (["--jobs", "0"], "--jobs must be at least 1"),
+    "tric_control.experiments.cli": (["--jobs", "0"], "--jobs must be in [1, 64]"),
+    "tric_control.study": (["--variant", "v=hand_lead=-0.1"], "hand_lead must be >= 0"),
+    "tric_learning.train_cli": (["some.mcap", "--alpha-g", "-1"], "must"),
+    "tric_learning.record_cli": (["sphere_train", "--period", "0"], "must"),
+    "tric_learning.analyze_cli": (["m.safetensors", "b.mcap", "--top", "0"], "--top must be"),
+    "tric_sim.snapshot": (["sphere_grid_13", "--strip", "1"], "--strip takes 2 to 12 frames"),
+}
 
-@pytest.mark.parametrize(
-    "module, bad_arguments",
-    [
-        ("tric_control.evaluate_cli", ["sphere_test", "--teacher", "--jobs", "0"]),
-        ("tric_learning.train_cli", ["some.mcap", "--alpha-g", "-1"]),
-        ("tric_learning.record_cli", ["sphere_train", "--period", "0"]),
-    ],
-)
-def test_help_and_argument_errors_answer_before_the_heavy_libraries(module, bad_arguments):
+
+def test_every_command_line_tool_is_checked_for_a_fast_answer():
+    tools = {module for module in console_scripts() if not module.endswith("_node")}
+    assert tools == set(BAD_ARGUMENTS)
+
+
+@pytest.mark.parametrize("module", sorted(BAD_ARGUMENTS))
+def test_help_and_argument_errors_answer_before_the_heavy_libraries(module):
     """--help exits 0 and a bad argument 2, each with its text, before torch, pybullet, pinocchio,
     rclpy or matplotlib is imported."""
-    for arguments, status, text in ((["--help"], 0, "usage:"), (bad_arguments, 2, "must")):
+    bad_arguments, refusal = BAD_ARGUMENTS[module]
+    for arguments, status, text in ((["--help"], 0, "usage:"), (bad_arguments, 2, refusal)):
         code = (
             f"import sys, {module} as tool\n"
             "try:\n"

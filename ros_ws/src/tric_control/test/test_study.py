@@ -2,13 +2,13 @@
 
 import pytest
 
-from tric_control import study
+from tric_control import study, study_runs, study_variants
 from tric_sim.scene import TASK_CONTACTS
 
 
 def test_a_variant_is_a_name_and_training_options():
-    assert study.parse_variant("default=") == ("default", {})
-    name, changes = study.parse_variant(
+    assert study_variants.parse_variant("default=") == ("default", {})
+    name, changes = study_variants.parse_variant(
         "balanced=per_step_weights=true,optimizer=lbfgsb,alpha_g=3,max_iterations=200"
     )
     assert name == "balanced"
@@ -33,12 +33,13 @@ def test_a_variant_is_a_name_and_training_options():
 )
 def test_bad_variants_are_refused_with_a_reason(text, message):
     with pytest.raises(ValueError, match=message):
-        study.parse_variant(text)
+        study_variants.parse_variant(text)
 
 
 def test_study_sets_are_training_and_validation_sets_only():
-    for _bags, sets, steps in study.TASKS.values():
-        assert all(name.endswith(("_train", "_val")) for name in sets) and steps > 0
+    for _bags, sets, kind in study_variants.TASKS.values():
+        assert all(name.endswith(("_train", "_val")) for name in sets)
+        assert kind in ("grasp", "open_box")
 
 
 def test_the_seed_summary_gives_each_seed_and_the_mean_min_max():
@@ -47,7 +48,7 @@ def test_the_seed_summary_gives_each_seed_and_the_mean_min_max():
             "variant": "v",
             "task": "box",
             "seed": seed,
-            "model": {key: -0.5 - 0.1 * seed for key in study.MODEL_MEASURES},
+            "model": {key: -0.5 - 0.1 * seed for key in study_variants.MODEL_MEASURES},
             "sets": {"box_val": {"opened": opened, "episodes": 25, "good_converged": seed}},
         }
         for seed, opened in enumerate((20, 23, 17))
@@ -62,25 +63,27 @@ def test_the_seed_summary_gives_each_seed_and_the_mean_min_max():
 
 
 def test_controller_settings_are_variant_options_that_do_not_change_the_training():
-    name, changes = study.parse_variant("grip=alpha_g=10,hand_lead=0.2,grasp_steps=1500")
+    name, changes = study_variants.parse_variant("grip=alpha_g=10,hand_lead=0.2,grasp_steps=1500")
     assert changes == {"alpha_g": 10.0, "hand_lead": 0.2, "grasp_steps": 1500}
-    assert study.training_part(changes) == {"alpha_g": 10.0}
+    assert study_variants.training_part(changes) == {"alpha_g": 10.0}
     with pytest.raises(ValueError, match="hand_lead must be >= 0 rad"):
-        study.parse_variant("v=hand_lead=-0.1")
+        study_variants.parse_variant("v=hand_lead=-0.1")
 
 
 def test_contact_options_change_the_task_s_contact_rules_only_where_given():
-    _, changes = study.parse_variant("c=grasp_cushion=0.0,lid_beneath_only=false,lid_depth=0.01")
+    _, changes = study_variants.parse_variant(
+        "c=grasp_cushion=0.0,lid_beneath_only=false,lid_depth=0.01"
+    )
     assert changes == {"grasp_cushion": 0.0, "lid_beneath_only": False, "lid_depth": 0.01}
-    assert study.training_part(changes) == {}
-    grasp = study.contact_rules(changes, "grasp")["object"]
+    assert study_variants.training_part(changes) == {}
+    grasp = study_runs.contact_rules(changes, "grasp")["object"]
     assert grasp.cushion == 0.0 and grasp.depth == TASK_CONTACTS["grasp"]["target"].depth
-    lid = study.contact_rules(changes, "open_box")["lid"]
+    lid = study_runs.contact_rules(changes, "open_box")["lid"]
     assert lid.side is None and lid.depth == 0.01
-    assert study.contact_rules({"hand_lead": 0.1}, "grasp") is None
-    assert study.contact_rules({"grasp_depth": 0.0}, "open_box") is None
+    assert study_runs.contact_rules({"hand_lead": 0.1}, "grasp") is None
+    assert study_runs.contact_rules({"grasp_depth": 0.0}, "open_box") is None
     with pytest.raises(ValueError, match="contact depths and cushions must be in"):
-        study.parse_variant("v=grasp_depth=0.2")
+        study_variants.parse_variant("v=grasp_depth=0.2")
 
 
 def test_the_domain_damper_can_be_left_out_for_a_study():
@@ -88,7 +91,17 @@ def test_the_domain_damper_can_be_left_out_for_a_study():
     from tric_control.motion_rate import default_limits
     from tric_sim.robot_model import RobotModel
 
-    assert study.parse_variant("v=domain_damper=false")[1] == {"domain_damper": False}
+    assert study_variants.parse_variant("v=domain_damper=false")[1] == {"domain_damper": False}
     robot = RobotModel()
     kinds = [type(limit) for limit in default_limits(robot, {}, domain_damper=False)]
     assert DomainDamper not in kinds and len(kinds) == len(default_limits(robot, {})) - 1
+
+
+def test_tric_study_checks_its_results_file_before_any_training(tmp_path, capsys):
+    """study.json that is a folder is refused with one line before a model is trained."""
+    (tmp_path / "study.json").mkdir()
+    assert study.main(["--out", str(tmp_path), "--tasks", "sphere", "--seeds", "0"]) == 2
+    assert capsys.readouterr().err == (
+        f"tric-study: study file {tmp_path / 'study.json'} is a folder; give a file path\n"
+    )
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["study.json"]

@@ -24,109 +24,15 @@ below 0.25. They are printed as met or not; --check makes the exit code 1 when o
 """
 
 import argparse
-import json
-import math
 import os
-import pathlib
-import shutil
 import sys
-import time
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-from tqdm import tqdm  # noqa: E402
-
-from tric_control.evaluation import report, summarize, write_json  # noqa: E402
-from tric_control.experiments.paper import PAPER_TEACHER, PAPER_TRIC  # noqa: E402
-from tric_control.experiments.targets import MARGIN_TO_TEACHER  # noqa: E402
-from tric_control.graph_evaluation import evaluate  # noqa: E402
-from tric_learning.demonstrations import demonstrate_all  # noqa: E402
-from tric_learning.training import TrainingConfig, train_from_bags  # noqa: E402
-from tric_sim.dds_domains import private_domain_id  # noqa: E402
-from tric_sim.interrupts import run_interruptible  # noqa: E402
-from tric_sim.metrics import GOOD_GRASP  # noqa: E402
-from tric_sim.output_files import atomic_path, check_output_folder  # noqa: E402
-from tric_sim.robot_model import RobotModel  # noqa: E402
-from tric_sim.situations import dataset  # noqa: E402
-from tric_sim.view_options import add_view_arguments, open_view  # noqa: E402
-
-
-def record(out: pathlib.Path, domain_id: int, view=None) -> pathlib.Path:
-    """Demonstrate the sphere grid into out/bags (emptied first), shown in view (a FoxgloveView, or
-    None); the folder, or RuntimeError."""
-    bags = out / "bags"
-    if bags.exists():
-        shutil.rmtree(bags)
-    rows = demonstrate_all(
-        dataset("sphere_train"), bags, 0.125, 0.0, domain_id=domain_id, view=view
-    )
-    failed = [s.name for s, result, path in rows if not (result.success and path)]
-    if failed:
-        raise RuntimeError(f"the teacher failed to demonstrate {', '.join(failed)}")
-    return bags
-
-
-def train(bags: pathlib.Path, model: pathlib.Path, config: TrainingConfig):
-    """Train TRIC on the bags with a progress bar; the BagTraining."""
-    bar = tqdm(total=100, desc="training", unit="%")
-
-    def progress(stage, fraction, losses):
-        bar.set_description(f"training ({stage})")
-        bar.n = round(100 * fraction)
-        if losses and "iteration" in losses:
-            bar.set_postfix_str(
-                f"L_n {losses['n']:.3f} L_g {losses['g']:.3f} |w| {losses['w']:.0f}"
-            )
-        bar.refresh()
-
-    try:
-        return train_from_bags([bags], model, config, RobotModel(), progress)
-    finally:
-        bar.close()
-
-
-def comparison_table(teacher, tric) -> str:
-    """Paper Table 1 beside ours: the grasp cost of every test situation, then the means."""
-    lines = [f"{'test situation':18s} {'teacher':>8s} {'TRIC':>8s} {'TRIC lift':>9s}"]
-    for t, r in zip(teacher, tric):
-        lines.append(
-            f"{r.situation:18s} {t.grasp_cost:8.3f} {r.grasp_cost:8.3f} "
-            f"{'yes' if r.lift_passed else 'no':>9s}"
-        )
-    ts, rs = summarize(teacher), summarize(tric)
-    lines.append("-" * len(lines[0]))
-    lines.append(
-        f"{'mean (ours)':18s} {ts['grasp_cost_mean']:8.3f} {rs['grasp_cost_mean']:8.3f} "
-        f"{rs['lift_passed']:>5d}/{len(tric)}"
-    )
-    lines.append(f"{'mean (paper)':18s} {PAPER_TEACHER:8.3f} {PAPER_TRIC:8.3f} {'-':>9s}")
-    return "\n".join(lines)
-
-
-def plot(teacher, tric, snapshot: pathlib.Path, out: pathlib.Path):
-    """demo.png: teacher and TRIC grasp costs per test situation; demo_grasp.png: one TRIC grasp."""
-    x = np.arange(len(tric))
-    figure, axis = plt.subplots(figsize=(9, 3.6))
-    axis.bar(x - 0.2, [r.grasp_cost for r in teacher], 0.4, label="teacher")
-    axis.bar(x + 0.2, [r.grasp_cost for r in tric], 0.4, label="TRIC")
-    axis.axhline(
-        GOOD_GRASP, color="grey", linestyle="--", linewidth=1, label=f"good grasp < {GOOD_GRASP}"
-    )
-    axis.set_xticks(x, [r.situation.replace("sphere_test_", "") for r in tric])
-    axis.set_xlabel("sphere test situation")
-    axis.set_ylabel("grasp cost (lower is better)")
-    axis.set_title("Table 1: grasping a sphere at unseen positions")
-    axis.legend()
-    figure.tight_layout()
-    with atomic_path(out / "demo.png") as temporary:
-        figure.savefig(temporary, dpi=110)
-    plt.close(figure)
-    if snapshot.is_file():
-        with atomic_path(out / "demo_grasp.png") as temporary:
-            shutil.copy(snapshot, temporary)
+# Only what the arguments need: --help and argument errors answer before torch, pybullet,
+# pinocchio, rclpy and matplotlib are imported (tric_control.demo, the job, is imported after).
+from tric_learning.hyperparameters import TrainingConfig
+from tric_sim.interrupts import run_interruptible
+from tric_sim.output_files import WriteFailed, check_output_folder
+from tric_sim.view_options import add_view_arguments
 
 
 def main(argv=None) -> int:
@@ -150,7 +56,7 @@ def run(argv) -> int:
         "--iterations",
         type=int,
         default=TrainingConfig.max_iterations,
-        help="L-BFGS iterations (default: TrainingConfig's, %(default)s)",
+        help="L-BFGS iterations at most (default: TrainingConfig's, %(default)s)",
     )
     parser.add_argument(
         "--jobs",
@@ -168,93 +74,14 @@ def run(argv) -> int:
             "tric-demo: --viz shows one graph: the evaluations run with --jobs 1", file=sys.stderr
         )
         args.jobs = 1
-    started = time.monotonic()
     try:
         out = check_output_folder(args.out, "--out folder")
-    except ValueError as error:
+        from tric_control.demo import run_demo
+
+        return run_demo(args, out)
+    except (ValueError, RuntimeError, WriteFailed) as error:
         print(f"tric-demo: {error}", file=sys.stderr)
         return 2
-    work = out / "demo"
-    work.mkdir(parents=True, exist_ok=True)
-    domain_id = private_domain_id()
-    view = None
-    try:
-        view = open_view(args, "tric-demo")
-        config = TrainingConfig(max_iterations=args.iterations).validate()
-        if args.reuse:
-            bags = pathlib.Path(args.reuse)
-            print(f"[1/4] reusing the demonstrations in {bags}")
-        else:
-            print("[1/4] recording the 27 sphere-grid demonstrations with the teacher")
-            bags = record(work, domain_id, view)
-        print("[2/4] training TRIC (TrainingConfig's defaults: K = 30, M = 60, docs/fidelity.md)")
-        trained = train(bags, work / "tric_sphere.safetensors", config)
-        result = trained.result
-        print(
-            f"      {trained.path}: {result.selected_features} selected features, L_n "
-            f"{result.losses['n']:.3f}, L_g {result.losses['g']:.3f}, trained in "
-            f"{result.train_time_s:.1f} s"
-        )
-        print("[3/4] the teacher on the 15 test situations")
-        tests = dataset("sphere_test")
-        teacher = evaluate(
-            tests, None, domain_id=domain_id, desc="teacher", jobs=args.jobs, view=view
-        )
-        print("[4/4] TRIC on the 15 test situations")
-        snapshots = work / "snapshots"
-        tric = evaluate(
-            tests,
-            trained.path,
-            snapshots=snapshots,
-            domain_id=domain_id,
-            desc="TRIC",
-            jobs=args.jobs,
-            view=view,
-        )
-    except (ValueError, RuntimeError) as error:
-        print(f"tric-demo: {error}", file=sys.stderr)
-        return 2
-    finally:
-        if view is not None:
-            view.close()
-    print("\nTable 1: sphere grasp cost on the 15 test situations\n")
-    print(comparison_table(teacher, tric))
-    ts, rs = summarize(teacher), summarize(tric)
-    total = time.monotonic() - started
-    best = min(tric, key=lambda r: r.grasp_cost if math.isfinite(r.grasp_cost) else math.inf)
-    plot(teacher, tric, snapshots / f"{best.situation}.png", out)
-    summary = {
-        "teacher_cost_mean": ts["grasp_cost_mean"],
-        "tric_cost_mean": rs["grasp_cost_mean"],
-        "tric_cost_max": rs["grasp_cost_max"],
-        "tric_lift_passed": rs["lift_passed"],
-        "episodes": len(teacher) + len(tric),
-        "train_s": result.train_time_s,
-        "total_s": total,
-    }
-    write_json(
-        out / "demo.json",
-        {
-            **summary,
-            "model": str(trained.path),
-            "bags": str(bags),
-            "training": {"losses": result.losses, "selected_features": result.selected_features},
-            "tric": report(tric),
-            "teacher": report(teacher),
-        },
-    )
-    within = rs["grasp_cost_mean"] <= ts["grasp_cost_mean"] + MARGIN_TO_TEACHER
-    all_good = rs["good_grasps"] == len(tric)
-    print(
-        f"\nTRIC mean within {MARGIN_TO_TEACHER} of the teacher: {'met' if within else 'NOT met'}; "
-        f"every TRIC grasp below {GOOD_GRASP}: {'met' if all_good else 'NOT met'}"
-    )
-    print(
-        f"wrote {out / 'demo.json'}, {out / 'demo.png'} and {out / 'demo_grasp.png'} "
-        f"({best.situation}); total {total:.0f} s"
-    )
-    print(json.dumps(summary, indent=2))
-    return 1 if args.check and not (within and all_good) else 0
 
 
 if __name__ == "__main__":

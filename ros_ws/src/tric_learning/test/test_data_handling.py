@@ -597,3 +597,25 @@ def test_a_cached_model_is_reused_only_when_made_as_asked(robot, good_bag, tmp_p
     assert not model_file.made_as(path, "dpl_joint", config.to_dict(), dataset.fingerprint, code)
     path.write_bytes(b"not a model")
     assert not model_file.made_as(path, "tric", config.to_dict(), dataset.fingerprint, code)
+
+
+def test_tric_record_refuses_a_folder_without_room_for_the_bags_before_any_work(
+    tmp_path, monkeypatch, capsys
+):
+    """A stand-in full disk (shutil.disk_usage): tric-record answers with one line and exit 2
+    before any node starts or any bag is begun."""
+    import collections
+
+    from tric_learning import record_cli
+    from tric_sim import output_files
+
+    usage = collections.namedtuple("usage", "total used free")
+    monkeypatch.setattr(output_files.shutil, "disk_usage", lambda _: usage(10**9, 10**9, 10**5))
+    out = tmp_path / "bags"
+    assert record_cli.main(["sphere_train", "--out", str(out)]) == 2
+    error = capsys.readouterr().err
+    assert error == (
+        f"tric-record: --out {out} cannot be written: {tmp_path} has 0.1 MB free, "
+        "27.0 MB are needed\n"
+    )
+    assert list(tmp_path.iterdir()) == []

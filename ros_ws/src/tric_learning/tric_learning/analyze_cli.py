@@ -13,28 +13,10 @@ import argparse
 import pathlib
 import sys
 
-from tric_learning.analysis import (
-    DEFAULT_FEATURE_RANK,
-    FALLING_STEP,
-    MOVING_STEP,
-    SLOW_STEPS,
-    WEIGHT_SHARE,
-    key_numbers,
-    ranked_feature,
-    write_figures,
-)
-from tric_learning.analysis.attraction import (
-    ROLLOUTS,
-    SIGMA,
-    TICKS,
-    attraction_numbers,
-    rollouts_from_demo_ends,
-)
-from tric_learning.bag_dataset import load_dataset
-from tric_learning.model_file import ModelFile, value_function
+# Only what the arguments need: --help and argument errors answer before torch, pinocchio and
+# matplotlib are imported (run imports the analyses once the arguments are checked).
 from tric_sim.interrupts import run_interruptible
 from tric_sim.output_files import check_output_folder
-from tric_sim.robot_model import RobotModel
 
 PROG = "tric-analyze"
 
@@ -59,26 +41,46 @@ def run(argv) -> int:
     parser.add_argument(
         "--feature-rank",
         type=int,
-        default=DEFAULT_FEATURE_RANK,
         metavar="N",
-        help="the feature of Fig. 17b/c: the N-th by score (default %(default)s, the paper's)",
+        help="the feature of Fig. 17b/c: the N-th by score (default: the paper's, "
+        "tric_learning.analysis.DEFAULT_FEATURE_RANK)",
     )
     args = parser.parse_args(argv)
     try:
         if args.top < 1:
             raise ValueError("--top must be at least 1")
-        if args.feature_rank < 1:
+        if args.feature_rank is not None and args.feature_rank < 1:
             raise ValueError("--feature-rank must be at least 1")
         check_output_folder(args.out, "--out folder")
+        from tric_learning.analysis import (
+            DEFAULT_FEATURE_RANK,
+            FALLING_STEP,
+            MOVING_STEP,
+            SLOW_STEPS,
+            WEIGHT_SHARE,
+            key_numbers,
+            ranked_feature,
+            write_figures,
+        )
+        from tric_learning.analysis.attraction import (
+            ROLLOUTS,
+            SIGMA,
+            TICKS,
+            attraction_numbers,
+            rollouts_from_demo_ends,
+        )
+        from tric_learning.bag_dataset import load_dataset
+        from tric_learning.model_file import ModelFile, value_function
+        from tric_sim.robot_model import RobotModel
+
+        rank = DEFAULT_FEATURE_RANK if args.feature_rank is None else args.feature_rank
         robot = RobotModel()
         dataset = load_dataset(args.bags, robot)
         model_file = ModelFile.load(args.model, expected=dataset.definition)
         model = value_function(model_file)
         # refused before any figure
-        ranked_feature(model, dataset.definition.feature_names, args.feature_rank)
-        paths = write_figures(
-            model, dataset, pathlib.Path(args.out), args.top, args.feature_rank, robot
-        )
+        ranked_feature(model, dataset.definition.feature_names, rank)
+        paths = write_figures(model, dataset, pathlib.Path(args.out), args.top, rank, robot)
     except (ValueError, OSError) as error:
         print(f"{PROG}: {error}", file=sys.stderr)
         return 2

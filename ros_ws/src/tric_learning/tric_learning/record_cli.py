@@ -24,6 +24,9 @@ from tric_sim.situation_files import load_situations
 from tric_sim.situations import DATASETS, dataset
 from tric_sim.view_options import add_view_arguments, open_view
 
+#: The room a demonstration's bag takes at most, bytes (the reference bags: 0.5 to 0.6 MB).
+BAG_BYTES_PER_DEMONSTRATION = 10**6
+
 
 def main(argv=None) -> int:
     return run_interruptible(
@@ -70,7 +73,12 @@ def run(argv) -> int:
         situations = (
             load_situations(args.situations_file) if args.situations_file else dataset(args.dataset)
         )
-        out = check_output_folder(args.out, "--out", must_be_empty=not args.overwrite)
+        out = check_output_folder(
+            args.out,
+            "--out",
+            must_be_empty=not args.overwrite,
+            expected_bytes=BAG_BYTES_PER_DEMONSTRATION * len(situations),
+        )
     except ValueError as error:
         hint = "; give --overwrite to record into it anyway" if "is not empty" in str(error) else ""
         print(f"tric-record: {error}{hint}", file=sys.stderr)

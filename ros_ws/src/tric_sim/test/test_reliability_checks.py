@@ -264,4 +264,43 @@ def test_output_folders_and_files_under_a_name_too_long_are_refused_before_work(
         output_files.check_output_folder(long_folder, "--out")
     with pytest.raises(ValueError, match="is longer than the 255 bytes"):
         output_files.check_output_file(long_folder / "x.json", what="--json file")
+
+
+def test_tric_snapshot_on_a_disk_that_fills_ends_with_one_line_and_keeps_the_earlier_picture(
+    tmp_path, monkeypatch, capsys
+):
+    """The disk fills while the picture is written (os.replace standing in for the failing call):
+    exit 2 with one line naming the path and the cause, no traceback, the earlier picture intact
+    and no temporary file left."""
+    import errno
+
+    from tric_sim import output_files, snapshot
+
+    earlier = tmp_path / "sphere_grid_13.png"
+    earlier.write_bytes(b"the earlier picture")
+
+    def full_disk(*_):
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(output_files.os, "replace", full_disk)
+    assert snapshot.main(["sphere_grid_13", "--size", "32", "24", "--out", str(tmp_path)]) == 2
+    assert capsys.readouterr().err == (
+        f"tric-snapshot: {earlier} could not be written (No space left on device)\n"
+    )
+    assert earlier.read_bytes() == b"the earlier picture"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["sphere_grid_13.png"]
+
+
+def test_an_output_folder_without_the_room_expected_is_refused(tmp_path, monkeypatch):
+    """A stand-in full disk: check_output_folder refuses a folder with less free space than the
+    expected size, and creates nothing."""
+    import collections
+
+    from tric_sim import output_files
+
+    usage = collections.namedtuple("usage", "total used free")
+    monkeypatch.setattr(output_files.shutil, "disk_usage", lambda _: usage(10**9, 10**9, 0))
+    with pytest.raises(ValueError, match="has 0.0 MB free, 1.0 MB are needed"):
+        output_files.check_output_folder(tmp_path / "new", "--out", expected_bytes=10**6)
+    assert output_files.check_output_folder(tmp_path / "new", "--out") == tmp_path / "new"
     assert list(tmp_path.iterdir()) == []

@@ -24,6 +24,14 @@ DEFAULT_NAME_MAX = 255
 _temporaries = set()
 
 
+class WriteFailed(OSError):
+    """A result that could not be written all the same (atomic_path); its text is one line naming
+    the path and the cause, for a tool to print as its answer."""
+
+    def __str__(self) -> str:
+        return self.strerror
+
+
 def _probe_folder(folder: pathlib.Path, what: str) -> None:
     """ValueError unless a file can be created in the existing folder."""
     probe = folder / f".tric-probe-{os.getpid()}-{uuid.uuid4().hex[:8]}"
@@ -98,13 +106,18 @@ def check_output_file(
     if not existing.is_dir():
         raise ValueError(f"{where} cannot be written: {existing} is a file, not a folder")
     _probe_folder(existing, where)
-    free = shutil.disk_usage(existing).free
+    _check_room(existing, where, expected_bytes)
+    return path
+
+
+def _check_room(folder: pathlib.Path, where: str, expected_bytes: int) -> None:
+    """ValueError unless folder's file system has expected_bytes free."""
+    free = shutil.disk_usage(folder).free
     if free < expected_bytes:
         raise ValueError(
-            f"{where} cannot be written: {existing} has {free / 1e6:.1f} MB free, "
+            f"{where} cannot be written: {folder} has {free / 1e6:.1f} MB free, "
             f"{expected_bytes / 1e6:.1f} MB are needed"
         )
-    return path
 
 
 def _check_name_lengths(path: pathlib.Path, what: str) -> None:
@@ -132,11 +145,11 @@ def _temporary_name(path: pathlib.Path) -> str:
 
 
 def check_output_folder(
-    path, what: str = "output folder", must_be_empty: bool = False
+    path, what: str = "output folder", must_be_empty: bool = False, expected_bytes: int = 0
 ) -> pathlib.Path:
     """path as a Path if files can be written into it (created on writing if missing); ValueError
-    naming what and why otherwise: it is a file, it cannot hold new files, or (must_be_empty) it
-    holds files already. Creates nothing."""
+    naming what and why otherwise: it is a file, it cannot hold new files, (must_be_empty) it
+    holds files already, or it has less than expected_bytes free. Creates nothing."""
     path = pathlib.Path(path)
     where = f"{what} {str(path)[:200]}"
     _check_name_lengths(path, what)
@@ -151,6 +164,7 @@ def check_output_folder(
             )
             raise ValueError(f"{where} is not empty ({shown})")
     _probe_folder(existing, where)
+    _check_room(existing, where, expected_bytes)
     return path
 
 
@@ -159,8 +173,8 @@ def atomic_path(path):
     """A context manager giving a temporary path, next to path with the same suffix, to write the
     result to; on a normal exit it is synced and renamed onto path (replacing any file there, the
     folder synced after), on an exception removed. The folder of path is created if missing. A
-    write that fails (OSError: a full disk, a folder removed) raises OSError naming path and the
-    cause, and leaves any earlier file at path as it was."""
+    write that fails (OSError: a full disk, a folder removed) raises WriteFailed naming path and
+    the cause, and leaves any earlier file at path as it was."""
     path = pathlib.Path(path)
     temporary = path.with_name(_temporary_name(path))
     _temporaries.add(temporary)
@@ -176,7 +190,7 @@ def atomic_path(path):
         finally:
             os.close(folder)
     except OSError as error:
-        raise OSError(
+        raise WriteFailed(
             error.errno, f"{path} could not be written ({error.strerror or error})"
         ) from None
     finally:

@@ -13,44 +13,11 @@ the demonstration side by side, with their times.
 import argparse
 import sys
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-
-from tric_sim.interrupts import run_interruptible  # noqa: E402
-from tric_sim.output_files import atomic_path, check_output_folder  # noqa: E402
-from tric_sim.physics import PhysicsWorld  # noqa: E402
-from tric_sim.robot_model import RobotModel  # noqa: E402
-from tric_sim.situations import find_situation  # noqa: E402
-from tric_sim.teachers import demonstrate  # noqa: E402
-
-#: Demonstration lengths of the strips by task, simulated s (as the teacher node's defaults).
-STRIP_DURATION = {"grasp": 5.0, "open_box": 8.0}
-
-
-def demonstration_strip(
-    world: PhysicsWorld, robot: RobotModel, situation, frames: int, size
-) -> plt.Figure:
-    """A figure of `frames` evenly spaced moments of the teacher's demonstration of situation."""
-    duration = STRIP_DURATION[situation.task]
-    periods = int(round(duration / world.control_period))
-    wanted = {int(round(k * (periods - 1) / (frames - 1))): k for k in range(frames)}
-    images = [None] * frames
-
-    def capture(w, _teacher, period):
-        if period in wanted:
-            images[wanted[period]] = (period + 1) * w.control_period, w.render(*size)
-
-    demonstrate(world, robot, situation, duration, capture)
-    figure, axes = plt.subplots(1, frames, figsize=(2.6 * frames, 2.6 * size[1] / size[0] + 0.4))
-    for axis, (seconds, image) in zip(axes, images):
-        axis.imshow(image)
-        axis.set_title(f"t = {seconds:.1f} s", fontsize=9)
-        axis.axis("off")
-    figure.suptitle(f"teacher: {situation.name}", fontsize=10)
-    figure.tight_layout()
-    return figure
+# Only what the arguments need: --help and argument errors answer before pybullet, pinocchio and
+# matplotlib are imported (tric_sim.situation_pictures, the rendering, is imported after).
+from tric_sim.interrupts import run_interruptible
+from tric_sim.output_files import WriteFailed, check_output_folder
+from tric_sim.situations import find_situation
 
 
 def main(argv=None) -> int:
@@ -79,26 +46,13 @@ def run(argv) -> int:
     except ValueError as error:
         print(f"tric-snapshot: {error}", file=sys.stderr)
         return 2
-    robot = RobotModel()
-    world = PhysicsWorld(robot)
+    from tric_sim.situation_pictures import write_pictures
+
     try:
-        for situation in chosen:
-            if args.strip:
-                path = out / f"{situation.name}_strip.png"
-                figure = demonstration_strip(world, robot, situation, args.strip, args.size)
-                with atomic_path(path) as temporary:
-                    figure.savefig(temporary, dpi=100)
-                plt.close(figure)
-                print(path)
-                continue
-            world.reset(situation)
-            world.step()
-            path = out / f"{situation.name}.png"
-            with atomic_path(path) as temporary:
-                plt.imsave(temporary, world.render(*args.size))
-            print(path)
-    finally:
-        world.close()
+        write_pictures(chosen, out, args.size, args.strip)
+    except WriteFailed as error:
+        print(f"tric-snapshot: {error}", file=sys.stderr)
+        return 2
     return 0
 
 

@@ -37,18 +37,11 @@ import os
 import sys
 import time
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-
-from tric_control.evaluation import write_json  # noqa: E402
-from tric_control.experiments import EXPERIMENTS  # noqa: E402
-from tric_control.experiments.checks import check_results, check_table  # noqa: E402
-from tric_control.experiments.report import write_report  # noqa: E402
-from tric_control.experiments.runner import Runner  # noqa: E402
-from tric_sim.interrupts import run_interruptible  # noqa: E402
-from tric_sim.output_files import atomic_path, check_output_folder  # noqa: E402
+# Only what the arguments need: --help and argument errors answer before torch, pybullet,
+# pinocchio, rclpy and matplotlib are imported (run_experiments and check_folder import the rest).
+from tric_control.experiments import EXPERIMENT_MODULES, experiment
+from tric_sim.interrupts import run_interruptible
+from tric_sim.output_files import WriteFailed, atomic_path, check_output_folder
 
 
 def main(argv=None) -> int:
@@ -61,7 +54,7 @@ def run(argv) -> int:
         "names",
         nargs="*",
         metavar="NAME",
-        help=f"experiments to run (default: all of {', '.join(EXPERIMENTS)})",
+        help=f"experiments to run (default: all of {', '.join(EXPERIMENT_MODULES)})",
     )
     parser.add_argument("--out", default="results", help="results folder (default: results)")
     parser.add_argument(
@@ -88,10 +81,10 @@ def run(argv) -> int:
         parser.error("--situations must be in [1, 300]")
     if not 1 <= args.jobs <= 64:
         parser.error("--jobs must be in [1, 64]")
-    unknown = [name for name in args.names if name not in EXPERIMENTS]
+    unknown = [name for name in args.names if name not in EXPERIMENT_MODULES]
     if unknown:
         parser.error(
-            f"unknown experiment(s) {', '.join(unknown)} (known: {', '.join(EXPERIMENTS)})"
+            f"unknown experiment(s) {', '.join(unknown)} (known: {', '.join(EXPERIMENT_MODULES)})"
         )
     try:
         out = check_output_folder(args.out, "--out folder")
@@ -100,13 +93,31 @@ def run(argv) -> int:
         return 2
     if args.check_only:
         return check_folder(out)
+    try:
+        return run_experiments(args, out)
+    except WriteFailed as error:
+        print(f"tric-experiments: {error}", file=sys.stderr)
+        return 2
+
+
+def run_experiments(args, out) -> int:
+    """Run the experiments args names into out; the exit status."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from tric_control.evaluation import write_json
+    from tric_control.experiments.report import write_report
+    from tric_control.experiments.runner import Runner
+
     runner = Runner(out, args.jobs)
-    for name in args.names or list(EXPERIMENTS):
-        print(f"\n=== {name}: {EXPERIMENTS[name].TITLE}", flush=True)
+    for name in args.names or list(EXPERIMENT_MODULES):
+        print(f"\n=== {name}: {experiment(name).TITLE}", flush=True)
         started = time.monotonic()
         try:
             options = {"count": args.situations} if name == "fig9" else {}
-            result = EXPERIMENTS[name].run(runner, **options)
+            result = experiment(name).run(runner, **options)
         except (ValueError, RuntimeError) as error:
             print(f"tric-experiments: {name}: {error}", file=sys.stderr)
             return 2
@@ -129,9 +140,11 @@ def run(argv) -> int:
 def check_folder(out) -> int:
     """Print the checks of the experiments' results in out; 0 if every target is met, 1 if one is
     missed, 2 if out holds no result with a target."""
+    from tric_control.experiments.checks import check_results, check_table
+
     results = {
         name: json.loads((out / f"{name}.json").read_text())
-        for name in EXPERIMENTS
+        for name in EXPERIMENT_MODULES
         if (out / f"{name}.json").is_file()
     }
     checks = check_results(results)

@@ -3,13 +3,13 @@
 import json
 import pathlib
 
-from tric_control.experiments import EXPERIMENTS
+from tric_control.experiments import EXPERIMENT_MODULES, experiment
 from tric_control.experiments.checks import check_results, check_table
 from tric_sim.output_files import write_text_atomic
 
 
 def write_report(out: pathlib.Path) -> pathlib.Path:
-    """out/REPORT.md from every experiment JSON in out, in the order of EXPERIMENTS, then the
+    """out/REPORT.md from every experiment JSON in out, in the order of EXPERIMENT_MODULES, then the
     design's targets checked against them (checks.py)."""
     lines = [
         "# TRIC experiments",
@@ -19,13 +19,13 @@ def write_report(out: pathlib.Path) -> pathlib.Path:
         "",
     ]
     results = {}
-    for name in EXPERIMENTS:
+    for name in EXPERIMENT_MODULES:
         path = out / f"{name}.json"
         if not path.is_file():
             continue
         data = results[name] = json.loads(path.read_text())
         lines += [
-            f"## {name}: {EXPERIMENTS[name].TITLE}",
+            f"## {name}: {experiment(name).TITLE}",
             "",
             "```",
             data["table"],

@@ -10,6 +10,7 @@ from matplotlib.figure import Figure
 
 from tric_learning.analysis.drawing import light_and_mean
 from tric_learning.analysis.measures import CONTROLLER_INFLUENCE
+from tric_sim.output_files import atomic_path
 
 
 def plot_collision_prior(
@@ -51,5 +52,6 @@ def plot_collision_prior(
     count_axes.grid(alpha=0.3)
     count_axes.legend()
     figure.suptitle("the controller's collision prior along the demonstrations (paper Fig. 14b)")
-    figure.savefig(path, dpi=120)
+    with atomic_path(path) as temporary:
+        figure.savefig(temporary, dpi=120)
     return path

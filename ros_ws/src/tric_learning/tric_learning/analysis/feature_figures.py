@@ -114,5 +114,6 @@ def plot_feature_over_time(
     gradient_axes.grid(alpha=0.3)
     gradient_axes.legend()
     figure.suptitle("one feature along the demonstrations (paper Fig. 17b/c)")
-    figure.savefig(path, dpi=120)
+    with atomic_path(path) as temporary:
+        figure.savefig(temporary, dpi=120)
     return path

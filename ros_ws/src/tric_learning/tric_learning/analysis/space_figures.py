@@ -21,6 +21,7 @@ from tric_learning.analysis.measures import (
     relative_spread,
 )
 from tric_learning.dataset import Dataset
+from tric_sim.output_files import atomic_path
 
 
 def _start_end(axes, path, colour, label):
@@ -74,7 +75,8 @@ def plot_task_spaces(dataset: Dataset, path: pathlib.Path) -> pathlib.Path:
         handles, labels + ["start", "end"], loc="outside lower center", ncol=len(labels) + 2
     )
     figure.suptitle(f"{len(names)} box openings in three task spaces (paper Fig. 12)")
-    figure.savefig(path, dpi=120)
+    with atomic_path(path) as temporary:
+        figure.savefig(temporary, dpi=120)
     return path
 
 
@@ -121,5 +123,6 @@ def plot_kernel_pca(inputs: dict, path: pathlib.Path) -> pathlib.Path:
         )
     figure.colorbar(ScalarMappable(cmap="viridis", norm=norm), ax=figure.axes, label="value f")
     figure.suptitle(f"kernel PCA of {len(last)} demonstration samples (paper Fig. 15)")
-    figure.savefig(path, dpi=120)
+    with atomic_path(path) as temporary:
+        figure.savefig(temporary, dpi=120)
     return path
