@@ -1,6 +1,6 @@
-"""Evaluation workers that die (tric-eval --jobs): the episodes they take down run again in a new
-pool, and an episode whose worker dies in every pool is a failed record that says so; the run
-keeps every other record."""
+"""Evaluation workers that die (tric-eval --jobs): the episodes they take down run again, each
+alone, and an episode whose worker dies again is a failed record that says so; the run keeps
+every other record."""
 
 import os
 import pathlib
@@ -8,7 +8,7 @@ import pathlib
 from tqdm import tqdm
 
 from tric_control.evaluation import EpisodeRecord, unjudged_fields
-from tric_control.evaluation_workers import POOLS, run_in_workers
+from tric_control.evaluation_workers import run_in_workers
 from tric_sim import situations
 
 
@@ -48,5 +48,5 @@ def test_a_dying_worker_loses_only_its_own_episode(tmp_path):
     assert [r.outcome for r in records] == ["step_budget"] * 3 + ["failed", "step_budget"]
     doomed = records[3]
     assert doomed.agent == "stand-in"  # the other records' agent
-    assert doomed.message == f"its evaluation worker process died, in {POOLS} tries"
-    assert len(pools) == POOLS and (tmp_path / "once.ran").exists()
+    assert doomed.message == "its evaluation worker process died, twice"
+    assert len(pools) >= 3 and (tmp_path / "once.ran").exists()  # one pool, then one per episode

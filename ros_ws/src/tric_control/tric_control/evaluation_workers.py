@@ -12,35 +12,33 @@ from tric_control.evaluation import EpisodeRecord, unjudged_fields
 _worker = {}
 
 
-#: Pools run at most: a worker that dies (a segfault, the OOM killer) breaks its pool; the episodes
-#: it took down with it are run again in a new one.
-POOLS = 2
-
-
 def run_in_workers(situations, snapshot, jobs: int, bar, make_evaluator, make_args, agent) -> list:
     """evaluator.run(situation, snapshot) for every situation, in jobs spawned worker processes
     whose evaluators are make_evaluator(*make_args()) (make_evaluator: a module-level function, so
     that it is picklable; make_args() is called for each pool); [EpisodeRecord] in the situations'
-    order. bar (a tqdm bar) is advanced as each episode ends. The episodes a dying worker takes
-    down with its pool run again in a new pool, up to POOLS; one still not run then is a failed
-    record that says so (of the other records' agent, or of agent when none ended). Any other
-    error cancels the episodes not started and is raised."""
+    order. bar (a tqdm bar) is advanced as each episode ends. A worker that dies (a segfault, the
+    OOM killer) breaks its pool: the episodes it took down are then run again, each alone in a
+    pool of one worker, so that one whose worker dies again loses only itself: a failed record
+    that says so (of the other records' agent, or of agent when none ended). Any other error
+    cancels the episodes not started and is raised."""
     spawn = multiprocessing.get_context("spawn")
     records = [None] * len(situations)
     pending = list(range(len(situations)))
-    for _ in range(POOLS):
-        if not pending:
-            break
-        pending = _run_pool(
-            spawn, situations, pending, records, snapshot, jobs, bar, make_evaluator, make_args()
+    pending = _run_pool(
+        spawn, situations, pending, records, snapshot, jobs, bar, make_evaluator, make_args()
+    )
+    lost = []
+    for k in pending:
+        lost += _run_pool(
+            spawn, situations, [k], records, snapshot, 1, bar, make_evaluator, make_args()
         )
     agent = next((record.agent for record in records if record is not None), agent)
-    for k in pending:
+    for k in lost:
         records[k] = EpisodeRecord(
             **unjudged_fields(situations[k], agent),
             wall_time_s=0.0,
             outcome="failed",
-            message=f"its evaluation worker process died, in {POOLS} tries",
+            message="its evaluation worker process died, twice",
         )
         bar.update()
     return records
