@@ -6,11 +6,16 @@ import subprocess
 import sys
 import time
 
-#: The command-line tools (their modules) whose --help a user meets first.
+#: The command-line tools (their modules).
 TOOLS = {
     "tric-eval": "tric_control.evaluate_cli",
     "tric-train": "tric_learning.train_cli",
     "tric-record": "tric_learning.record_cli",
+    "tric-demo": "tric_control.demo_cli",
+    "tric-experiments": "tric_control.experiments.cli",
+    "tric-study": "tric_control.study",
+    "tric-analyze": "tric_learning.analyze_cli",
+    "tric-snapshot": "tric_sim.snapshot",
 }
 RUNS = 3
 
