@@ -2,6 +2,7 @@
 exit status 130 or 143, every finished bag complete, the unfinished one only as .part, an earlier
 bag never replaced by a cut-short one, and no result file written half."""
 
+import json
 import os
 import pathlib
 import shutil
@@ -89,16 +90,34 @@ def test_tric_record_overwrite_terminated_keeps_the_earlier_bag(tmp_path):
         assert finished_demonstration(bag), bag
 
 
-def test_tric_eval_interrupted_writes_no_json_and_ends_its_workers(tmp_path):
+def test_tric_eval_interrupted_keeps_its_episodes_and_resume_continues(tmp_path):
+    """SIGTERM ends tric-eval --jobs 2 (its workers too) with the episodes judged so far in the
+    --json file's .partial and no result; --resume runs only the others, and the result holds
+    every episode in the situations' order."""
     out = tmp_path / "teacher.json"
     evaluation = start(
         "tric_control.evaluate_cli", "--teacher", "sphere_test", "--json", str(out), "--jobs", "2"
     )
-    code, rest = signal_after(evaluation, "demonstrating ", 2, signal.SIGTERM)
+    code, rest = signal_after(evaluation, "demonstrating ", 6, signal.SIGTERM)
     assert code == 143, rest
-    assert "tric-eval: terminated; no records written" in rest
+    assert "tric-eval: terminated; with --json, the episodes judged so far kept" in rest
     assert "Traceback" not in rest and "Fatal Python error" not in rest
-    assert list(tmp_path.iterdir()) == []  # no JSON, no temporary file
+    partial = tmp_path / "teacher.json.partial"
+    assert sorted(p.name for p in tmp_path.iterdir()) == [partial.name]  # no result, no temporary
+    kept = [e["situation"] for e in json.loads(partial.read_text())["episodes"]]
+    assert 1 <= len(kept) < 15
+    resumed = subprocess.run(
+        [sys.executable, "-m", "tric_control.evaluate_cli", "--teacher", "sphere_test"]
+        + ["--json", str(out), "--resume", "--offline"],
+        capture_output=True,
+        text=True,
+        timeout=HANG_S * 3,
+    )
+    assert resumed.returncode == 0, resumed.stderr
+    assert f"tric-eval: {len(kept)} episodes kept in {partial}" in resumed.stderr
+    episodes = json.loads(out.read_text())["episodes"]
+    assert [e["situation"] for e in episodes] == [f"sphere_test_{k:02d}" for k in range(15)]
+    assert not partial.exists()
 
 
 class RecordingInterrupted(RuleBasedStateMachine):

@@ -45,7 +45,9 @@ JSON_BYTES_PER_EPISODE = 4096
 
 
 def main(argv=None) -> int:
-    return run_interruptible("tric-eval", run, argv, "no records written")
+    return run_interruptible(
+        "tric-eval", run, argv, "with --json, the episodes judged so far kept (--resume continues)"
+    )
 
 
 def run(argv) -> int:
@@ -60,6 +62,11 @@ def run(argv) -> int:
     parser.add_argument("--json", help="write the per-episode records and the summary to this file")
     parser.add_argument(
         "--overwrite", action="store_true", help="replace the --json file if it exists"
+    )
+    parser.add_argument(
+        "--resume",
+        action="store_true",
+        help="continue an interrupted run from the episodes kept in the --json file's .partial",
     )
     parser.add_argument(
         "--max-steps",
@@ -94,6 +101,8 @@ def run(argv) -> int:
     args = parser.parse_args(argv)
     if bool(args.dataset) == bool(args.situations_file):
         parser.error("give either DATASET or --situations-file")
+    if args.resume and not args.json:
+        parser.error("--resume continues a run that keeps its episodes: give its --json file")
     if args.max_steps < 0:
         parser.error("--max-steps must not be negative")
     domain_id = private_domain_id() if args.domain_id is None else args.domain_id
@@ -114,6 +123,7 @@ def run(argv) -> int:
     ):
         parser.error(f"--record {args.record} exists and is not a folder")
     view = None
+    name = "teacher" if args.teacher else args.model
     try:
         situations = (
             load_situations(args.situations_file) if args.situations_file else dataset(args.dataset)
@@ -134,17 +144,28 @@ def run(argv) -> int:
         if args.snapshots:
             check_output_folder(args.snapshots, "--snapshots folder")
         model = None if args.teacher else args.model
+        from tric_control.evaluation import PartialRecords
         from tric_control.graph_evaluation import evaluate
         from tric_control.offline import evaluate_offline
 
-        if args.offline:
-            records = evaluate_offline(
-                situations, model, args.max_steps, args.snapshots, jobs=args.jobs
+        kept = PartialRecords(args.json, name, situations) if args.json else None
+        done = kept.resume() if args.resume else {}
+        if kept is not None and not args.resume:
+            kept.remove()
+        if done:
+            print(f"tric-eval: {len(done)} episodes kept in {kept.path}", file=sys.stderr)
+        todo = [situation for situation in situations if situation.name not in done]
+        on_record = kept.add if kept is not None else None
+        if not todo:
+            new = []
+        elif args.offline:
+            new = evaluate_offline(
+                todo, model, args.max_steps, args.snapshots, jobs=args.jobs, on_record=on_record
             )
         else:
             view = open_view(args, "tric-eval")
-            records = evaluate(
-                situations,
+            new = evaluate(
+                todo,
                 model,
                 args.max_steps,
                 args.snapshots,
@@ -152,7 +173,10 @@ def run(argv) -> int:
                 jobs=args.jobs,
                 view=view,
                 record=args.record,
+                on_record=on_record,
             )
+        judged = {**done, **{record.situation: record for record in new}}
+        records = [judged[situation.name] for situation in situations]
     except ValueError as error:
         print(f"tric-eval: {error}", file=sys.stderr)
         return 2
@@ -161,7 +185,6 @@ def run(argv) -> int:
             view.close()
     from tric_control.evaluation import report, table, write_json
 
-    name = "teacher" if args.teacher else args.model
     print(
         table(
             records,
@@ -175,6 +198,7 @@ def run(argv) -> int:
         except OSError as error:
             print(f"tric-eval: {error.strerror}", file=sys.stderr)
             return 2
+        kept.remove()
     return 1 if any(r.failed for r in records) else 0
 
 

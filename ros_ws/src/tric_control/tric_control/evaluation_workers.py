@@ -12,11 +12,14 @@ from tric_control.evaluation import EpisodeRecord, unjudged_fields
 _worker = {}
 
 
-def run_in_workers(situations, snapshot, jobs: int, bar, make_evaluator, make_args, agent) -> list:
+def run_in_workers(
+    situations, snapshot, jobs: int, bar, make_evaluator, make_args, agent, on_record=None
+) -> list:
     """evaluator.run(situation, snapshot) for every situation, in jobs spawned worker processes
     whose evaluators are make_evaluator(*make_args()) (make_evaluator: a module-level function, so
     that it is picklable; make_args() is called for each pool); [EpisodeRecord] in the situations'
-    order. bar (a tqdm bar) is advanced as each episode ends. A worker that dies (a segfault, the
+    order. bar (a tqdm bar) is advanced, and on_record(record) called (if given), as each episode
+    ends. A worker that dies (a segfault, the
     OOM killer) breaks its pool: the episodes it took down are then run again, each alone in a
     pool of one worker, so that one whose worker dies again loses only itself: a failed record
     that says so (of the other records' agent, or of agent when none ended). Any other error
@@ -24,13 +27,14 @@ def run_in_workers(situations, snapshot, jobs: int, bar, make_evaluator, make_ar
     spawn = multiprocessing.get_context("spawn")
     records = [None] * len(situations)
     pending = list(range(len(situations)))
+    ended = _ended(bar, on_record)
     pending = _run_pool(
-        spawn, situations, pending, records, snapshot, jobs, bar, make_evaluator, make_args()
+        spawn, situations, pending, records, snapshot, jobs, ended, make_evaluator, make_args()
     )
     lost = []
     for k in pending:
         lost += _run_pool(
-            spawn, situations, [k], records, snapshot, 1, bar, make_evaluator, make_args()
+            spawn, situations, [k], records, snapshot, 1, ended, make_evaluator, make_args()
         )
     agent = next((record.agent for record in records if record is not None), agent)
     for k in lost:
@@ -40,13 +44,25 @@ def run_in_workers(situations, snapshot, jobs: int, bar, make_evaluator, make_ar
             outcome="failed",
             message="its evaluation worker process died, twice",
         )
-        bar.update()
+        ended(situations[k], records[k])
     return records
 
 
-def _run_pool(spawn, situations, pending, records, snapshot, jobs, bar, make_evaluator, args):
-    """Run the pending episodes (indices into situations) in one pool, filling records; the
-    indices its breaking (a worker that died) left without a record."""
+def _ended(bar, on_record):
+    """ended(situation, record): what follows each episode's end (the bar, on_record)."""
+
+    def ended(situation, record):
+        bar.set_postfix_str(situation.name)
+        bar.update()
+        if on_record is not None:
+            on_record(record)
+
+    return ended
+
+
+def _run_pool(spawn, situations, pending, records, snapshot, jobs, ended, make_evaluator, args):
+    """Run the pending episodes (indices into situations) in one pool, filling records (ended()
+    after each); the indices its breaking (a worker that died) left without a record."""
     with concurrent.futures.ProcessPoolExecutor(
         jobs, mp_context=spawn, initializer=_start_worker, initargs=(make_evaluator, args)
     ) as pool:
@@ -58,8 +74,7 @@ def _run_pool(spawn, situations, pending, records, snapshot, jobs, bar, make_eva
                     records[k] = future.result()
                 except concurrent.futures.process.BrokenProcessPool:
                     continue
-                bar.set_postfix_str(situations[k].name)
-                bar.update()
+                ended(situations[k], records[k])
         except BaseException:
             pool.shutdown(wait=True, cancel_futures=True)
             raise

@@ -310,12 +310,13 @@ def evaluate(
     jobs: int = 1,
     view=None,
     record=None,
+    on_record=None,
 ):
     """Run the agent (model file, or the teacher if None) on every situation; [EpisodeRecord] in the
-    situations' order. jobs > 1: that many worker processes (spawned), each with its own Evaluator
-    on DDS domain domain_id + k (domain_id None: the environment's ROS_DOMAIN_ID, else 0).
-    view: a FoxgloveView to show the run in (jobs 1 only); record: a folder for one bag per
-    episode."""
+    situations' order; on_record(record) (if given) as each episode ends. jobs > 1: that many
+    worker processes (spawned), each with its own Evaluator on DDS domain domain_id + k (domain_id
+    None: the environment's ROS_DOMAIN_ID, else 0). view: a FoxgloveView to show the run in (jobs
+    1 only); record: a folder for one bag per episode."""
     task = evaluated_task(situations, jobs)
     if view is not None and min(jobs, len(situations)) > 1:
         raise ValueError("a live view shows one evaluation graph: use --jobs 1 with --viz")
@@ -324,7 +325,16 @@ def evaluate(
     try:
         if min(jobs, len(situations)) == 1:
             return _evaluate_here(
-                situations, task, model, max_steps, snapshot, domain_id, bar, view, record
+                situations,
+                task,
+                model,
+                max_steps,
+                snapshot,
+                domain_id,
+                bar,
+                view,
+                record,
+                on_record,
             )
         return _evaluate_in_workers(
             situations,
@@ -336,13 +346,14 @@ def evaluate(
             min(jobs, len(situations)),
             bar,
             record,
+            on_record,
         )
     finally:
         bar.close()
 
 
 def _evaluate_here(
-    situations, task, model, max_steps, snapshot, domain_id, bar, view, record
+    situations, task, model, max_steps, snapshot, domain_id, bar, view, record, on_record
 ) -> list:
     """Every situation in turn on one Evaluator in this process."""
     evaluator = Evaluator(task, model, max_steps, domain_id, view, record)
@@ -352,13 +363,15 @@ def _evaluate_here(
             bar.set_postfix_str(situation.name)
             records.append(evaluator.run(situation, snapshot))
             bar.update()
+            if on_record is not None:
+                on_record(records[-1])
     finally:
         evaluator.close()
     return records
 
 
 def _evaluate_in_workers(
-    situations, task, model, max_steps, snapshot, domain_id, jobs, bar, record
+    situations, task, model, max_steps, snapshot, domain_id, jobs, bar, record, on_record
 ) -> list:
     """The situations shared out over jobs spawned workers (see _worker_evaluator), one at a
     time."""
@@ -377,7 +390,9 @@ def _evaluate_in_workers(
         return task, model, max_steps, domain_ids, record
 
     agent = "teacher" if model is None else "model"
-    return run_in_workers(situations, snapshot, jobs, bar, _worker_evaluator, pool_arguments, agent)
+    return run_in_workers(
+        situations, snapshot, jobs, bar, _worker_evaluator, pool_arguments, agent, on_record
+    )
 
 
 def _worker_evaluator(task, model, max_steps, domain_ids, record) -> Evaluator:

@@ -156,10 +156,12 @@ def evaluate_offline(
     desc="evaluating offline",
     jobs: int = 1,
     controller_options: dict = None,
+    on_record=None,
 ) -> list:
     """Run the agent (a model file, or the teacher if None) on every situation offline;
-    [EpisodeRecord] in the situations' order. jobs > 1: that many spawned worker processes, each
-    with its own world. controller_options: see OfflineEvaluator."""
+    [EpisodeRecord] in the situations' order; on_record(record) (if given) as each episode ends.
+    jobs > 1: that many spawned worker processes, each with its own world. controller_options:
+    see OfflineEvaluator."""
     task = evaluated_task(situations, jobs)
     snapshot = pathlib.Path(snapshots) if snapshots else None
     jobs = min(jobs, len(situations))
@@ -174,6 +176,8 @@ def evaluate_offline(
                     bar.set_postfix_str(situation.name)
                     records[k] = evaluator.run(situation, snapshot)
                     bar.update()
+                    if on_record is not None:
+                        on_record(records[k])
             finally:
                 evaluator.close()
             return records
@@ -185,6 +189,7 @@ def evaluate_offline(
             _worker_evaluator,
             lambda: (task, model, max_steps, controller_options),
             "teacher" if model is None else "model",
+            on_record,
         )
 
 
