@@ -3,6 +3,7 @@ numbers; bad bags refused; a killed recorder leaves its finished bags intact; an
 leaves no bag; tric-record refuses bad arguments, situations files and output folders before
 recording."""
 
+import errno
 import json
 import math
 import os
@@ -291,6 +292,59 @@ def test_an_aborted_episode_leaves_no_bag_and_the_next_one_is_recorded(ros_conte
     info = bags.bag_info(tmp_path / "recorded.mcap")
     assert info.complete and info.topics["/joint_states"].message_count == 30
     assert json.loads(info.custom_data["tric.outcome"])["success"] is True
+
+
+def test_a_disk_that_fills_mid_episode_loses_that_episode_only(
+    ros_context, spin, tmp_path, monkeypatch
+):
+    """A write that fails in the middle of an episode (ENOSPC from the bag writer, standing in
+    for a full disk): its bag is discarded (no .part left to fill the disk), the episode named as
+    not recorded with the cause, and the next episode recorded as usual."""
+    from tric_learning import bag_recorder
+
+    written = {"states": 0, "failed": False}
+    original = bag_recorder.BagRecorder.joint_state
+
+    def filling(self, msg):  # the 11th state of the first episode fails to be written
+        written["states"] += 1
+        if written["states"] > 10 and not written["failed"]:
+            written["failed"] = True
+            raise OSError(errno.ENOSPC, "No space left on device")
+        return original(self, msg)
+
+    monkeypatch.setattr(bag_recorder.BagRecorder, "joint_state", filling)
+    recorder = RecorderNode(
+        context=ros_context, parameter_overrides=[Parameter("output_dir", value=str(tmp_path))]
+    )
+    player = spin(recorder, EpisodePlayer(ros_context, situations.sphere_grid()[4]))[1]
+    wait_for(
+        lambda: all(
+            player.count_subscribers(topic)
+            for topic in ("/episode", "/joint_states", "/object_poses")
+        ),
+        what="the recorder's subscriptions",
+    )
+    player.event(EpisodeEvent.START, "full", 1_000_000_000)
+    wait_for(lambda: recorder.busy, what="the first episode's bag to open")
+    player.states(1_000_000_000, 30)
+    wait_for(lambda: recorder.failed, what="the failed write")
+    ((episode, reason),) = recorder.failed
+    assert episode == "full" and reason.startswith("its bag could not be written: ")
+    assert "No space left on device" in reason and list(tmp_path.iterdir()) == []
+
+    player.event(EpisodeEvent.START, "recorded", 2_000_000_000)
+    wait_for(lambda: recorder.busy, what="the next episode's bag to open")
+    last = player.states(2_000_000_000, 30)
+    player.event(EpisodeEvent.END, "recorded", last)
+    player.event(
+        EpisodeEvent.OUTCOME,
+        "recorded",
+        last,
+        TaskMetrics(task="grasp", grasp_cost=0.1, success=True, lid_angle=math.nan),
+    )
+    wait_for(lambda: recorder.finished, what="the recorded bag")
+    assert recorder.finished == [tmp_path / "recorded.mcap"]
+    assert bags.bag_info(tmp_path / "recorded.mcap").complete
 
 
 def test_bags_without_an_outcome_are_closed_complete_and_named_as_such(ros_context, spin, tmp_path):

@@ -132,15 +132,34 @@ class RecorderNode(Node):
             if not batch:
                 continue
             with self._lock:
-                for _, _, _, kind, msg in sorted(batch, key=lambda entry: entry[:3]):
-                    if kind == "event":
-                        self._on_event(msg)
-                        continue
-                    self._backlog.append((kind, msg))
-                    if self._recorder is not None:
-                        self._write(kind, msg)
-                if self._outcome is not None and self._recorder.reached_end:
-                    self._close(self._outcome)
+                try:
+                    self._apply(batch)
+                except OSError as error:  # a full disk, a folder removed: this episode is lost
+                    self._lose_episode(f"its bag could not be written: {error}")
+
+    def _apply(self, batch):
+        """Apply a batch of (stamp, order, k, kind, msg) in order (holding the lock)."""
+        for _, _, _, kind, msg in sorted(batch, key=lambda entry: entry[:3]):
+            if kind == "event":
+                self._on_event(msg)
+                continue
+            self._backlog.append((kind, msg))
+            if self._recorder is not None:
+                self._write(kind, msg)
+        if self._outcome is not None and self._recorder.reached_end:
+            self._close(self._outcome)
+
+    def _lose_episode(self, reason: str):
+        """Discard the bag being recorded (its .part removed: the space it took freed) and name
+        the episode as not recorded; the recorder goes on with the next episode."""
+        recorder, self._recorder, self._outcome = self._recorder, None, None
+        if recorder is None:
+            return
+        try:
+            recorder.abort()
+        except OSError:
+            pass
+        self._failed(self._episode_id, reason)
 
     def _write(self, kind, msg):
         try:

@@ -242,7 +242,10 @@ class BagWriter:
     def discard(self) -> None:
         """Drops the bag being written: closes and deletes the ".part" file."""
         if self._state == "open":
-            self._file.close()
+            try:
+                self._file.close()
+            except OSError:  # what was buffered cannot be written (a full disk): dropped anyway
+                pass
             self.part_path.unlink(missing_ok=True)
             self._state = "discarded"
 
