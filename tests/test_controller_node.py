@@ -338,6 +338,34 @@ def _raising_tick(observer, controller):
     controller._tick = tick
 
 
+def start_long_episode(observer, controller, commands: int, model_path=None):
+    """Reset the scene to the first sphere test situation (and load model_path, if given), start
+    an episode of 100000 steps at most and wait for its first commands; (the action client, the
+    result's future)."""
+    situation = situations.dataset("sphere_test")[0]
+    assert call(
+        observer,
+        ResetScene,
+        "/simulator/reset_scene",
+        ResetScene.Request(situation=messages.situation_to_msg(situation)),
+    ).success
+    if model_path is not None:
+        assert load(observer, model_path).success
+    wait_for(
+        lambda: controller.scene is not None and controller.scene.situation == situation,
+        what="the situation",
+    )
+    client = ActionClient(observer, Execute, "/controller/execute")
+    assert client.wait_for_server(timeout_sec=HANG_S)
+    handle = wait_future(client.send_goal_async(Execute.Goal(max_steps=100000)), what="goal")
+    result_future = handle.get_result_async()
+    wait_for(
+        lambda: len(observer.commands) >= commands or result_future.done(),
+        what=f"{commands} commands",
+    )
+    return client, result_future
+
+
 def _stopping(observer, controller):
     """The controller begins to shut down (destroy_node sets its stop event first)."""
     controller._stop.set()
@@ -359,22 +387,7 @@ def test_an_episode_interrupted_aborts_with_the_reason_and_an_abort_event(
     controller = make_controller(ros_context, model_path=model_path)
     observer = Observer(ros_context)
     spin(simulator, controller, observer)
-    situation = situations.dataset("sphere_test")[0]
-    assert call(
-        observer,
-        ResetScene,
-        "/simulator/reset_scene",
-        ResetScene.Request(situation=messages.situation_to_msg(situation)),
-    ).success
-    wait_for(
-        lambda: controller.scene is not None and controller.scene.situation == situation,
-        what="the situation",
-    )
-    client = ActionClient(observer, Execute, "/controller/execute")
-    assert client.wait_for_server(timeout_sec=HANG_S)
-    handle = wait_future(client.send_goal_async(Execute.Goal(max_steps=100000)), what="goal")
-    result_future = handle.get_result_async()
-    wait_for(lambda: len(observer.commands) >= 10 or result_future.done(), what="10 commands")
+    client, result_future = start_long_episode(observer, controller, 10)
     assert not result_future.done(), f"the episode ended early: {result_future.result().result}"
     interrupt(observer, controller)
     wrapped = wait_future(result_future, what="the abort")
@@ -415,24 +428,7 @@ def test_the_simulator_stopping_mid_episode_leaves_the_robot_held_and_aborts(
     states = []
     observer.create_subscription(JointState, "/joint_states", states.append, KEEP_ALL)
     spin(simulator, controller, observer)
-    situation = situations.dataset("sphere_test")[0]
-    assert call(
-        observer,
-        ResetScene,
-        "/simulator/reset_scene",
-        ResetScene.Request(situation=messages.situation_to_msg(situation)),
-    ).success
-    assert load(observer, model_path).success
-    wait_for(
-        lambda: controller.scene is not None and controller.scene.situation == situation,
-        what="the situation",
-    )
-    client = ActionClient(observer, Execute, "/controller/execute")
-    assert client.wait_for_server(timeout_sec=HANG_S)
-    goal_future = client.send_goal_async(Execute.Goal(max_steps=100000))
-    handle = wait_future(goal_future, what="goal response")
-    result_future = handle.get_result_async()
-    wait_for(lambda: len(observer.commands) >= 30 or result_future.done(), what="30 commands")
+    client, result_future = start_long_episode(observer, controller, 30, model_path)
     # an episode that ended before the simulator stopped says why (a stall of the loaded test
     # machine longer than state_timeout_s aborts it early)
     assert not result_future.done(), f"the episode ended early: {result_future.result().result}"

@@ -253,14 +253,14 @@ class EpisodePlayer(Node):
         return stamp
 
 
-def test_an_aborted_episode_leaves_no_bag_and_the_next_one_is_recorded(ros_context, spin, tmp_path):
-    """START, 30 states, ABORT: the recorder discards the bag (no .mcap, no .part left) and names no
-    failure; the next episode (START, states, END, OUTCOME) is recorded as usual."""
+def recorder_and_player(ros_context, spin, tmp_path, *parameters):
+    """A recorder node writing into tmp_path (with parameters besides) and an EpisodePlayer of a
+    sphere grid situation, spun, the recorder subscribed to the player's topics."""
     recorder = RecorderNode(
-        context=ros_context, parameter_overrides=[Parameter("output_dir", value=str(tmp_path))]
+        context=ros_context,
+        parameter_overrides=[Parameter("output_dir", value=str(tmp_path)), *parameters],
     )
-    situation = situations.sphere_grid()[4]
-    player = spin(recorder, EpisodePlayer(ros_context, situation))[1]
+    player = spin(recorder, EpisodePlayer(ros_context, situations.sphere_grid()[4]))[1]
     wait_for(
         lambda: all(
             player.count_subscribers(topic)
@@ -268,6 +268,29 @@ def test_an_aborted_episode_leaves_no_bag_and_the_next_one_is_recorded(ros_conte
         ),
         what="the recorder's subscriptions",
     )
+    return recorder, player
+
+
+def record_successful_episode(recorder, player, episode_id: str, start_ns: int):
+    """START, 30 states, END and a successful OUTCOME of episode_id, waited for until the
+    recorder has finished a bag."""
+    player.event(EpisodeEvent.START, episode_id, start_ns)
+    wait_for(lambda: recorder.busy, what=f"the bag of '{episode_id}' to open")
+    last = player.states(start_ns, 30)
+    player.event(EpisodeEvent.END, episode_id, last)
+    player.event(
+        EpisodeEvent.OUTCOME,
+        episode_id,
+        last,
+        TaskMetrics(task="grasp", grasp_cost=0.1, success=True, lid_angle=math.nan),
+    )
+    wait_for(lambda: recorder.finished, what=f"the bag of '{episode_id}'")
+
+
+def test_an_aborted_episode_leaves_no_bag_and_the_next_one_is_recorded(ros_context, spin, tmp_path):
+    """START, 30 states, ABORT: the recorder discards the bag (no .mcap, no .part left) and names no
+    failure; the next episode (START, states, END, OUTCOME) is recorded as usual."""
+    recorder, player = recorder_and_player(ros_context, spin, tmp_path)
     player.event(EpisodeEvent.START, "aborted", 1_000_000_000)
     wait_for(lambda: recorder.busy, what="the aborted episode's bag to open")
     assert [p.name for p in tmp_path.iterdir()] == ["aborted.mcap.part"]
@@ -277,17 +300,7 @@ def test_an_aborted_episode_leaves_no_bag_and_the_next_one_is_recorded(ros_conte
     run_periods(player)
     assert list(tmp_path.iterdir()) == [] and recorder.finished == [] and recorder.failed == []
 
-    player.event(EpisodeEvent.START, "recorded", 2_000_000_000)
-    wait_for(lambda: recorder.busy, what="the next episode's bag to open")
-    last = player.states(2_000_000_000, 30)
-    player.event(EpisodeEvent.END, "recorded", last)
-    player.event(
-        EpisodeEvent.OUTCOME,
-        "recorded",
-        last,
-        TaskMetrics(task="grasp", grasp_cost=0.1, success=True, lid_angle=math.nan),
-    )
-    wait_for(lambda: recorder.finished, what="the recorded bag")
+    record_successful_episode(recorder, player, "recorded", 2_000_000_000)
     assert recorder.finished == [tmp_path / "recorded.mcap"] and recorder.failed == []
     info = bags.bag_info(tmp_path / "recorded.mcap")
     assert info.complete and info.topics["/joint_states"].message_count == 30
@@ -313,17 +326,7 @@ def test_a_disk_that_fills_mid_episode_loses_that_episode_only(
         return original(self, msg)
 
     monkeypatch.setattr(bag_recorder.BagRecorder, "joint_state", filling)
-    recorder = RecorderNode(
-        context=ros_context, parameter_overrides=[Parameter("output_dir", value=str(tmp_path))]
-    )
-    player = spin(recorder, EpisodePlayer(ros_context, situations.sphere_grid()[4]))[1]
-    wait_for(
-        lambda: all(
-            player.count_subscribers(topic)
-            for topic in ("/episode", "/joint_states", "/object_poses")
-        ),
-        what="the recorder's subscriptions",
-    )
+    recorder, player = recorder_and_player(ros_context, spin, tmp_path)
     player.event(EpisodeEvent.START, "full", 1_000_000_000)
     wait_for(lambda: recorder.busy, what="the first episode's bag to open")
     player.states(1_000_000_000, 30)
@@ -332,17 +335,7 @@ def test_a_disk_that_fills_mid_episode_loses_that_episode_only(
     assert episode == "full" and reason.startswith("its bag could not be written: ")
     assert "No space left on device" in reason and list(tmp_path.iterdir()) == []
 
-    player.event(EpisodeEvent.START, "recorded", 2_000_000_000)
-    wait_for(lambda: recorder.busy, what="the next episode's bag to open")
-    last = player.states(2_000_000_000, 30)
-    player.event(EpisodeEvent.END, "recorded", last)
-    player.event(
-        EpisodeEvent.OUTCOME,
-        "recorded",
-        last,
-        TaskMetrics(task="grasp", grasp_cost=0.1, success=True, lid_angle=math.nan),
-    )
-    wait_for(lambda: recorder.finished, what="the recorded bag")
+    record_successful_episode(recorder, player, "recorded", 2_000_000_000)
     assert recorder.finished == [tmp_path / "recorded.mcap"]
     assert bags.bag_info(tmp_path / "recorded.mcap").complete
 
@@ -351,21 +344,8 @@ def test_bags_without_an_outcome_are_closed_complete_and_named_as_such(ros_conte
     """A START before the last episode finished closes the last bag without an outcome; an ended
     episode whose outcome never comes is closed without one after outcome_timeout_s. Both bags are
     complete, carry no outcome, and training refuses them as such."""
-    recorder = RecorderNode(
-        context=ros_context,
-        parameter_overrides=[
-            Parameter("output_dir", value=str(tmp_path)),
-            Parameter("outcome_timeout_s", value=0.01),
-        ],
-    )
-    situation = situations.sphere_grid()[4]
-    player = spin(recorder, EpisodePlayer(ros_context, situation))[1]
-    wait_for(
-        lambda: all(
-            player.count_subscribers(topic)
-            for topic in ("/episode", "/joint_states", "/object_poses")
-        ),
-        what="the recorder's subscriptions",
+    recorder, player = recorder_and_player(
+        ros_context, spin, tmp_path, Parameter("outcome_timeout_s", value=0.01)
     )
     player.event(EpisodeEvent.START, "cut", 1_000_000_000)
     last = player.states(1_000_000_000, 30)

@@ -318,12 +318,13 @@ def evaluate(
     None: the environment's ROS_DOMAIN_ID, else 0). view: a FoxgloveView to show the run in (jobs
     1 only); record: a folder for one bag per episode."""
     task = evaluated_task(situations, jobs)
-    if view is not None and min(jobs, len(situations)) > 1:
+    jobs = min(jobs, len(situations))
+    if view is not None and jobs > 1:
         raise ValueError("a live view shows one evaluation graph: use --jobs 1 with --viz")
     snapshot = pathlib.Path(snapshots) if snapshots else None
     bar = tqdm(total=len(situations), desc=desc, unit="episode", disable=not progress)
     try:
-        if min(jobs, len(situations)) == 1:
+        if jobs == 1:
             return _evaluate_here(
                 situations,
                 task,
@@ -337,16 +338,7 @@ def evaluate(
                 on_record,
             )
         return _evaluate_in_workers(
-            situations,
-            task,
-            model,
-            max_steps,
-            snapshot,
-            domain_id,
-            min(jobs, len(situations)),
-            bar,
-            record,
-            on_record,
+            situations, task, model, max_steps, snapshot, domain_id, jobs, bar, record, on_record
         )
     finally:
         bar.close()

@@ -84,24 +84,23 @@ def _rest(experiment: str, rows: list, done_key: str) -> Check:
     )
 
 
+def _every(experiment: str, label: str, seeds: list, key: str, what: str) -> Check:
+    """That every episode of each seed's row counts in key (its share of the episodes is 1)."""
+    return _check(
+        experiment,
+        f"{label}: {what}",
+        [row[key] / row["episodes"] for row in seeds],
+        lambda share: share == 1,
+        ".0%",
+    )
+
+
 def _grasp_rows(experiment: str, rows: dict, label: str) -> list:
     """A grasp row's checks shared by the grasp experiments: every grasp good and lifted."""
     seeds = _seeds(rows[label])
     return [
-        _check(
-            experiment,
-            f"{label}: every grasp good (< {GOOD_GRASP})",
-            [row["good"] / row["episodes"] for row in seeds],
-            lambda share: share == 1,
-            ".0%",
-        ),
-        _check(
-            experiment,
-            f"{label}: every grasped object lifted",
-            [row["lift"] / row["episodes"] for row in seeds],
-            lambda share: share == 1,
-            ".0%",
-        ),
+        _every(experiment, label, seeds, "good", f"every grasp good (< {GOOD_GRASP})"),
+        _every(experiment, label, seeds, "lift", "every grasped object lifted"),
     ]
 
 
@@ -164,13 +163,7 @@ def exp4_checks(rows: dict) -> list:
             lambda collisions: collisions == 0,
             "d",
         ),
-        _check(
-            "exp4",
-            f"TRIC: every grasp good (< {GOOD_GRASP})",
-            [row["good"] / row["episodes"] for row in seeds],
-            lambda share: share == 1,
-            ".0%",
-        ),
+        _every("exp4", "TRIC", seeds, "good", f"every grasp good (< {GOOD_GRASP})"),
     ]
 
 
