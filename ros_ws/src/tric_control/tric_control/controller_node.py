@@ -47,6 +47,7 @@ statistics) is tric_control.episode.EpisodeRunner, the same loop that `tric-eval
 the physics without ROS; this node only feeds it states and publishes what it decides.
 """
 
+import dataclasses
 import math
 import sys
 import threading
@@ -194,7 +195,11 @@ class ControllerNode(Node):
 
     def _on_situation(self, msg: SituationMsg):
         try:
-            situation = messages.situation_from_msg(msg, self.robot.n_joints)
+            # the perturbations are the world's doing, not the controller's: a situation that
+            # gained some mid-episode (the simulator's ~/perturb) is the same scene
+            situation = dataclasses.replace(
+                messages.situation_from_msg(msg, self.robot.n_joints), perturbations=()
+            )
             if self.scene is not None and self.scene.situation == situation:
                 return  # the same scene again (e.g. a reset to the same situation): nothing changed
             proximity = Proximity(self.robot, situation)

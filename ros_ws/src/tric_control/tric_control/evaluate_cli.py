@@ -3,6 +3,7 @@
     tric-eval (--model MODEL | --teacher) (DATASET | --situations-file FILE) [--json OUT
               [--overwrite]] [--max-steps N] [--snapshots DIR] [--domain-id N] [--jobs N]
               [--offline] [--record DIR] [--viz [--viz-port P]]
+              [--perturb KIND:SIZE[@SECONDS] ...]
 
 Runs the simulator (lockstep), the teacher and the controller nodes in one process. For each
 situation: reset the scene (/simulator/reset_scene); the teacher demonstrates it
@@ -23,8 +24,13 @@ DIR writes one bag per episode (the recorder node: the joint states, poses, samp
 controller's status of every tick, and /tf, /robot_description and /scene_markers for Foxglove to
 replay it in 3D). --viz serves a live Foxglove view of the run (tric_sim.foxglove_view) on
 ws://127.0.0.1:P (default 8765); it shows one graph, so it takes --jobs 1. --record and --viz need
-the nodes (not --offline). Exits 0 when every episode ran (whatever its score), 1 when one could not
-be run, 2 on bad arguments.
+the nodes (not --offline). --perturb puts each situation through perturbed trials instead
+(tric_sim.perturbation_trials): push:SIZE shoves the arm by SIZE rad, jump:SIZE moves the grasp
+target SIZE m sideways at once, drift:SIZE moves it at SIZE m/s, start:SIZE starts SIZE rad from
+the nominal start; @SECONDS sets when (default 1 s for grasps, 4 s for boxes). Each --perturb
+value gives one episode per situation, named "<situation>_<kind><size>"; the perturbations are in
+the situation the episode runs (and in its bag, with --record). Exits 0 when every episode ran
+(whatever its score), 1 when one could not be run, 2 on bad arguments.
 """
 
 import argparse
@@ -36,6 +42,7 @@ import sys
 from tric_sim.dds_domains import MAX_DOMAIN_ID, private_domain_id
 from tric_sim.interrupts import run_interruptible
 from tric_sim.output_files import check_output_file, check_output_folder
+from tric_sim.perturbation_trials import parse_trial
 from tric_sim.situation_files import load_situations
 from tric_sim.situations import DATASETS, dataset
 from tric_sim.view_options import add_view_arguments, open_view
@@ -97,6 +104,15 @@ def run(argv) -> int:
         metavar="DIR",
         help="write one bag per episode into DIR (with the controller's status, /tf and markers)",
     )
+    parser.add_argument(
+        "--perturb",
+        metavar="KIND:SIZE[@SECONDS]",
+        action="append",
+        type=_trial,
+        default=[],
+        help="run each situation perturbed: push:RAD, jump:M, drift:M_PER_S or start:RAD "
+        "(repeatable: one episode per value and situation)",
+    )
     add_view_arguments(parser)
     args = parser.parse_args(argv)
     if bool(args.dataset) == bool(args.situations_file):
@@ -128,6 +144,13 @@ def run(argv) -> int:
         situations = (
             load_situations(args.situations_file) if args.situations_file else dataset(args.dataset)
         )
+        if args.perturb:
+            from tric_sim.robot_model import RobotModel
+
+            robot = RobotModel()
+            situations = [
+                trial.apply(situation, robot) for situation in situations for trial in args.perturb
+            ]
         if args.model and not pathlib.Path(args.model).is_file():
             raise ValueError(
                 f"model file {args.model} "
@@ -200,6 +223,13 @@ def run(argv) -> int:
             return 2
         kept.remove()
     return 1 if any(r.failed for r in records) else 0
+
+
+def _trial(text: str):
+    try:
+        return parse_trial(text)
+    except ValueError as error:
+        raise argparse.ArgumentTypeError(str(error)) from None
 
 
 if __name__ == "__main__":

@@ -74,8 +74,10 @@ class OfflineEvaluator:
     def close(self) -> None:
         self.world.close()
 
-    def run(self, situation, snapshot: pathlib.Path = None) -> EpisodeRecord:
-        """One episode of the agent on situation, judged by the hidden metrics."""
+    def run(self, situation, snapshot: pathlib.Path = None, on_period=None) -> EpisodeRecord:
+        """One episode of the agent on situation, judged by the hidden metrics. on_period(world,
+        step): after each control period a model's controller stepped (step: episode.Step), or
+        the teacher's (step None)."""
         if situation.task != self.task:
             raise ValueError(
                 f"situation '{situation.name}' is a '{situation.task}' task, not '{self.task}'"
@@ -85,7 +87,13 @@ class OfflineEvaluator:
         record = unjudged_fields(situation, self.agent)
         if self.model is None:
             duration = teachers.DEFAULT_DURATION[situation.task]
-            teachers.demonstrate(world, self.robot, situation, duration)
+            teachers.demonstrate(
+                world,
+                self.robot,
+                situation,
+                duration,
+                on_period=None if on_period is None else lambda *_: on_period(world, None),
+            )
             steps, outcome = int(round(duration / world.control_period)), "demonstrated"
             if snapshot is not None:
                 self._snapshot(snapshot, situation)
@@ -108,6 +116,8 @@ class OfflineEvaluator:
                     decided = runner.step(q, world.object_poses())
                     world.command(decided.command)
                     world.step()
+                    if on_period is not None:
+                        on_period(world, decided)
                     outcome = decided.outcome
             except RuntimeError as error:
                 record["steps"] = runner.stats.steps

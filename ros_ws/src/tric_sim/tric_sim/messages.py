@@ -12,8 +12,10 @@ from sensor_msgs.msg import JointState
 from shape_msgs.msg import SolidPrimitive
 
 from tric_msgs.msg import ObjectPoses
+from tric_msgs.msg import Perturbation as PerturbationMsg
 from tric_msgs.msg import Situation as SituationMsg
 from tric_msgs.msg import TaskMetrics as TaskMetricsMsg
+from tric_sim.perturbations import Perturbation
 from tric_sim.situation import Obstacle, Situation, check_name
 
 SHAPE_TYPES = {
@@ -55,6 +57,7 @@ def situation_to_msg(situation: Situation) -> SituationMsg:
         object_pose=pose_msg(situation.object_position, situation.object_orientation),
         initial_joint_positions=[float(v) for v in situation.initial_joint_positions],
         seed=int(situation.seed),
+        perturbations=[perturbation_msg(p) for p in situation.perturbations],
     )
     for obstacle in situation.obstacles:
         # SolidPrimitive's box dimensions are the full extents; cylinder (height, radius); sphere
@@ -103,7 +106,28 @@ def situation_from_msg(msg: SituationMsg, n_joints: int = 14) -> Situation:
         obstacles=tuple(obstacles),
         initial_joint_positions=tuple(float(v) for v in msg.initial_joint_positions),
         seed=int(msg.seed),
+        # a bag recorded before situations had perturbations decodes without the field
+        perturbations=tuple(perturbation_from_msg(p) for p in getattr(msg, "perturbations", ())),
     ).validate(n_joints)
+
+
+def perturbation_msg(perturbation: Perturbation) -> PerturbationMsg:
+    return PerturbationMsg(
+        kind=perturbation.kind,
+        start_s=float(perturbation.start_s),
+        duration_s=float(perturbation.duration_s),
+        offset=[float(v) for v in perturbation.offset],
+    )
+
+
+def perturbation_from_msg(msg: PerturbationMsg) -> Perturbation:
+    """The plain perturbation of a message (validated by the situation or service that takes it)."""
+    return Perturbation(
+        kind=msg.kind,
+        start_s=float(msg.start_s),
+        offset=tuple(float(v) for v in msg.offset),
+        duration_s=float(msg.duration_s),
+    )
 
 
 def object_poses_msg(poses: dict, stamp_ns: int) -> ObjectPoses:
@@ -177,7 +201,12 @@ def metrics_msg(metrics) -> TaskMetricsMsg:
 
 #: Fields added to messages after bags were recorded with them ("pkg/Type" -> names, last fields of
 #: the type): a bag whose definition lacks them is read without them (metrics_dict).
-LATER_FIELDS = {"tric_msgs/TaskMetrics": ("max_joint_overshoot", "overshoot_joint", "failure")}
+LATER_FIELDS = {
+    "tric_msgs/TaskMetrics": ("max_joint_overshoot", "overshoot_joint", "failure"),
+    "tric_msgs/Situation": ("perturbations",),
+    # a type whose every field is optional may be missing from a bag's definition altogether
+    "tric_msgs/Perturbation": ("kind", "start_s", "duration_s", "offset"),
+}
 
 
 def metrics_dict(msg: TaskMetricsMsg) -> dict:

@@ -2,9 +2,14 @@
 objects, stepped in control periods with position-controlled joints. ROS-free.
 
 Grasp targets float where the situation puts them, held by a fixture (a fixed constraint) until
-release_object() lets gravity act on them (the lift test). The box body is static; its lid is a link
+release_object() lets gravity act on them (the lift test). The situation's perturbations
+(tric_sim.perturbations), and those schedule() adds, act as the periods they fall in are stepped: a
+push moves the joints' setpoints (and targets) within the joint limits, a target move moves the
+fixture. The box body is static; its lid is a link
 on a hinge with friction (tric_sim.bullet_scene builds them). Units: m, rad, s, kg, N m.
 """
+
+import dataclasses
 
 import numpy as np
 
@@ -21,6 +26,8 @@ DISTANCE_CUTOFF = 0.02
 #: Gains of the joint servos (PyBullet's POSITION_CONTROL: position and velocity error weights).
 POSITION_GAIN = 0.1
 VELOCITY_GAIN = 1.0
+#: The most force the fixture holding a grasp target in place may exert, N.
+FIXTURE_FORCE = 1e4
 
 
 class PhysicsWorld:
@@ -114,6 +121,8 @@ class PhysicsWorld:
         self.bodies = {}
         self.body_roles = {}
         self.fixture = None
+        self.fixture_position = np.zeros(3)
+        self.reset_period = 0
         self.targets = robot.home.copy()
         self.setpoint = robot.home.copy()
         self.min_distance = DISTANCE_CUTOFF
@@ -163,7 +172,8 @@ class PhysicsWorld:
                 childFrameOrientation=orientation,
                 physicsClientId=self.client,
             )
-            pb.changeConstraint(self.fixture, maxForce=1e4, physicsClientId=self.client)
+            pb.changeConstraint(self.fixture, maxForce=FIXTURE_FORCE, physicsClientId=self.client)
+            self.fixture_position = np.array(position, dtype=float)
         angles = self.robot.urdf_joint_positions(q0)
         for name, index in zip(self.robot.joint_names, self.actuated):
             pb.resetJointState(self.robot_id, index, angles[name], 0.0, physicsClientId=self.client)
@@ -181,6 +191,30 @@ class PhysicsWorld:
         self.min_distance = self.closest_distance()
         self.max_overshoot, self.max_overshoot_joint = 0.0, ""
         self.periods += 1
+        self.reset_period = self.periods
+
+    def schedule(self, perturbations) -> None:
+        """Add perturbations (tric_sim.perturbations.Perturbation) to the current episode, at
+        their start_s after the last reset. ValueError, and nothing scheduled, for one that the
+        situation refuses (Situation.validate) or that starts before the current period."""
+        if self.situation is None:
+            raise ValueError("no scene: reset the simulator to a situation first")
+        perturbations = tuple(perturbations)
+        for k, perturbation in enumerate(perturbations):
+            if getattr(perturbation, "start_s", 0.0) < self.elapsed_s:
+                raise ValueError(
+                    f"perturbation {k} starts at {perturbation.start_s:g} s, but the episode is "
+                    f"at {self.elapsed_s:g} s already"
+                )
+        extended = dataclasses.replace(
+            self.situation, perturbations=self.situation.perturbations + perturbations
+        )
+        self.situation = extended.validate(self.robot.n_joints, self.robot)
+
+    @property
+    def elapsed_s(self) -> float:
+        """Simulated time since the last reset, s."""
+        return (self.periods - self.reset_period) * self.control_period
 
     def release_object(self) -> None:
         """Remove the grasp target's fixture, so that gravity and the hand alone hold it."""
@@ -196,14 +230,17 @@ class PhysicsWorld:
         self.targets = np.array(q_target, dtype=float)
 
     def step(self) -> None:
-        """Advance one control period (self.substeps physics steps)."""
+        """Advance one control period (self.substeps physics steps), with the perturbations that
+        fall in it."""
+        push = self._perturb()
         max_step = self.robot.velocity_limits * self.control_period
         delta = np.clip(self.targets - self.setpoint, -max_step, max_step)
         self.setpoint = self.setpoint + delta
         positions = np.concatenate(
             [self.setpoint, self._mimic_matrix @ self.setpoint + self._mimic_offset]
         )
-        velocities = np.concatenate([delta, self._mimic_matrix @ delta]) / self.control_period
+        motion = delta + push
+        velocities = np.concatenate([motion, self._mimic_matrix @ motion]) / self.control_period
         pb.setJointMotorControlArray(
             self.robot_id,
             self.all_joints,
@@ -221,6 +258,34 @@ class PhysicsWorld:
         self.periods += 1
         self.min_distance = min(self.min_distance, self.closest_distance())
         self._measure_overshoot()
+
+    def _perturb(self) -> np.ndarray:
+        """Act the perturbations falling in the coming period: move the fixture by the target
+        moves, and the setpoint and targets by the pushes (within the joint limits); returns the
+        push made (n,) rad, which the servos then follow."""
+        t0 = self.elapsed_s
+        t1 = t0 + self.control_period
+        push, move = np.zeros(self.robot.n_joints), np.zeros(3)
+        for perturbation in self.situation.perturbations if self.situation else ():
+            share = perturbation.share(t0, t1)
+            if share and perturbation.kind == "push":
+                push += share * np.asarray(perturbation.offset)
+            elif share:
+                move += share * np.asarray(perturbation.offset)
+        if np.any(move) and self.fixture is not None:
+            self.fixture_position = self.fixture_position + move
+            pb.changeConstraint(
+                self.fixture,
+                jointChildPivot=self.fixture_position.tolist(),
+                maxForce=FIXTURE_FORCE,
+                physicsClientId=self.client,
+            )
+        if not np.any(push):
+            return push
+        pushed = np.clip(self.setpoint + push, self.robot.lower, self.robot.upper)
+        push, self.setpoint = pushed - self.setpoint, pushed
+        self.targets = np.clip(self.targets + push, self.robot.lower, self.robot.upper)
+        return push
 
     def _enforce_stops(self) -> None:
         """The joints' hard stops. PyBullet's joint-limit constraints are soft: measured, a constant

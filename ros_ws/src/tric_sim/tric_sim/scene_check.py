@@ -2,7 +2,8 @@
 (its links but the base, mounted on it, reaching into it by no more than TABLE_TOLERANCE) and of
 itself (the self-collision pairs of RobotModel), its object (or the box's lid) not reaching into the
 table by more than TABLE_TOLERANCE, and its object, lid and obstacles clear of the robot, measured
-with coal on the robot's collision model."""
+with coal on the robot's collision model; and a grasp target its perturbations move
+(tric_sim.perturbations) still clear of the table where they leave it."""
 
 import numpy as np
 
@@ -23,6 +24,7 @@ def check_scene(situation: Situation, robot) -> Situation:
     import coal
     import pinocchio as pin
 
+    from tric_sim.perturbations import target_displacement
     from tric_sim.scene import lid_geometry_offset, scene_bodies, se3
     from tric_sim.shapes import coal_shape
 
@@ -87,4 +89,16 @@ def check_scene(situation: Situation, robot) -> Situation:
                     f"{where}: {what} ({body.shape}) intersects the robot's {link} in its "
                     "initial configuration"
                 )
+    displacement = target_displacement(situation.perturbations)
+    if np.any(displacement):
+        target = next(body for body in bodies if body.name == "object")
+        moved = se3(np.asarray(target.position) + displacement, target.orientation)
+        depth = -distance(
+            coal_shape(target.shape, target.dimensions), moved, table_shape, table_placement
+        )
+        if depth > TABLE_TOLERANCE:
+            raise ValueError(
+                f"{where}: its perturbations move the {target.shape} {depth * 100:.1f} cm into "
+                "the table"
+            )
     return situation

@@ -11,8 +11,10 @@ Modes (parameter `mode`):
   with a zero stamp) arrives, or after `lockstep_timeout_s` of wall time without one. Commanders
   copy the stamp of the /joint_states message they answer into their command's header.
 
-Services: ~/reset_scene (tric_msgs/ResetScene), ~/evaluate_task (tric_msgs/EvaluateTask, the hidden
-metrics), ~/render_scene (tric_msgs/RenderScene, an RGB snapshot).
+Services: ~/reset_scene (tric_msgs/ResetScene), ~/perturb (tric_msgs/Perturb: pushes and target
+moves scheduled within the current episode, besides the situation's own), ~/evaluate_task
+(tric_msgs/EvaluateTask, the hidden metrics), ~/render_scene (tric_msgs/RenderScene, an RGB
+snapshot).
 A command with unknown joints, mismatched sizes, NaN/inf or targets outside the joint limits is
 refused with a logged reason; the joints then hold their previous targets.
 """
@@ -31,7 +33,7 @@ from sensor_msgs.msg import Image, JointState
 
 from tric_msgs.msg import ObjectPoses
 from tric_msgs.msg import Situation as SituationMsg
-from tric_msgs.srv import EvaluateTask, RenderScene, ResetScene
+from tric_msgs.srv import EvaluateTask, Perturb, RenderScene, ResetScene
 from tric_sim import messages, metrics
 from tric_sim.lockstep import TopicPoller
 from tric_sim.parameters import POSITIVE, Range, declare
@@ -109,6 +111,7 @@ class SimulatorNode(Node):
                 JointState, "/joint_command", self._on_command, STATE_QOS, callback_group=group
             )
         self.create_service(ResetScene, "~/reset_scene", self._on_reset, callback_group=group)
+        self.create_service(Perturb, "~/perturb", self._on_perturb, callback_group=group)
         self.create_service(
             EvaluateTask, "~/evaluate_task", self._on_evaluate, callback_group=group
         )
@@ -240,6 +243,19 @@ class SimulatorNode(Node):
         response.joint_state = messages.joint_state_msg(
             self.robot.joint_names, positions, velocities, self.world.time_ns
         )
+        return response
+
+    def _on_perturb(self, request, response):
+        with self._lock:
+            try:
+                self.world.schedule(map(messages.perturbation_from_msg, request.perturbations))
+            except ValueError as error:
+                response.success, response.message = False, f"perturbation refused: {error}"
+                self.get_logger().warning(response.message)
+                return response
+            self._publish_situation()
+        response.success = True
+        response.message = f"{len(request.perturbations)} perturbation(s) scheduled"
         return response
 
     def _on_evaluate(self, request, response):

@@ -11,6 +11,7 @@ from dataclasses import MISSING, asdict, dataclass, fields
 
 import numpy as np
 
+from tric_sim.perturbations import Perturbation, target_displacement
 from tric_sim.untrusted import quoted
 
 #: Object kinds each task accepts.
@@ -55,6 +56,8 @@ class Situation:
     obstacles: tuple = ()
     initial_joint_positions: tuple = ()
     seed: int = 0
+    #: Perturbations scheduled within the episode (tric_sim.perturbations).
+    perturbations: tuple = ()
 
     def validate(self, n_joints: int = 14, robot=None) -> "Situation":
         """Return self, or raise ValueError naming the first problem. With a robot
@@ -102,6 +105,13 @@ class Situation:
             and 0 <= self.seed < 2**32
         ):
             raise ValueError(f"{where}: seed must be an integer in [0, 2^32)")
+        for k, perturbation in enumerate(self.perturbations):
+            if not isinstance(perturbation, Perturbation):
+                raise ValueError(f"{where}: perturbation {k} is not a Perturbation")
+            perturbation.validate(self.task, n_joints, f"{where}: perturbation {k}")
+        if any(p.kind == "move_target" for p in self.perturbations):
+            moved = np.asarray(self.object_position) + target_displacement(self.perturbations)
+            _check_position(tuple(moved), f"{where}: the object moved by its perturbations to")
         if robot is not None:
             from tric_sim.scene_check import check_scene  # it imports this module
 
@@ -111,6 +121,7 @@ class Situation:
     def to_dict(self) -> dict:
         data = asdict(self)
         data["obstacles"] = [asdict(o) for o in self.obstacles]
+        data["perturbations"] = [p.to_dict() for p in self.perturbations]
         return _plain(data)
 
     @classmethod
@@ -132,6 +143,9 @@ class Situation:
         values = dict(data)
         try:
             values["obstacles"] = tuple(_obstacle_from_dict(o) for o in data.get("obstacles", ()))
+            values["perturbations"] = tuple(
+                Perturbation.from_dict(p) for p in _entries(data.get("perturbations", ()))
+            )
             for key in (
                 "object_dimensions",
                 "object_position",
@@ -167,6 +181,13 @@ def check_name(name) -> str:
             f"{problem}: it names the situation's files"
         )
     return name
+
+
+def _entries(value) -> list:
+    """The entries of a list field of a situation's plain data, or ValueError."""
+    if not isinstance(value, (list, tuple)):
+        raise ValueError(f"expected a list, got {quoted(value, 80)}")
+    return list(value)
 
 
 def _obstacle_from_dict(data) -> Obstacle:

@@ -180,10 +180,88 @@ def box_set(count: int = 10, seed: int = 4, prefix: str = "box_train") -> list:
     return out
 
 
+#: The wider situations of Exp. 5's second half (test-only): boxes turned within +-WIDE_BOX_YAW with
+#: their centre ranges widened by half on each side; spheres up to WIDE_MARGIN outside the grid;
+#: cylinders turned up to WIDE_TILT beyond [0, pi/2].
+WIDE_BOX_YAW = math.pi / 4
+WIDE_MARGIN = 0.10
+WIDE_TILT = math.pi / 4
+
+
+def widened(low: float, high: float) -> tuple:
+    """A range widened by half its width on each side."""
+    half = (high - low) / 2
+    return low - half, high + half
+
+
+def box_wide_set(count: int = 25, seed: int = 8) -> list:
+    """Boxes as box_set's but turned within +-WIDE_BOX_YAW, their centres within the widened
+    ranges."""
+    rng = np.random.default_rng(seed)
+    out = []
+    for i in range(count):
+        side = float(rng.uniform(*BOX_SIDE_RANGE))
+        out.append(
+            box(
+                f"box_wide_{i:02d}",
+                side,
+                float(rng.uniform(*widened(*BOX_X_RANGE))),
+                float(rng.uniform(*widened(*BOX_Y_RANGE))),
+                float(rng.uniform(-WIDE_BOX_YAW, WIDE_BOX_YAW)),
+                seed,
+            )
+        )
+    return out
+
+
+def sphere_wide_set(count: int = 20, seed: int = 9) -> list:
+    """Spheres outside the training grid, up to WIDE_MARGIN from it: drawn uniformly in the grid
+    grown by WIDE_MARGIN on every side, the draws inside the grid skipped."""
+    rng = np.random.default_rng(seed)
+    out = []
+    while len(out) < count:
+        position = rng.uniform(GRID_LOW - WIDE_MARGIN, GRID_HIGH + WIDE_MARGIN)
+        if np.all(position >= GRID_LOW) and np.all(position <= GRID_HIGH):
+            continue
+        out.append(sphere(f"sphere_wide_{len(out):02d}", position, seed))
+    return out
+
+
+def cylinder_wide_set(count: int = 10, seed: int = 10) -> list:
+    """Cylinders turned outside [0, pi/2], by up to WIDE_TILT: half before 0, half past pi/2."""
+    rng = np.random.default_rng(seed)
+    beyond = rng.uniform(0.0, WIDE_TILT, count)
+    angles = [-b if i % 2 == 0 else math.pi / 2 + b for i, b in enumerate(beyond)]
+    return [cylinder(f"cylinder_wide_{i:02d}", float(a), seed) for i, a in enumerate(angles)]
+
+
+def outside_training_range(situation: Situation) -> float:
+    """How far a situation lies outside its task's training range, as a share of that range's
+    width (the largest over its varied dimensions; 0 inside): spheres by position against the
+    grid, cylinders by tilt against [0, pi/2], boxes by centre x, y and yaw against box_set's."""
+
+    def beyond(value, low, high):
+        return float(max(low - value, value - high, 0.0) / (high - low))
+
+    if situation.object_kind == "sphere":
+        return max(
+            beyond(v, lo, hi) for v, lo, hi in zip(situation.object_position, GRID_LOW, GRID_HIGH)
+        )
+    x, y, z, w = situation.object_orientation
+    if situation.object_kind == "cylinder":
+        return beyond(2 * math.atan2(y, w), 0.0, math.pi / 2)
+    yaw = 2 * math.atan2(z, w)
+    return max(
+        beyond(situation.object_position[0], *BOX_X_RANGE),
+        beyond(situation.object_position[1], *BOX_Y_RANGE),
+        beyond(yaw, -BOX_YAW, BOX_YAW),
+    )
+
+
 #: Named data sets: name -> function returning the list of situations. The training sets are the
 #: demonstrations; every choice of method or controller is made on them and on the validation sets
 #: (*_val, ours, drawn from the same generators with seeds of their own); the test sets (*_test, the
-#: paper's) are only reported.
+#: paper's) and the wider sets (*_wide, Exp. 5) are only reported.
 DATASETS = {
     "sphere_train": sphere_grid,
     "sphere_val": lambda: [
@@ -206,6 +284,9 @@ DATASETS = {
     "box_train": lambda: box_set(10, seed=4, prefix="box_train"),
     "box_val": lambda: box_set(25, seed=13, prefix="box_val"),
     "box_test": lambda: box_set(25, seed=7, prefix="box_test"),
+    "box_wide": box_wide_set,
+    "sphere_wide": sphere_wide_set,
+    "cylinder_wide": cylinder_wide_set,
 }
 
 

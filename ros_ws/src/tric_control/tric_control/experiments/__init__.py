@@ -16,6 +16,8 @@ EXPERIMENT_MODULES = {
     "table3": "table3",
     "exp4": "exp4",
     "table4": "table4",
+    "exp5": "exp5",
+    "exp5_wide": "exp5_wide",
     "analysis": "model_analysis",
 }
 

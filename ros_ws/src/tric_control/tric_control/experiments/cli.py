@@ -15,6 +15,14 @@ NAME (default: all, in this order):
   table3    cylinders: the teacher, TRIC K = 0 and TRIC K = 30 (paper Table 3).
   exp4      the sphere model facing an obstacle in the approach path, never seen in training.
   table4    boxes opened out of 25: TRIC, DPL in joint space, DPL in finger space, the teacher.
+  exp5      stability (ours): 10 sphere test situations pushed (0.1, 0.2, 0.4 rad), with the
+            target jumping (2, 5, 10 cm) or drifting (2 cm/s) mid-approach, from random starts
+            (0.1, 0.2, 0.4 rad), and 10 test boxes pushed with the finger under the lip: TRIC, DPL
+            in joint space (three seeds each) and the teacher; success against the perturbation's
+            size, and f and the joint speed through a push.
+  exp5_wide wider situations than the training sets' (box_wide, sphere_wide, cylinder_wide): the
+            models of Tables 1, 3, 4 and DPL (three seeds each) and the teacher; success against
+            the distance from the training range.
   analysis  the sphere, cylinder and box models on their demonstrations (paper Fig. 12-17), three
             seeds each: f along every demo, the cosines of L_g, the collision prior, kernel PCA,
             the feature scores and the mean gradients df/dy by step.

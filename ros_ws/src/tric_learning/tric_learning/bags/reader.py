@@ -208,11 +208,11 @@ def _check_type(
 
 
 def _older_version(theirs: tuple | None, ours: tuple, optional: Iterable[str]) -> bool:
-    """Whether a type's fields theirs are ours, or ours less trailing fields that are optional."""
-    return (
-        theirs is not None
-        and ours[: len(theirs)] == theirs
-        and {name for _, name in ours[len(theirs) :]} <= set(optional)
+    """Whether a type's fields theirs are ours, or ours less trailing fields that are optional (a
+    type the bag's definition lacks (None) is an older version only if all its fields are)."""
+    theirs = () if theirs is None else theirs
+    return ours[: len(theirs)] == theirs and {name for _, name in ours[len(theirs) :]} <= set(
+        optional
     )
 
 
