@@ -4,6 +4,7 @@ each situation: reset the scene, let the teacher demonstrate it or the controlle
 model for one episode, then judge the final state with the hidden metrics (with the lift test for
 grasps). evaluate() runs several such graphs at once, each in a spawned worker process."""
 
+import dataclasses
 import multiprocessing
 import multiprocessing.util
 import os
@@ -277,11 +278,12 @@ class Evaluator:
 
     def _wait_for_scene(self, situation):
         """Wait until the controller has taken the new scene from /situation (latched,
-        asynchronous)."""
+        asynchronous); the controller takes it without its perturbations, which are the world's."""
         deadline = time.monotonic() + SERVICE_TIMEOUT
+        unperturbed = dataclasses.replace(situation, perturbations=())
         while True:
             scene = self.controller.scene
-            if scene is not None and scene.situation == situation:
+            if scene is not None and scene.situation == unperturbed:
                 return
             if time.monotonic() > deadline:
                 raise RuntimeError(
