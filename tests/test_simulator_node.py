@@ -10,9 +10,9 @@ from rclpy.qos import DurabilityPolicy, QoSProfile
 from sensor_msgs.msg import JointState
 
 from conftest import call, run_periods, wait_for
-from tric_msgs.msg import ObjectPoses
+from tric_msgs.msg import ObjectPoses, Perturbation
 from tric_msgs.msg import Situation as SituationMsg
-from tric_msgs.srv import EvaluateTask, RenderScene, ResetScene
+from tric_msgs.srv import EvaluateTask, Perturb, RenderScene, ResetScene
 from tric_sim import messages, situations
 from tric_sim.robot_model import HOME
 from tric_sim.simulator_node import IN_PROCESS_LOCKSTEP_TIMEOUT_S, SimulatorNode
@@ -180,3 +180,67 @@ def test_evaluate_and_render_services(ros_context, spin):
         client, RenderScene, "/simulator/render_scene", RenderScene.Request(width=1, height=48)
     )
     assert not refused.success and "width" in refused.message
+
+
+def test_perturb_service_moves_the_target_and_refuses_the_impossible(ros_context, spin):
+    """~/perturb schedules a target jump in the running episode: /object_poses shows the object
+    moved as specified and /situation carries the perturbation; a start already past, or a move
+    into the table, is refused and nothing is scheduled."""
+    simulator = make_simulator(ros_context, timeout=IN_PROCESS_LOCKSTEP_TIMEOUT_S)
+    commander = Commander(ros_context)  # answers nothing yet: the episode holds at its start
+    received = []
+    commander.create_subscription(
+        SituationMsg,
+        "/situation",
+        received.append,
+        QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL),
+    )
+    spin(simulator, commander)
+    sphere = situations.dataset("sphere_test")[1]
+    # a reset once the commander is there: it hears the episode's first state
+    reset = call(
+        commander,
+        ResetScene,
+        "/simulator/reset_scene",
+        ResetScene.Request(situation=messages.situation_to_msg(sphere)),
+    )
+    assert reset.success, reset.message
+    wait_for(
+        lambda: (
+            commander.states and commander.states[-1].header.stamp == reset.joint_state.header.stamp
+        ),
+        what="the episode's first state",
+    )
+    start = np.array(sphere.object_position)
+    jump = Perturbation(kind="move_target", start_s=0.2, duration_s=0.0, offset=[0.05, 0.0, 0.0])
+    response = call(commander, Perturb, "/simulator/perturb", Perturb.Request(perturbations=[jump]))
+    assert response.success, response.message
+    wait_for(
+        lambda: received and len(received[-1].perturbations) == 1, what="the perturbed situation"
+    )
+    assert messages.perturbation_from_msg(received[-1].perturbations[0]).offset == (0.05, 0.0, 0.0)
+    commander.target = HOME.copy()
+    commander.publisher.publish(
+        JointState(
+            name=list(commander.states[-1].name),
+            position=list(HOME),
+            header=commander.states[-1].header,
+        )
+    )
+    wait_for(lambda: len(commander.states) > 40, what="40 lockstep periods")
+    moved = np.array(messages.object_poses_from_msg(commander.poses[-1])["object"][0]) - start
+    assert np.allclose(moved, (0.05, 0.0, 0.0), atol=2e-3)
+    for perturbation, reason in (
+        (jump, "starts at 0.2 s, but the episode is at"),
+        (
+            # the sphere's centre 2 cm above the table top: half its radius into the table
+            Perturbation(kind="move_target", start_s=30.0, offset=[0.0, 0.0, 0.02 - start[2]]),
+            "into the table",
+        ),
+        (Perturbation(kind="kick", start_s=30.0), "unknown perturbation kind 'kick'"),
+    ):
+        response = call(
+            commander, Perturb, "/simulator/perturb", Perturb.Request(perturbations=[perturbation])
+        )
+        assert not response.success and reason in response.message, response.message
+    assert len(simulator.world.situation.perturbations) == 1

@@ -228,6 +228,8 @@ def test_reference_dataset_loads_and_rosbags_reads_the_same_samples(
     assert dataset.definition.task == task
     assert [demo.length for demo in dataset.demos] == [samples] * demos
     assert all(demo.metrics.get("success") for demo in dataset.demos)
+    # recorded before situations had perturbations: they read as situations without any
+    assert all(demo.situation.perturbations == () for demo in dataset.demos)
     for bag, demo in zip(files, dataset.demos):
         with AnyReader([_rosbag2_folder(bag, tmp_path / bag.stem)]) as reader:
             connections = [c for c in reader.connections if c.topic == SAMPLES_TOPIC]

@@ -236,9 +236,14 @@ def _check_position(values, what):
     _check_vector(values, 3, what)
     if np.any(np.asarray(values) < WORKSPACE_LOW) or np.any(np.asarray(values) > WORKSPACE_HIGH):
         raise ValueError(
-            f"{what} {tuple(values)} is outside the workspace "
-            f"{tuple(WORKSPACE_LOW)} .. {tuple(WORKSPACE_HIGH)}"
+            f"{what} {_rounded(values)} is outside the workspace "
+            f"{_rounded(WORKSPACE_LOW)} .. {_rounded(WORKSPACE_HIGH)}"
         )
+
+
+def _rounded(values) -> tuple:
+    """values as a tuple of plain floats rounded to 0.1 mm, for messages."""
+    return tuple(round(float(v), 4) for v in values)
 
 
 def _check_quaternion(values, what):
