@@ -4,6 +4,7 @@ situation."""
 import math
 
 import numpy as np
+import pytest
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, QoSProfile
@@ -19,7 +20,8 @@ from tric_sim.simulator_node import IN_PROCESS_LOCKSTEP_TIMEOUT_S, SimulatorNode
 
 
 class Commander(Node):
-    """Answers every /joint_states with a position target (lockstep: the same stamp)."""
+    """Answers every /joint_states with a position target (lockstep: the same stamp); an empty
+    target () answers with an empty command, which holds the simulator's targets."""
 
     def __init__(self, context, target=None):
         super().__init__("test_commander", context=context)
@@ -33,7 +35,8 @@ class Commander(Node):
     def on_state(self, msg):
         self.states.append(msg)
         if self.target is not None:
-            command = JointState(name=list(msg.name), position=list(self.target))
+            names = list(msg.name) if len(self.target) else []
+            command = JointState(name=names, position=list(self.target))
             command.header.stamp = msg.header.stamp
             self.publisher.publish(command)
 
@@ -183,9 +186,10 @@ def test_evaluate_and_render_services(ros_context, spin):
 
 
 def test_perturb_service_moves_the_target_and_refuses_the_impossible(ros_context, spin):
-    """~/perturb schedules a target jump in the running episode: /object_poses shows the object
-    moved as specified and /situation carries the perturbation; a start already past, or a move
-    into the table, is refused and nothing is scheduled."""
+    """~/perturb schedules a target jump and a push in the running episode: /object_poses shows
+    the object moved and /joint_states the joint pushed as specified, and /situation carries the
+    perturbations; a start already past, or a move into the table, is refused and nothing is
+    scheduled."""
     simulator = make_simulator(ros_context, timeout=IN_PROCESS_LOCKSTEP_TIMEOUT_S)
     commander = Commander(ros_context)  # answers nothing yet: the episode holds at its start
     received = []
@@ -213,23 +217,26 @@ def test_perturb_service_moves_the_target_and_refuses_the_impossible(ros_context
     )
     start = np.array(sphere.object_position)
     jump = Perturbation(kind="move_target", start_s=0.2, duration_s=0.0, offset=[0.05, 0.0, 0.0])
-    response = call(commander, Perturb, "/simulator/perturb", Perturb.Request(perturbations=[jump]))
+    shove = np.zeros(len(HOME))
+    shove[1] = 0.2  # arm_2_joint
+    push = Perturbation(kind="push", start_s=0.2, duration_s=0.1, offset=shove.tolist())
+    response = call(
+        commander, Perturb, "/simulator/perturb", Perturb.Request(perturbations=[jump, push])
+    )
     assert response.success, response.message
     wait_for(
-        lambda: received and len(received[-1].perturbations) == 1, what="the perturbed situation"
+        lambda: received and len(received[-1].perturbations) == 2, what="the perturbed situation"
     )
     assert messages.perturbation_from_msg(received[-1].perturbations[0]).offset == (0.05, 0.0, 0.0)
-    commander.target = HOME.copy()
-    commander.publisher.publish(
-        JointState(
-            name=list(commander.states[-1].name),
-            position=list(HOME),
-            header=commander.states[-1].header,
-        )
-    )
-    wait_for(lambda: len(commander.states) > 40, what="40 lockstep periods")
+    before = np.array(commander.states[-1].position)
+    commander.target = ()  # hold the targets: what the push moved stays moved
+    commander.publisher.publish(JointState(header=commander.states[-1].header))
+    wait_for(lambda: len(commander.states) > 60, what="60 lockstep periods")
     moved = np.array(messages.object_poses_from_msg(commander.poses[-1])["object"][0]) - start
     assert np.allclose(moved, (0.05, 0.0, 0.0), atol=2e-3)
+    pushed = np.array(commander.states[-1].position) - before
+    assert pushed[1] == pytest.approx(0.2, abs=0.02)
+    assert np.max(np.abs(np.delete(pushed[:7], 1))) < 0.02
     for perturbation, reason in (
         (jump, "starts at 0.2 s, but the episode is at"),
         (
@@ -243,4 +250,4 @@ def test_perturb_service_moves_the_target_and_refuses_the_impossible(ros_context
             commander, Perturb, "/simulator/perturb", Perturb.Request(perturbations=[perturbation])
         )
         assert not response.success and reason in response.message, response.message
-    assert len(simulator.world.situation.perturbations) == 1
+    assert len(simulator.world.situation.perturbations) == 2

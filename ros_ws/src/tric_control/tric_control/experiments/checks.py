@@ -21,6 +21,8 @@ from tric_control.experiments.targets import (
 )
 from tric_sim.metrics import GOOD_GRASP
 
+#: How far a measured joint may go past its limit, rad (design.md section 6).
+OVERSHOOT_LIMIT = 0.01
 #: Table 4: training boxes TRIC reproduces of 10 (design.md section 5).
 BOX_TRAINING_TARGET = 9
 
@@ -228,11 +230,60 @@ def analysis_checks(rows: dict) -> list:
     return checks
 
 
+def exp5_checks(rows: dict) -> list:
+    """Issue 26's safety targets over every perturbed episode (size > 0), for each agent and seed:
+    no joint more than 0.01 rad past its limit, and no grasp trial colliding (the table is the only
+    avoided body of a grasp scene). The box pushes' collisions may be with the box body as well as
+    the table, so they are reported in the table, not checked here."""
+    checks = []
+    for label, row in rows.items():
+        seeds = [row["seeds"][seed] for seed in row["seeds"]]
+        perturbed = [
+            [
+                cell
+                for family, cells in seed.items()
+                for size, cell in cells.items()
+                if size != "0"
+            ]
+            for seed in seeds
+        ]
+        checks.append(
+            _check(
+                "exp5",
+                f"{label}: perturbed, no joint > {OVERSHOOT_LIMIT} rad past its limit",
+                [max(cell["max_overshoot"] for cell in cells) for cells in perturbed],
+                lambda overshoot: overshoot <= OVERSHOOT_LIMIT,
+                ".4f",
+            )
+        )
+        grasp = [
+            [
+                cell
+                for family, cells in seed.items()
+                if family != "box push"
+                for size, cell in cells.items()
+                if size != "0"
+            ]
+            for seed in seeds
+        ]
+        checks.append(
+            _check(
+                "exp5",
+                f"{label}: perturbed grasps, no collision with the table",
+                [sum(cell["collisions"] for cell in cells) for cells in grasp],
+                lambda collisions: collisions == 0,
+                "d",
+            )
+        )
+    return checks
+
+
 #: Experiment name -> its checks from its rows.
 CHECKERS = {
     "table1": table1_checks,
     "table3": table3_checks,
     "exp4": exp4_checks,
     "table4": table4_checks,
+    "exp5": exp5_checks,
     "analysis": analysis_checks,
 }
