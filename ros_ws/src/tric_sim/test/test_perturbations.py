@@ -176,4 +176,3 @@ def test_trials_are_reproducible_and_grow_along_one_direction(robot):
     assert np.linalg.norm(q0 - robot.home) == pytest.approx(0.2)
     assert np.all(q0 >= robot.lower) and np.all(q0 <= robot.upper)
     assert Trial("jump", 0.0).apply(sphere, robot).perturbations == ()
-

@@ -85,3 +85,23 @@ def test_validation_sets_are_drawn_apart_from_the_training_and_test_sets():
             np.linalg.norm((centre - plate)[:2]) - radius - situation.obstacles[0].dimensions[0] / 2
         )
         assert 0.04 - 1e-9 <= gap <= 0.10 + 1e-9
+
+
+def test_wide_sets_lie_where_they_say_outside_the_training_ranges():
+    for name in ("sphere_train", "sphere_test", "cylinder_train", "box_train", "box_test"):
+        assert all(S.outside_training_range(s) == 0.0 for s in S.dataset(name)), name
+    spheres = S.dataset("sphere_wide")
+    distances = [S.outside_training_range(s) for s in spheres]
+    assert all(d > 0 for d in distances)
+    # up to WIDE_MARGIN (10 cm) beyond the grid, whose narrowest side is 40 cm
+    assert max(distances) <= S.WIDE_MARGIN / 0.40 + 1e-9
+    cylinders = S.dataset("cylinder_wide")
+    tilts = [2 * math.atan2(s.object_orientation[1], s.object_orientation[3]) for s in cylinders]
+    assert all(t < 0 or t > math.pi / 2 for t in tilts)
+    assert all(-S.WIDE_TILT <= t <= math.pi / 2 + S.WIDE_TILT for t in tilts)
+    boxes = S.dataset("box_wide")
+    yaws = [2 * math.atan2(s.object_orientation[2], s.object_orientation[3]) for s in boxes]
+    assert max(abs(y) for y in yaws) <= S.WIDE_BOX_YAW and max(abs(y) for y in yaws) > S.BOX_YAW
+    xs = [s.object_position[0] for s in boxes]
+    assert S.widened(*S.BOX_X_RANGE)[0] <= min(xs) and max(xs) <= S.widened(*S.BOX_X_RANGE)[1]
+    assert sum(S.outside_training_range(s) > 0 for s in boxes) > len(boxes) / 2

@@ -161,8 +161,16 @@ def box(name, side: float, x: float, y: float, yaw: float, seed=0) -> Situation:
     ).validate()
 
 
-def box_set(count: int = 10, seed: int = 4, prefix: str = "box_train") -> list:
-    """Boxes with random side, translation and rotation (Sec. 5.3.5)."""
+def box_set(
+    count: int = 10,
+    seed: int = 4,
+    prefix: str = "box_train",
+    x_range=BOX_X_RANGE,
+    y_range=BOX_Y_RANGE,
+    yaw: float = BOX_YAW,
+) -> list:
+    """Boxes with random side, translation (centre x and y within the ranges, m) and rotation
+    (within +-yaw, rad) (Sec. 5.3.5)."""
     rng = np.random.default_rng(seed)
     out = []
     for i in range(count):
@@ -171,9 +179,9 @@ def box_set(count: int = 10, seed: int = 4, prefix: str = "box_train") -> list:
             box(
                 f"{prefix}_{i:02d}",
                 side,
-                float(rng.uniform(*BOX_X_RANGE)),
-                float(rng.uniform(*BOX_Y_RANGE)),
-                float(rng.uniform(-BOX_YAW, BOX_YAW)),
+                float(rng.uniform(*x_range)),
+                float(rng.uniform(*y_range)),
+                float(rng.uniform(-yaw, yaw)),
                 seed,
             )
         )
@@ -197,21 +205,14 @@ def widened(low: float, high: float) -> tuple:
 def box_wide_set(count: int = 25, seed: int = 8) -> list:
     """Boxes as box_set's but turned within +-WIDE_BOX_YAW, their centres within the widened
     ranges."""
-    rng = np.random.default_rng(seed)
-    out = []
-    for i in range(count):
-        side = float(rng.uniform(*BOX_SIDE_RANGE))
-        out.append(
-            box(
-                f"box_wide_{i:02d}",
-                side,
-                float(rng.uniform(*widened(*BOX_X_RANGE))),
-                float(rng.uniform(*widened(*BOX_Y_RANGE))),
-                float(rng.uniform(-WIDE_BOX_YAW, WIDE_BOX_YAW)),
-                seed,
-            )
-        )
-    return out
+    return box_set(
+        count,
+        seed,
+        "box_wide",
+        widened(*BOX_X_RANGE),
+        widened(*BOX_Y_RANGE),
+        WIDE_BOX_YAW,
+    )
 
 
 def sphere_wide_set(count: int = 20, seed: int = 9) -> list:

@@ -237,45 +237,37 @@ def exp5_checks(rows: dict) -> list:
     the table, so they are reported in the table, not checked here."""
     checks = []
     for label, row in rows.items():
-        seeds = [row["seeds"][seed] for seed in row["seeds"]]
-        perturbed = [
-            [
-                cell
-                for family, cells in seed.items()
-                for size, cell in cells.items()
-                if size != "0"
-            ]
-            for seed in seeds
-        ]
+        seeds = list(row["seeds"].values())
         checks.append(
             _check(
                 "exp5",
                 f"{label}: perturbed, no joint > {OVERSHOOT_LIMIT} rad past its limit",
-                [max(cell["max_overshoot"] for cell in cells) for cells in perturbed],
+                [max(c["max_overshoot"] for c in _perturbed(seed)) for seed in seeds],
                 lambda overshoot: overshoot <= OVERSHOOT_LIMIT,
                 ".4f",
             )
         )
-        grasp = [
-            [
-                cell
-                for family, cells in seed.items()
-                if family != "box push"
-                for size, cell in cells.items()
-                if size != "0"
-            ]
-            for seed in seeds
-        ]
         checks.append(
             _check(
                 "exp5",
                 f"{label}: perturbed grasps, no collision with the table",
-                [sum(cell["collisions"] for cell in cells) for cells in grasp],
+                [sum(c["collisions"] for c in _perturbed(seed, "box push")) for seed in seeds],
                 lambda collisions: collisions == 0,
                 "d",
             )
         )
     return checks
+
+
+def _perturbed(cells: dict, leave_out: str = "") -> list:
+    """The perturbed cells (size > 0) of an exp5 seed's {family: {size: cell}}, but leave_out's."""
+    return [
+        cell
+        for family, sizes in cells.items()
+        if family != leave_out
+        for size, cell in sizes.items()
+        if size != "0"
+    ]
 
 
 #: Experiment name -> its checks from its rows.
