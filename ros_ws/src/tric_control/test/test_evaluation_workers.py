@@ -29,7 +29,7 @@ class DyingEvaluator:
         )
 
 
-def make_dying_evaluator(folder):
+def make_dying_evaluator(_worker, folder):
     return DyingEvaluator(folder)
 
 

@@ -2,8 +2,8 @@
 
     tric-eval (--model MODEL | --teacher) (DATASET | --situations-file FILE) [--json OUT
               [--overwrite]] [--max-steps N] [--snapshots DIR] [--domain-id N] [--jobs N]
-              [--offline] [--record DIR] [--viz [--viz-port P]]
-              [--perturb KIND:SIZE[@SECONDS] ...]
+              [--executor processes|ray] [--address HOST:PORT] [--offline] [--record DIR]
+              [--viz [--viz-port P]] [--perturb KIND:SIZE[@SECONDS] ...]
 
 Runs the simulator (lockstep), the teacher and the controller nodes in one process. For each
 situation: reset the scene (/simulator/reset_scene); the teacher demonstrates it
@@ -17,7 +17,11 @@ file and the --snapshots folder are checked before the first episode (the --json
 the model or the situations file, nor exist unless --overwrite), and written atomically. The
 nodes run in a private DDS domain unless --domain-id names one. --jobs N runs N such graphs at once,
 each in a worker process of its own on its own domain (the base one and the N - 1 above it), the
-situations shared out one at a time; the records keep the situations' order. --offline runs the same
+situations shared out one at a time; the records keep the situations' order. The workers are
+spawned processes here, or Ray actors (--executor ray: a local Ray instance; --address or
+RAY_ADDRESS: a Ray cluster whose machines have the project's environment, the model file and the
+code shipped to them, the records coming back; not with --snapshots, --record or --viz, which write
+on the workers' disks). --offline runs the same
 episodes without nodes: the controller core (or the teacher's) on the physics directly
 (tric_control.offline), several times faster, for sweeps; the table and JSON are the same. --record
 DIR writes one bag per episode (the recorder node: the joint states, poses, samples and outcome, the
@@ -39,6 +43,7 @@ import sys
 
 # Only what the arguments need: --help and argument errors answer before torch, pybullet,
 # pinocchio and rclpy are imported (main imports the rest once the arguments are checked).
+from tric_control.executors import add_executor_arguments, chosen_executor, open_executor
 from tric_sim.dds_domains import MAX_DOMAIN_ID, private_domain_id
 from tric_sim.interrupts import run_interruptible
 from tric_sim.output_files import check_output_file, check_output_folder
@@ -94,6 +99,7 @@ def run(argv) -> int:
         default=1,
         help="evaluation graphs run at once, each in a process on its own domain (default 1)",
     )
+    add_executor_arguments(parser)
     parser.add_argument(
         "--offline",
         action="store_true",
@@ -130,6 +136,13 @@ def run(argv) -> int:
         )
     if args.viz and args.jobs > 1:
         parser.error("--viz shows one evaluation graph: use --jobs 1")
+    try:
+        executor = chosen_executor(args)
+    except ValueError as error:
+        parser.error(str(error))
+    on_this_disk = args.snapshots or args.record
+    if executor.kind == "ray" and (args.viz or (executor.remote and on_this_disk)):
+        parser.error("--viz, and on a cluster --snapshots and --record, need workers here")
     if args.offline and (args.viz or args.record):
         parser.error("--viz and --record watch the nodes: not with --offline")
     if (
@@ -182,25 +195,34 @@ def run(argv) -> int:
         if not todo:
             new = []
         elif args.offline:
-            new = evaluate_offline(
-                todo, model, args.max_steps, args.snapshots, jobs=args.jobs, on_record=on_record
-            )
+            with open_executor(executor, num_cpus=args.jobs) as workers:
+                new = evaluate_offline(
+                    todo,
+                    model,
+                    args.max_steps,
+                    args.snapshots,
+                    jobs=args.jobs,
+                    on_record=on_record,
+                    executor=workers,
+                )
         else:
             view = open_view(args, "tric-eval")
-            new = evaluate(
-                todo,
-                model,
-                args.max_steps,
-                args.snapshots,
-                domain_id=domain_id,
-                jobs=args.jobs,
-                view=view,
-                record=args.record,
-                on_record=on_record,
-            )
+            with open_executor(executor, num_cpus=args.jobs) as workers:
+                new = evaluate(
+                    todo,
+                    model,
+                    args.max_steps,
+                    args.snapshots,
+                    domain_id=domain_id,
+                    jobs=args.jobs,
+                    view=view,
+                    record=args.record,
+                    on_record=on_record,
+                    executor=workers,
+                )
         judged = {**done, **{record.situation: record for record in new}}
         records = [judged[situation.name] for situation in situations]
-    except ValueError as error:
+    except (ValueError, ConnectionError) as error:
         print(f"tric-eval: {error}", file=sys.stderr)
         return 2
     finally:

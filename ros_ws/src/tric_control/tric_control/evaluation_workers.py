@@ -1,12 +1,16 @@
 """Evaluation episodes shared out over spawned worker processes (tric-eval --jobs, through the nodes
 or offline): each worker builds its own evaluator once, with make_evaluator, and runs one episode
-at a time on it. Workers are spawned, never forked: a forked process may hold rclpy's threads."""
+at a time on it. Workers are spawned, never forked: a forked process may hold rclpy's threads. This
+is the process executor of tric_control.executors; tric_control.ray_executor runs the same
+contract on Ray actors."""
 
 import concurrent.futures
 import multiprocessing
 
 from tric_control.evaluation import EpisodeRecord, unjudged_fields
 
+#: Seconds a starting worker process waits for its index.
+WORKER_INDEX_TIMEOUT_S = 60.0
 #: A worker process's evaluator, or the error that building it raised (re-raised by each of its
 #: runs).
 _worker = {}
@@ -16,10 +20,11 @@ def run_in_workers(
     situations, snapshot, jobs: int, bar, make_evaluator, make_args, agent, on_record=None
 ) -> list:
     """evaluator.run(situation, snapshot) for every situation, in jobs spawned worker processes
-    whose evaluators are make_evaluator(*make_args()) (make_evaluator: a module-level function, so
-    that it is picklable; make_args() is called for each pool); [EpisodeRecord] in the situations'
-    order. bar (a tqdm bar) is advanced, and on_record(record) called (if given), as each episode
-    ends. A worker that dies (a segfault, the
+    whose evaluators are make_evaluator(worker, *make_args()) (make_evaluator: a module-level
+    function, so that it is picklable; worker: the process's index in [0, jobs) within its pool;
+    make_args() is called for each pool); [EpisodeRecord] in the situations' order. bar (a tqdm
+    bar) is advanced, and on_record(record) called (if given), as each episode ends. A worker that
+    dies (a segfault, the
     OOM killer) breaks its pool: the episodes it took down are then run again, each alone in a
     pool of one worker, so that one whose worker dies again loses only itself: a failed record
     that says so (of the other records' agent, or of agent when none ended). Any other error
@@ -63,8 +68,11 @@ def _ended(bar, on_record):
 def _run_pool(spawn, situations, pending, records, snapshot, jobs, ended, make_evaluator, args):
     """Run the pending episodes (indices into situations) in one pool, filling records (ended()
     after each); the indices its breaking (a worker that died) left without a record."""
+    workers = spawn.Queue()
+    for worker in range(jobs):
+        workers.put(worker)
     with concurrent.futures.ProcessPoolExecutor(
-        jobs, mp_context=spawn, initializer=_start_worker, initargs=(make_evaluator, args)
+        jobs, mp_context=spawn, initializer=_start_worker, initargs=(make_evaluator, workers, args)
     ) as pool:
         futures = {pool.submit(_run_in_worker, situations[k], snapshot): k for k in pending}
         try:
@@ -81,10 +89,11 @@ def _run_pool(spawn, situations, pending, records, snapshot, jobs, ended, make_e
     return [k for k in pending if records[k] is None]
 
 
-def _start_worker(make_evaluator, args):
-    """Worker initializer: build this process's evaluator."""
+def _start_worker(make_evaluator, workers, args):
+    """Worker initializer: build this process's evaluator, with the next free index of workers (a
+    queue)."""
     try:
-        _worker["evaluator"] = make_evaluator(*args)
+        _worker["evaluator"] = make_evaluator(workers.get(timeout=WORKER_INDEX_TIMEOUT_S), *args)
     # an initializer's exception would only break the pool, without its message
     except Exception as error:
         _worker["error"] = error

@@ -5,7 +5,6 @@ model for one episode, then judge the final state with the hidden metrics (with 
 grasps). evaluate() runs several such graphs at once, each in a spawned worker process."""
 
 import dataclasses
-import multiprocessing
 import multiprocessing.util
 import os
 import pathlib
@@ -27,7 +26,7 @@ from tric_control.evaluation import (  # noqa: E402
     evaluated_task,
     unjudged_fields,
 )
-from tric_control.evaluation_workers import run_in_workers  # noqa: E402
+from tric_control.executors import ProcessExecutor, local_path  # noqa: E402
 from tric_control.objectives import RUNNABLE_KINDS  # noqa: E402
 from tric_learning.recorder_node import RecorderNode  # noqa: E402
 from tric_msgs.action import Demonstrate, Execute  # noqa: E402
@@ -313,12 +312,14 @@ def evaluate(
     view=None,
     record=None,
     on_record=None,
+    executor=None,
 ):
     """Run the agent (model file, or the teacher if None) on every situation; [EpisodeRecord] in the
-    situations' order; on_record(record) (if given) as each episode ends. jobs > 1: that many
-    worker processes (spawned), each with its own Evaluator on DDS domain domain_id + k (domain_id
-    None: the environment's ROS_DOMAIN_ID, else 0). view: a FoxgloveView to show the run in (jobs
-    1 only); record: a folder for one bag per episode."""
+    situations' order; on_record(record) (if given) as each episode ends. jobs > 1, or a Ray
+    executor: that many workers of executor (tric_control.executors; None: spawned processes
+    here), worker k with its own Evaluator on DDS domain domain_id + k (domain_id None: the
+    environment's ROS_DOMAIN_ID, else 0). view: a FoxgloveView to show the run in (jobs 1 only);
+    record: a folder for one bag per episode."""
     task = evaluated_task(situations, jobs)
     jobs = min(jobs, len(situations))
     if view is not None and jobs > 1:
@@ -326,7 +327,7 @@ def evaluate(
     snapshot = pathlib.Path(snapshots) if snapshots else None
     bar = tqdm(total=len(situations), desc=desc, unit="episode", disable=not progress)
     try:
-        if jobs == 1:
+        if jobs == 1 and getattr(executor, "kind", "processes") == "processes":
             return _evaluate_here(
                 situations,
                 task,
@@ -340,7 +341,17 @@ def evaluate(
                 on_record,
             )
         return _evaluate_in_workers(
-            situations, task, model, max_steps, snapshot, domain_id, jobs, bar, record, on_record
+            situations,
+            task,
+            model,
+            max_steps,
+            snapshot,
+            domain_id,
+            jobs,
+            bar,
+            record,
+            on_record,
+            executor or ProcessExecutor(),
         )
     finally:
         bar.close()
@@ -365,35 +376,26 @@ def _evaluate_here(
 
 
 def _evaluate_in_workers(
-    situations, task, model, max_steps, snapshot, domain_id, jobs, bar, record, on_record
+    situations, task, model, max_steps, snapshot, domain_id, jobs, bar, record, on_record, executor
 ) -> list:
-    """The situations shared out over jobs spawned workers (see _worker_evaluator), one at a
+    """The situations shared out over jobs workers of executor (see _worker_evaluator), one at a
     time."""
     base = int(os.environ.get("ROS_DOMAIN_ID", "0")) if domain_id is None else domain_id
     if not 0 <= base <= MAX_DOMAIN_ID - jobs + 1:
         raise ValueError(
             f"{jobs} workers from DDS domain {base} on would pass the last domain {MAX_DOMAIN_ID}"
         )
-
-    def pool_arguments():
-        """The workers' arguments for one pool: its DDS domains, one for each worker."""
-        # never fork a process that may hold rclpy's threads
-        domain_ids = multiprocessing.get_context("spawn").Queue()
-        for offset in range(jobs):
-            domain_ids.put(base + offset)
-        return task, model, max_steps, domain_ids, record
-
+    record = None if record is None else str(pathlib.Path(record).resolve())
+    arguments = (task, executor.ship(model), max_steps, base, record)
     agent = "teacher" if model is None else "model"
-    return run_in_workers(
-        situations, snapshot, jobs, bar, _worker_evaluator, pool_arguments, agent, on_record
+    return executor.run_episodes(
+        situations, snapshot, jobs, bar, _worker_evaluator, lambda: arguments, agent, on_record
     )
 
 
-def _worker_evaluator(task, model, max_steps, domain_ids, record) -> Evaluator:
-    """A worker process's Evaluator (see evaluation_workers), on the next free domain; closed at
+def _worker_evaluator(worker, task, model, max_steps, base_domain, record) -> Evaluator:
+    """Worker k's Evaluator (see tric_control.executors), on DDS domain base_domain + k; closed at
     the worker's exit."""
-    evaluator = Evaluator(
-        task, model, max_steps, domain_ids.get(timeout=SERVICE_TIMEOUT), record=record
-    )
+    evaluator = Evaluator(task, local_path(model), max_steps, base_domain + worker, record=record)
     multiprocessing.util.Finalize(None, evaluator.close, exitpriority=10)
     return evaluator

@@ -19,7 +19,7 @@ from tqdm import tqdm
 
 from tric_control.episode import DEFAULT_MAX_STEPS, EpisodeRunner
 from tric_control.evaluation import EpisodeRecord, evaluated_task, unjudged_fields
-from tric_control.evaluation_workers import run_in_workers
+from tric_control.executors import ProcessExecutor, local_path
 from tric_control.motion_rate import MotionRateController
 from tric_control.objectives import CONTROL_PERIOD, make_objective
 from tric_learning.features import FeatureDefinition
@@ -167,17 +167,18 @@ def evaluate_offline(
     jobs: int = 1,
     controller_options: dict = None,
     on_record=None,
+    executor=None,
 ) -> list:
     """Run the agent (a model file, or the teacher if None) on every situation offline;
     [EpisodeRecord] in the situations' order; on_record(record) (if given) as each episode ends.
-    jobs > 1: that many spawned worker processes, each with its own world. controller_options:
-    see OfflineEvaluator."""
+    jobs > 1, or a Ray executor: that many workers of executor (tric_control.executors; None:
+    spawned processes here), each with its own world. controller_options: see OfflineEvaluator."""
     task = evaluated_task(situations, jobs)
     snapshot = pathlib.Path(snapshots) if snapshots else None
     jobs = min(jobs, len(situations))
     records = [None] * len(situations)
     with tqdm(total=len(situations), desc=desc, unit="episode", disable=not progress) as bar:
-        if jobs <= 1:
+        if jobs <= 1 and getattr(executor, "kind", "processes") == "processes":
             evaluator = OfflineEvaluator(
                 task, model, max_steps, controller_options=controller_options
             )
@@ -191,18 +192,22 @@ def evaluate_offline(
             finally:
                 evaluator.close()
             return records
-        return run_in_workers(
+        executor = executor or ProcessExecutor()
+        arguments = (task, executor.ship(model), max_steps, controller_options)
+        return executor.run_episodes(
             situations,
             snapshot,
             jobs,
             bar,
             _worker_evaluator,
-            lambda: (task, model, max_steps, controller_options),
+            lambda: arguments,
             "teacher" if model is None else "model",
             on_record,
         )
 
 
-def _worker_evaluator(task, model, max_steps, controller_options) -> OfflineEvaluator:
-    """A worker process's OfflineEvaluator (see evaluation_workers)."""
-    return OfflineEvaluator(task, model, max_steps, controller_options=controller_options)
+def _worker_evaluator(_worker, task, model, max_steps, controller_options) -> OfflineEvaluator:
+    """A worker's OfflineEvaluator (see tric_control.executors); every worker alike."""
+    return OfflineEvaluator(
+        task, local_path(model), max_steps, controller_options=controller_options
+    )

@@ -1,7 +1,7 @@
 """tric-study: compare training variants of TRIC on the training and validation sets, over seeds.
 
     tric-study [--variant NAME=OPTIONS ...] [--seeds S ...] [--tasks TASK ...] [--out DIR] [--jobs
-    N]
+    N] [--executor processes|ray] [--address HOST:PORT]
 
 A variant is a name and TrainingConfig fields to change from the defaults, e.g.
 `--variant balanced=per_step_weights=true,optimizer=lbfgsb,alpha_g=3` (no options: the defaults),
@@ -23,9 +23,14 @@ draws the noisy samples and the initial weights) and measured:
   model).
 
 Test sets are never used here: choices are made on training and validation sets; test sets are only
-reported (tric-experiments). Models are kept in DIR/models and re-used; every result is merged into
-DIR/study.json, so a study can be extended run by run. Prints one row per variant, seed and task,
-and per variant the mean, min and max over the seeds.
+reported (tric-experiments). Models are kept in DIR/models and every finished cell (variant x task x
+seed) is merged into DIR/study.json as it ends, each keyed on all that made it (the options, the
+bags' digest, the code's digests: tric_control.study_runs), so a study can be extended run by run,
+an interrupted one continues from its finished cells, and nothing stale is re-used. A cell that
+fails is named with its error; the others are kept. Trainings (--jobs at once) and episodes run in
+spawned processes here, or on Ray (--executor ray: a local instance; --address or RAY_ADDRESS: a
+cluster, the models and results coming back to DIR). Prints one row per cell, and per variant the
+mean, min and max over the seeds.
 """
 
 import argparse
@@ -36,15 +41,20 @@ import numpy as np
 
 # Only what the arguments need: --help and argument errors answer before torch, pybullet,
 # pinocchio and rclpy are imported (run imports tric_control.study_runs once they are checked).
+from tric_control.executors import add_executor_arguments, chosen_executor, open_executor
 from tric_control.study_variants import DEFAULT_TASKS, MODEL_MEASURES, TASKS, parse_variant
 from tric_sim.interrupts import run_interruptible
 from tric_sim.output_files import WriteFailed, check_output_file, check_output_folder
 
 
 def format_row(row: dict) -> str:
+    if "error" in row:
+        return f"{row['variant']:16s} {row['task']:8s} s{row['seed']:<2d} FAILED: {row['error']}"
     m = row["model"]
+    kept = "(kept) " if row.get("kept") else ""
     cells = [
-        f"{row['variant']:16s} {row['task']:8s} s{row['seed']:<2d} cos {m['cosine_weighted']:6.3f} "
+        f"{kept}{row['variant']:16s} {row['task']:8s} s{row['seed']:<2d} "
+        f"cos {m['cosine_weighted']:6.3f} "
         f"slow {m['cosine_slow']:6.3f} falls {m['falls']:5.3f} f95 {m['features_95']:3d} "
         f"train {m['train_s']:5.1f}s"
     ]
@@ -114,8 +124,12 @@ def run(argv) -> int:
         "--out", default="results/study", help="folder of the models and study.json"
     )
     parser.add_argument(
-        "--jobs", type=int, default=os.cpu_count() or 1, help="offline episodes run at once"
+        "--jobs",
+        type=int,
+        default=os.cpu_count() or 1,
+        help="trainings and offline episodes run at once (default: the number of CPUs)",
     )
+    add_executor_arguments(parser)
     args = parser.parse_args(argv)
     try:
         variants = [parse_variant(text) for text in args.variant or ["default="]]
@@ -123,24 +137,33 @@ def run(argv) -> int:
             raise ValueError("seeds must be in [0, 2^32)")
         if not 1 <= args.jobs <= 64:
             raise ValueError("--jobs must be in [1, 64]")
+        choice = chosen_executor(args)
         out = check_output_folder(args.out, "--out folder")
         check_output_file(out / "study.json", what="study file")
-        from tric_control.study_runs import Study
+        from tric_control.study_runs import Cell, Study
 
-        study = Study(out, args.jobs)
-        rows = []
-        for name, changes in variants:
-            for task in args.tasks:
-                for seed in args.seeds:
-                    rows.append(study.run(name, changes, task, seed))
-                    print(format_row(rows[-1]), flush=True)
-    except (ValueError, WriteFailed) as error:
+        cells = [
+            Cell(name, changes, task, seed)
+            for name, changes in variants
+            for task in args.tasks
+            for seed in args.seeds
+        ]
+        bags = {TASKS[task][0] for task in args.tasks}
+        with open_executor(choice, num_cpus=args.jobs, bags=bags) as executor:
+            study = Study(out, args.jobs, executor)
+            rows = study.run(cells, lambda row: print(format_row(row), flush=True))
+    except (ValueError, WriteFailed, ConnectionError) as error:
         print(f"tric-study: {error}", file=sys.stderr)
         return 2
-    print("\n" + "\n".join(format_row(row) for row in rows))
-    print("\n" + seed_summary(rows))
+    measured = [row for row in rows.values() if "error" not in row]
+    print("\n" + "\n".join(format_row(row) for row in rows.values()))
+    print("\n" + seed_summary(measured))
+    failed = {name: row["error"] for name, row in rows.items() if "error" in row}
+    if failed:
+        print(f"\n{len(failed)} of {len(rows)} cells failed (the others are kept):")
+        print("\n".join(f"  {name}: {error}" for name, error in failed.items()))
     print(f"\nwrote {study.path}")
-    return 0
+    return 1 if failed else 0
 
 
 if __name__ == "__main__":

@@ -1,6 +1,13 @@
-"""A study's runs (tric-study): each variant's models trained on a task's reference bags (or
-re-used), measured offline on the task's training and validation sets, and merged into
-DIR/study.json."""
+"""A study's runs (tric-study): its cells (variant x task x seed) each train a model on the task's
+reference bags (or re-use one) and measure it offline on the task's training and validation sets;
+trainings and episodes run on an executor (tric_control.executors: processes here, or Ray), and
+every finished cell is merged into DIR/study.json at once.
+
+Nothing stale is re-used: a model is keyed on its training options, seed, the bags' digest and the
+digests of the training and analysis code (tric_sim.provenance.code_digest); a finished cell on its
+model's key, its controller options, step budget, sets and the digest of the episodes' code. An
+interrupted study run again does only the cells whose key has no finished row; a cell that fails is
+named with its error, and the others are kept."""
 
 import collections
 import dataclasses
@@ -8,6 +15,7 @@ import hashlib
 import json
 import math
 import pathlib
+import tempfile
 import time
 
 import numpy as np
@@ -17,17 +25,27 @@ from tric_control.evaluation import task_done, write_json
 from tric_control.hard_negatives import train_with_hard_negatives
 from tric_control.motion_rate import MAX_LEAD
 from tric_control.offline import evaluate_offline
-from tric_control.study_variants import MODEL_MEASURES, TASKS, training_part
+from tric_control.study_variants import (
+    CONTROLLER_OPTIONS,
+    MODEL_MEASURES,
+    TASKS,
+    training_part,
+)
 from tric_learning import analysis, model_file
 from tric_learning.bag_dataset import bag_paths, load_dataset
+from tric_learning.lbfgs import torch_threads
 from tric_learning.training import TrainingConfig, train
 from tric_sim.metrics import GOOD_GRASP, LID_OPEN_ANGLE
+from tric_sim.output_files import atomic_path
 from tric_sim.provenance import code_digest
 from tric_sim.robot_model import RobotModel
 from tric_sim.scene import TASK_CONTACTS
 from tric_sim.situations import dataset
 
 BAGS = pathlib.Path("bags")
+#: PyTorch's threads in every training of a study: the same model on every executor and machine
+#: core count, and trainings that run side by side on one CPU each.
+TRAINING_THREADS = 1
 
 
 def contact_rules(changes: dict, task: str):
@@ -84,128 +102,253 @@ def measure_set(records) -> dict:
     }
 
 
-class Study:
-    """Trains, measures and records; results merged into out/study.json."""
+@dataclasses.dataclass(frozen=True)
+class Cell:
+    """One cell of a study: a variant (its name and changes) on a task with a training seed."""
 
-    def __init__(self, out: pathlib.Path, jobs: int):
-        self.out, self.jobs = out, jobs
+    variant: str
+    changes: dict
+    task: str
+    seed: int
+
+    @property
+    def name(self) -> str:
+        return f"{self.variant}/{self.task}/{self.seed}"
+
+    @property
+    def max_steps(self) -> int:
+        """The step budget of the cell's episodes (ticks)."""
+        kind = TASKS[self.task][2]
+        option = "box_steps" if self.task == "box" else "grasp_steps"
+        return self.changes.get(option, DEFAULT_MAX_STEPS[kind])
+
+
+def bags_digest(bags: str) -> str:
+    """A digest of the contents of the bags in bags/<bags> (relative to the working directory): a
+    model trained on other bags of the same name is not re-used."""
+    digest = hashlib.sha1()
+    for path in bag_paths([BAGS / bags]):
+        digest.update(path.name.encode())
+        digest.update(path.read_bytes())
+    return digest.hexdigest()[:12]
+
+
+def train_study_model(config: dict, bags: str) -> dict:
+    """Train the model of config (Study.model_config) on bags/<bags> of the working directory (a
+    worker's: the executor puts the bags there) and measure it on its demonstrations: {"model": the
+    model file's bytes, "record": its training record}. ValueError when the bags are not those the
+    config was keyed on."""
+    if bags_digest(bags) != config["bags_digest"]:
+        raise ValueError(f"the worker's bags/{bags} are not the caller's (another digest)")
+    robot = RobotModel()
+    demos = load_dataset(bag_paths([BAGS / bags]), robot)
+    training = TrainingConfig(**training_part(config), seed=config["seed"])
+    started = time.perf_counter()
+    with torch_threads(config["torch_threads"]):
+        if config.get("hard_negative_rounds"):
+            result = train_with_hard_negatives(
+                demos, robot, training, config["hard_negative_rounds"], config["rollout_steps"]
+            )
+        else:
+            result = train(demos, robot, training)
+    with tempfile.TemporaryDirectory(prefix="tric-study-") as folder:
+        path = model_file.from_training(result, demos).save(pathlib.Path(folder) / "model")
+        content = path.read_bytes()
+    numbers = analysis.key_numbers(result.model, demos, 20)
+    record = {
+        "config": config,
+        "train_s": time.perf_counter() - started,
+        "iterations": result.iterations,
+        "losses": result.losses,
+        **{key: numbers[key] for key in MODEL_MEASURES},
+        "selected_features": numbers["selected_features"],
+        "kept_features": numbers["kept_features"],
+        "file_sha1": hashlib.sha1(content).hexdigest(),
+    }
+    return {"model": content, "record": record}
+
+
+def controller_options(changes: dict, task: str, robot: RobotModel) -> dict:
+    """The keyword arguments of MotionRateController that a variant's controller settings make for
+    the task (OfflineEvaluator's controller_options)."""
+    options = {}
+    if "hand_lead" in changes:
+        lead = np.full(robot.n_joints, MAX_LEAD)
+        lead[robot.hand_indices] = changes["hand_lead"]
+        options["max_lead"] = lead
+    if "domain_damper" in changes:
+        options["domain_damper"] = changes["domain_damper"]
+    contacts = contact_rules(changes, "open_box" if task == "box" else "grasp")
+    if contacts is not None:
+        options["contacts"] = contacts
+    return options
+
+
+class Study:
+    """Runs a study's cells on an executor (tric_control.executors) with jobs workers; models under
+    out/models, results merged into out/study.json."""
+
+    def __init__(self, out: pathlib.Path, jobs: int, executor):
+        self.out, self.jobs, self.executor = out, jobs, executor
         self.robot = RobotModel()
         self.path = out / "study.json"
         self.results = json.loads(self.path.read_text()) if self.path.is_file() else {}
-        self._datasets = {}
+        self.failed, self.cleared = {}, set()
+        self._bags_digests = {}
         (out / "models").mkdir(parents=True, exist_ok=True)
 
-    def demonstrations(self, bags: str):
-        if bags not in self._datasets:
-            self._datasets[bags] = load_dataset(bag_paths([BAGS / bags]), self.robot)
-        return self._datasets[bags]
-
-    def model(self, variant: str, changes: dict, bags: str, seed: int, max_steps: int) -> tuple:
-        """(model path, its training record) of the variant's training options on the bags with the
-        seed, trained unless a model of the same options was (by any variant). Hard negatives roll
-        the controller out for max_steps ticks."""
-        rounds = changes.get("hard_negative_rounds", 0)
-        config = {
-            **training_part(changes),
-            "seed": seed,
-            **({"hard_negative_rounds": rounds} if rounds else {}),
-            "bags_digest": self.bags_digest(bags),
-            "training_code": code_digest(
-                "tric_control.hard_negatives" if rounds else "tric_learning.training"
-            ),
+    def model_config(self, cell: Cell) -> dict:
+        """Everything that makes the cell's model: its training options and seed, the bags' digest,
+        PyTorch's threads and the training and analysis code's digests (and the hard negatives'
+        rounds and rollout budget)."""
+        bags = TASKS[cell.task][0]
+        if bags not in self._bags_digests:
+            self._bags_digests[bags] = bags_digest(bags)
+        rounds = cell.changes.get("hard_negative_rounds", 0)
+        training = "tric_control.hard_negatives" if rounds else "tric_learning.training"
+        return {
+            **training_part(cell.changes),
+            "seed": cell.seed,
+            **({"hard_negative_rounds": rounds, "rollout_steps": cell.max_steps} if rounds else {}),
+            "bags_digest": self._bags_digests[bags],
+            "torch_threads": TRAINING_THREADS,
+            "training_code": code_digest(training),
+            "analysis_code": code_digest("tric_learning.analysis"),
         }
+
+    def cell_key(self, cell: Cell) -> dict:
+        """Everything that makes the cell's row: its model's config, its controller settings, step
+        budget and sets, and the digest of the episodes' code (the controller, the physics, the
+        metrics and the situations)."""
+        return {
+            "model": self.model_config(cell),
+            "controller": {k: v for k, v in cell.changes.items() if k in CONTROLLER_OPTIONS},
+            "max_steps": cell.max_steps,
+            "sets": list(TASKS[cell.task][1]),
+            "episode_code": code_digest("tric_control.offline", "tric_sim.situations"),
+        }
+
+    def finished_row(self, cell: Cell):
+        """The cell's row in study.json if it was made with the cell's key, else None."""
+        row = self.results.get("rows", {}).get(cell.name)
+        return row if row is not None and row.get("key") == self.cell_key(cell) else None
+
+    def cached_model(self, config: dict, bags: str):
+        """(path, record) of a model trained with config on bags, its file intact; None if
+        none."""
         for key, record in self.results.get("models", {}).items():
             path = self._model_path(key)
-            if key.split("/")[1] == bags and record["config"] == config and path.is_file():
+            if (
+                key.split("/")[1] == bags
+                and record["config"] == config
+                and path.is_file()
+                and hashlib.sha1(path.read_bytes()).hexdigest() == record.get("file_sha1")
+            ):
                 return path, record
-        key = f"{variant}/{bags}/{seed}"
-        path = self._model_path(key)
-        demos = self.demonstrations(bags)
-        print(f"training {variant} on {BAGS / bags}, seed {seed}", flush=True)
-        started = time.perf_counter()
-        if rounds:
-            result = train_with_hard_negatives(
-                demos,
-                self.robot,
-                TrainingConfig(**training_part(config), seed=seed),
-                rounds,
-                max_steps,
-            )
-        else:
-            result = train(demos, self.robot, TrainingConfig(**training_part(config), seed=seed))
-        model_file.from_training(result, demos).save(path)
-        numbers = analysis.key_numbers(result.model, demos, 20)
-        record = {
-            "config": config,
-            "train_s": time.perf_counter() - started,
-            "iterations": result.iterations,
-            "losses": result.losses,
-            **{key: numbers[key] for key in MODEL_MEASURES},
-            "selected_features": numbers["selected_features"],
-            "kept_features": numbers["kept_features"],
-        }
-        self.results.setdefault("models", {})[key] = record
-        self.save()
-        return path, record
+        return None
 
-    @staticmethod
-    def bags_digest(bags: str) -> str:
-        """A digest of the bags' contents: a model trained on other bags of the same name is not
-        re-used."""
-        digest = hashlib.sha1()
-        for path in bag_paths([BAGS / bags]):
-            digest.update(path.name.encode())
-            digest.update(path.read_bytes())
-        return digest.hexdigest()[:12]
+    def run(self, cells, on_row=None) -> dict:
+        """Run every cell that has no finished row of its key: the missing models are trained first
+        (at most jobs at once), then each cell's sets are measured; on_row(row) after each cell, a
+        kept one too. {cell name: row} in the cells' order; a cell that failed has a row
+        {"error": ...} and is listed in study.json's "failed"."""
+        rows = {cell.name: self.finished_row(cell) for cell in cells}
+        todo = [cell for cell in cells if rows[cell.name] is None]
+        for cell in cells:
+            if rows[cell.name] is not None and on_row is not None:
+                on_row({**rows[cell.name], "kept": True})
+        models = self._train_models(todo)
+        for cell in todo:
+            model = models[json.dumps(self.model_config(cell), sort_keys=True)]
+            try:
+                if isinstance(model, Exception):
+                    raise model
+                rows[cell.name] = self._measure(cell, *model)
+            except Exception as error:
+                rows[cell.name] = self._fail(cell, error)
+            if on_row is not None:
+                on_row(rows[cell.name])
+        return rows
+
+    def _train_models(self, cells) -> dict:
+        """{the model config's JSON: (path, record), or the Exception its training raised} of the
+        cells' models, the missing ones trained on the executor and saved as each ends."""
+        models, calls, names = {}, [], []
+        for cell in cells:
+            config = self.model_config(cell)
+            key = json.dumps(config, sort_keys=True)
+            if key in models:
+                continue
+            bags = TASKS[cell.task][0]
+            models[key] = self.cached_model(config, bags)
+            if models[key] is None:
+                calls.append((config, bags))
+                names.append((key, f"{cell.variant}/{bags}/{cell.seed}"))
+        if calls:
+            print(f"training {len(calls)} models ({self.executor.kind})", flush=True)
+        for k, result in self.executor.run_calls(train_study_model, calls, self.jobs):
+            key, name = names[k]
+            if isinstance(result, Exception):
+                models[key] = result
+                continue
+            path = self._model_path(name)
+            with atomic_path(path) as temporary:
+                temporary.write_bytes(result["model"])
+            self.results.setdefault("models", {})[name] = result["record"]
+            self.save()
+            models[key] = path, result["record"]
+            print(f"trained {name} in {result['record']['train_s']:.1f} s", flush=True)
+        return models
+
+    def _measure(self, cell: Cell, path: pathlib.Path, record: dict) -> dict:
+        """The cell's row: its model measured offline on the task's sets; saved."""
+        row = {
+            "variant": cell.variant,
+            "task": cell.task,
+            "seed": cell.seed,
+            "changes": cell.changes,
+            "model": record,
+            "sets": {},
+        }
+        options = controller_options(cell.changes, cell.task, self.robot)
+        for name in TASKS[cell.task][1]:
+            records = evaluate_offline(
+                dataset(name),
+                str(path),
+                cell.max_steps,
+                jobs=self.jobs,
+                desc=f"{cell.variant} s{cell.seed} {name}",
+                controller_options=options,
+                executor=self.executor,
+            )
+            row["sets"][name] = measure_set(records)
+        row["key"] = self.cell_key(cell)
+        row["date"] = time.strftime("%Y-%m-%d %H:%M")
+        self.results.setdefault("rows", {})[cell.name] = row
+        self.failed.pop(cell.name, None)
+        self.cleared.add(cell.name)
+        self.save()
+        return row
+
+    def _fail(self, cell: Cell, error: Exception) -> dict:
+        """The row of a cell that failed (kept in study.json's "failed", not as a finished row)."""
+        message = f"{type(error).__name__}: {error}"
+        self.failed[cell.name] = message
+        self.cleared.discard(cell.name)
+        self.save()
+        return {"variant": cell.variant, "task": cell.task, "seed": cell.seed, "error": message}
 
     def _model_path(self, key: str) -> pathlib.Path:
         variant, bags, seed = key.split("/")
         return self.out / "models" / f"{variant}_{bags}_s{seed}.safetensors"
 
-    def run(self, variant: str, changes: dict, task: str, seed: int) -> dict:
-        bags, sets, kind = TASKS[task]
-        max_steps = changes.get(
-            "box_steps" if task == "box" else "grasp_steps", DEFAULT_MAX_STEPS[kind]
-        )
-        options = {}
-        if "hand_lead" in changes:
-            lead = np.full(self.robot.n_joints, MAX_LEAD)
-            lead[self.robot.hand_indices] = changes["hand_lead"]
-            options["max_lead"] = lead
-        if "domain_damper" in changes:
-            options["domain_damper"] = changes["domain_damper"]
-        contacts = contact_rules(changes, "open_box" if task == "box" else "grasp")
-        if contacts is not None:
-            options["contacts"] = contacts
-        path, record = self.model(variant, changes, bags, seed, max_steps)
-        row = {
-            "variant": variant,
-            "task": task,
-            "seed": seed,
-            "changes": changes,
-            "model": record,
-            "sets": {},
-        }
-        for name in sets:
-            records = evaluate_offline(
-                dataset(name),
-                str(path),
-                max_steps,
-                jobs=self.jobs,
-                desc=f"{variant} s{seed} {name}",
-                controller_options=options,
-            )
-            row["sets"][name] = measure_set(records)
-        row["date"] = time.strftime("%Y-%m-%d %H:%M")
-        self.results.setdefault("rows", {})[f"{variant}/{task}/{seed}"] = row
-        self.save()
-        return row
-
     def save(self):
-        """Merge this study's models and rows into the file (another study may have written it
-        since)."""
+        """Merge this study's models, rows and failed cells into the file (another study may have
+        written it since)."""
         merged = json.loads(self.path.read_text()) if self.path.is_file() else {}
         for part in ("models", "rows"):
             merged.setdefault(part, {}).update(self.results.get(part, {}))
+        failed = {**merged.get("failed", {}), **self.failed}
+        merged["failed"] = {k: v for k, v in failed.items() if k not in self.cleared}
         self.results = merged
         write_json(self.path, merged)

@@ -45,3 +45,15 @@ def deterministic_torch():
         yield
     finally:
         torch.use_deterministic_algorithms(previous)
+
+
+@contextlib.contextmanager
+def torch_threads(count: int):
+    """Within the block PyTorch computes with count threads (a model's float rounding depends on
+    it: a training that is to give the same model wherever it runs fixes it); restored after."""
+    previous = torch.get_num_threads()
+    torch.set_num_threads(count)
+    try:
+        yield
+    finally:
+        torch.set_num_threads(previous)

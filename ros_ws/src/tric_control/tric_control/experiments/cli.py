@@ -1,6 +1,7 @@
 """tric-experiments: the paper's experiments, each one command, through the real nodes.
 
-    tric-experiments [NAME ...] [--out DIR] [--situations N] [--jobs N] [--check | --check-only]
+    tric-experiments [NAME ...] [--out DIR] [--situations N] [--jobs N] [--executor processes|ray]
+                     [--address HOST:PORT] [--check | --check-only]
 
 NAME (default: all, in this order):
   table1    spheres: the teacher and TRIC (K = 30) on the 15 sphere test situations (paper Table 1).
@@ -30,7 +31,9 @@ NAME (default: all, in this order):
 Models are trained on the reference bags in bags/ (kept in DIR/models and re-used when present).
 Every evaluation runs --jobs (default: the number of CPUs) graphs of simulator, teacher and
 controller nodes at once, each in a process and DDS domain of its own
-(tric_control.graph_evaluation).
+(tric_control.graph_evaluation): spawned processes here, or Ray actors (--executor ray: a local
+instance; --address or RAY_ADDRESS: a cluster whose machines have the project's environment), where
+the trainings then run as Ray tasks; models and results come back to DIR.
 Each experiment writes DIR/<name>.json and its PNG(s) and prints its table and a discussion composed
 from its numbers; DIR/REPORT.md is then rewritten from every experiment's JSON found in DIR, each
 table beside the paper's numbers and followed by its discussion. --check then compares every
@@ -47,6 +50,7 @@ import time
 
 # Only what the arguments need: --help and argument errors answer before torch, pybullet,
 # pinocchio, rclpy and matplotlib are imported (run_experiments and check_folder import the rest).
+from tric_control.executors import add_executor_arguments, chosen_executor, open_executor
 from tric_control.experiments import EXPERIMENT_MODULES, experiment
 from tric_sim.interrupts import run_interruptible
 from tric_sim.output_files import WriteFailed, atomic_path, check_output_folder
@@ -75,6 +79,7 @@ def run(argv) -> int:
         help="evaluation graphs run at once, each in a process of its own (default: the CPUs, "
         "%(default)s)",
     )
+    add_executor_arguments(parser)
     parser.add_argument(
         "--check",
         action="store_true",
@@ -95,6 +100,7 @@ def run(argv) -> int:
             f"unknown experiment(s) {', '.join(unknown)} (known: {', '.join(EXPERIMENT_MODULES)})"
         )
     try:
+        args.executor = chosen_executor(args)
         out = check_output_folder(args.out, "--out folder")
     except ValueError as error:
         print(f"tric-experiments: {error}", file=sys.stderr)
@@ -103,7 +109,7 @@ def run(argv) -> int:
         return check_folder(out)
     try:
         return run_experiments(args, out)
-    except WriteFailed as error:
+    except (WriteFailed, ConnectionError) as error:
         print(f"tric-experiments: {error}", file=sys.stderr)
         return 2
 
@@ -113,13 +119,19 @@ def run_experiments(args, out) -> int:
     import matplotlib
 
     matplotlib.use("Agg")
+    from tric_control.experiments.runner import Runner
+
+    with open_executor(args.executor, num_cpus=args.jobs) as executor:
+        return _run_each(args, out, Runner(out, args.jobs, executor))
+
+
+def _run_each(args, out, runner) -> int:
+    """Run the experiments args names with runner into out; the exit status."""
     import matplotlib.pyplot as plt
 
     from tric_control.evaluation import write_json
     from tric_control.experiments.report import write_report
-    from tric_control.experiments.runner import Runner
 
-    runner = Runner(out, args.jobs)
     for name in args.names or list(EXPERIMENT_MODULES):
         print(f"\n=== {name}: {experiment(name).TITLE}", flush=True)
         started = time.monotonic()

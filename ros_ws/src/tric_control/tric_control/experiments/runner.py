@@ -1,12 +1,16 @@
 """The experiments' runner: trains (or re-uses) their models under DIR/models and evaluates
-them through the real nodes."""
+them through the real nodes, on an executor (tric_control.executors: processes here, or Ray)."""
 
 import pathlib
 
+import torch
+
+from tric_control.executors import ProcessExecutor
 from tric_control.graph_evaluation import evaluate
 from tric_learning import dpl, model_file
 from tric_learning.bag_dataset import load_dataset
 from tric_learning.dataset import Dataset
+from tric_learning.lbfgs import torch_threads
 from tric_learning.training import TrainingConfig, train
 from tric_sim.dds_domains import private_domain_id
 from tric_sim.provenance import code_digest
@@ -20,13 +24,25 @@ BAGS = pathlib.Path("bags")
 SEEDS = (0, 1, 2)
 
 
+def trained_model_file(kind: str, dataset: Dataset, config, threads: int):
+    """The model file (model_file.ModelFile) of a training of kind ("tric" or a DPL kind) on
+    dataset with config, PyTorch computing with threads threads (the caller's: the same model on
+    every executor)."""
+    robot = RobotModel()
+    with torch_threads(threads):
+        if kind == "tric":
+            return model_file.from_training(train(dataset, robot, config), dataset)
+        return dpl.to_model_file(dpl.train_dpl(dataset, robot, config, kind), dataset)
+
+
 class Runner:
     """Trains (or re-uses) models under out/models and runs evaluations with `jobs` worker graphs,
-    on private DDS domains from its own one up."""
+    on private DDS domains from its own one up; both on executor (None: processes here)."""
 
-    def __init__(self, out: pathlib.Path, jobs: int = 1):
+    def __init__(self, out: pathlib.Path, jobs: int = 1, executor=None):
         self.out = out
         self.jobs = jobs
+        self.executor = executor or ProcessExecutor()
         self.robot = RobotModel()
         self.domain_id = private_domain_id()
         self._datasets = {}
@@ -54,13 +70,7 @@ class Runner:
             config, code = dpl.DplConfig(seed=seed), code_digest("tric_learning.dpl")
         if not model_file.made_as(path, kind, config.to_dict(), dataset.fingerprint, code):
             print(f"training {name} (seed {seed}) on {BAGS / bags}", flush=True)
-            if kind == "tric":
-                result = model_file.from_training(train(dataset, self.robot, config), dataset)
-            else:
-                result = dpl.to_model_file(
-                    dpl.train_dpl(dataset, self.robot, config, kind), dataset
-                )
-            result.save(path)
+            self._train(kind, dataset, config).save(path)
         return path
 
     def over_seeds(self, tests, label: str, max_steps: int = 0, **model) -> dict:
@@ -80,10 +90,24 @@ class Runner:
         code = code_digest("tric_learning.training")
         if not model_file.made_as(path, "tric", config.to_dict(), dataset.fingerprint, code):
             print(f"training {name} on {len(dataset.demos)} demonstrations", flush=True)
-            model_file.from_training(train(dataset, self.robot, config), dataset).save(path)
+            self._train("tric", dataset, config).save(path)
         return path
+
+    def _train(self, kind: str, dataset: Dataset, config):
+        """trained_model_file on the executor (a Ray task, or here); its error raised."""
+        call = (kind, dataset, config, torch.get_num_threads())
+        [(_, result)] = self.executor.run_calls(trained_model_file, [call], 1)
+        if isinstance(result, Exception):
+            raise result
+        return result
 
     def evaluate(self, chosen, model, desc: str, max_steps: int = 0):
         return evaluate(
-            chosen, model, max_steps, domain_id=self.domain_id, desc=desc, jobs=self.jobs
+            chosen,
+            model,
+            max_steps,
+            domain_id=self.domain_id,
+            desc=desc,
+            jobs=self.jobs,
+            executor=self.executor,
         )

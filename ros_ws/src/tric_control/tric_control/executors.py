@@ -1,0 +1,142 @@
+"""Where the tools' parallel work runs (tric-eval --jobs, tric-study, tric-experiments): a pool of
+spawned processes on this machine, or Ray, started here or joined on a cluster at an address.
+ROS-free, and light: the tools add and check these options before anything heavy is imported;
+Ray is imported only when it is chosen (docs/decisions/executors.md).
+
+Two kinds of work go through an executor:
+- episodes: run_episodes(situations, snapshot, jobs, bar, make_evaluator, make_args, agent,
+  on_record) -> [EpisodeRecord] in the situations' order, each worker holding one evaluator
+  make_evaluator(worker, *make_args()) (worker: its index in [0, jobs) within its pool);
+- calls: run_calls(function, calls, jobs) yields (index, result or the Exception it raised) as
+  each function(*calls[index]) ends (trainings).
+Files a worker reads (model files) go through ship(path) -> what the worker opens with
+local_path(); results come back to the caller, who writes them.
+"""
+
+import dataclasses
+import hashlib
+import os
+import pathlib
+import tempfile
+
+#: The executors a tool may be given (--executor).
+EXECUTORS = ("processes", "ray")
+#: The executor when none is named and no Ray address is given (docs/decisions/executors.md).
+DEFAULT_EXECUTOR = "processes"
+
+
+def add_executor_arguments(parser) -> None:
+    """--executor and --address on an argparse parser."""
+    parser.add_argument(
+        "--executor",
+        choices=EXECUTORS,
+        help=f"where parallel work runs (default: {DEFAULT_EXECUTOR}, or ray with an address): "
+        "spawned processes here, or Ray tasks and actors",
+    )
+    parser.add_argument(
+        "--address",
+        metavar="HOST:PORT",
+        help="run on the Ray cluster at this address (default: $RAY_ADDRESS if set, else a local "
+        "Ray instance started for the run); results come back to this machine",
+    )
+
+
+@dataclasses.dataclass(frozen=True)
+class ExecutorChoice:
+    """An executor named by the options: kind "processes" or "ray", and a Ray cluster's address
+    (None: a Ray instance of the run's own on this machine)."""
+
+    kind: str
+    address: str = None
+
+    @property
+    def remote(self) -> bool:
+        """Whether the workers may be on other machines (no shared disk)."""
+        return self.address is not None
+
+
+def chosen_executor(args) -> ExecutorChoice:
+    """The executor of parsed --executor and --address (RAY_ADDRESS standing in for --address, as
+    Ray reads it); ValueError for --address with --executor processes."""
+    address = args.address or os.environ.get("RAY_ADDRESS") or None
+    kind = args.executor or ("ray" if address else DEFAULT_EXECUTOR)
+    if kind == "processes":
+        if args.address:
+            raise ValueError("--address runs on a Ray cluster: not with --executor processes")
+        address = None
+    return ExecutorChoice(kind, address)
+
+
+def open_executor(choice: ExecutorChoice = None, num_cpus: int = None, bags=()):
+    """The executor of choice (default: a process pool): ProcessExecutor, or RayExecutor started
+    (locally with num_cpus CPUs, None: all) or connected, with the project's code and the named
+    bag folders (under bags/) in its workers' runtime environment. Close it after use (it is a
+    context manager)."""
+    if choice is None or choice.kind == "processes":
+        return ProcessExecutor()
+    from tric_control.ray_executor import RayExecutor
+
+    return RayExecutor(choice.address, num_cpus=num_cpus, bags=bags)
+
+
+@dataclasses.dataclass(frozen=True)
+class ShippedFile:
+    """A file's bytes, carried to a worker that may not share the caller's disk; local_path()
+    writes them once per worker process."""
+
+    name: str
+    content: bytes
+
+
+_shipped_paths = {}
+
+
+def local_path(file):
+    """A path to open for file: a path as given, or a ShippedFile's bytes written to a temporary
+    folder of this process (once per content)."""
+    if not isinstance(file, ShippedFile):
+        return file
+    digest = hashlib.sha1(file.content).hexdigest()
+    if digest not in _shipped_paths:
+        folder = pathlib.Path(tempfile.mkdtemp(prefix="tric-shipped-"))
+        path = folder / file.name
+        path.write_bytes(file.content)
+        _shipped_paths[digest] = path
+    return _shipped_paths[digest]
+
+
+class ProcessExecutor:
+    """Episodes in spawned worker processes on this machine (tric_control.evaluation_workers);
+    calls in this process."""
+
+    kind = "processes"
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *_):
+        self.close()
+
+    def close(self) -> None:
+        pass
+
+    @staticmethod
+    def ship(path):
+        """Workers share this disk: the path itself."""
+        return path
+
+    @staticmethod
+    def run_episodes(*args, **kwargs) -> list:
+        from tric_control.evaluation_workers import run_in_workers
+
+        return run_in_workers(*args, **kwargs)
+
+    @staticmethod
+    def run_calls(function, calls: list, _jobs: int):
+        """Yield (index, function(*calls[index]) or the Exception it raised) as each call ends, one
+        after the other in this process."""
+        for k, call in enumerate(calls):
+            try:
+                yield k, function(*call)
+            except Exception as error:
+                yield k, error
