@@ -81,7 +81,7 @@ def test_command_line_tools_import_libraries_never_another_tool():
 
 #: The libraries an answer to --help or to a bad argument must not wait for (issue 25: tric-eval's
 #: --help took 6 s): each takes 0.3 to 3 s to import.
-HEAVY_LIBRARIES = ("torch", "pybullet", "pinocchio", "rclpy", "matplotlib")
+HEAVY_LIBRARIES = ("torch", "pybullet", "pinocchio", "rclpy", "matplotlib", "ray")
 
 #: Each command-line tool: arguments it refuses, and a part of its refusal.
 BAD_ARGUMENTS = {

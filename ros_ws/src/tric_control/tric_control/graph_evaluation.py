@@ -65,6 +65,7 @@ class Evaluator:
     ):
         self.task, self.model, self.max_steps = task, model, max_steps
         self.graph = InProcessGraph(domain_id)
+        self.closed = False
         self.recorder = None
         try:
             self.simulator = self.graph.add(lockstep_simulator(self.graph.context))
@@ -133,7 +134,10 @@ class Evaluator:
         return "teacher" if self.model is None else self.controller.model.kind
 
     def close(self):
-        self.graph.close()
+        """Close the graph (once: a worker's evaluator may be closed before its process ends)."""
+        if not self.closed:
+            self.closed = True
+            self.graph.close()
 
     def _service(self, srv_type, name):
         client = self.client.create_client(srv_type, name)

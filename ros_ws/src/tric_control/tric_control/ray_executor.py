@@ -29,9 +29,10 @@ BAGS = pathlib.Path("bags")
 
 
 class RayExecutor:
-    """Ray started here (address None, with num_cpus CPUs, None: all) or joined at address; bags:
-    the names of the folders under bags/ that the workers read. node_work counts the episodes and
-    calls each node (by Ray node id) ran."""
+    """Ray started here (address None, with num_cpus CPUs, None: all; its workers share this
+    machine's packages and working directory) or joined at address (the project's packages, and
+    the folders under bags/ named in bags, sent in the runtime environment). node_work counts the
+    episodes and calls each node (by Ray node id) ran."""
 
     kind = "ray"
 
@@ -39,32 +40,41 @@ class RayExecutor:
         if ray.is_initialized():
             raise RuntimeError("Ray is already initialized in this process")
         self._staging = pathlib.Path(tempfile.mkdtemp(prefix="tric-ray-"))
-        runtime_env = {
-            "py_modules": [
-                str(pathlib.Path(package.__file__).resolve().parent)
-                for package in (tric_sim, tric_learning, tric_control)
-            ],
-            "env_vars": {"RAY_USAGE_STATS_ENABLED": "0"},
-        }
-        if bags:
-            for name in sorted(set(bags)):
-                shutil.copytree(BAGS / name, self._staging / BAGS / name)
-            runtime_env["working_dir"] = str(self._staging)
-        local = {} if address else {"num_cpus": num_cpus, "include_dashboard": False}
-        if not address:
-            local["object_store_memory"] = LOCAL_OBJECT_STORE_BYTES
         try:
+            if address:
+                settings = {"runtime_env": self._runtime_env(bags)}
+            else:
+                settings = {
+                    "num_cpus": num_cpus,
+                    "object_store_memory": LOCAL_OBJECT_STORE_BYTES,
+                    "include_dashboard": False,
+                }
             ray.init(
                 address=address or "local",
-                runtime_env=runtime_env,
                 log_to_driver=False,
                 configure_logging=False,
-                **local,
+                **settings,
             )
         except BaseException:
             shutil.rmtree(self._staging, ignore_errors=True)
             raise
         self.node_work = collections.Counter()
+        self._actors, self._calls = {}, 0
+
+    def _runtime_env(self, bags) -> dict:
+        """The runtime environment of a cluster's workers: the project's Python packages, and a
+        working directory holding bags/<name> for each name in bags."""
+        runtime_env = {
+            "py_modules": [
+                str(pathlib.Path(package.__file__).resolve().parent)
+                for package in (tric_sim, tric_learning, tric_control)
+            ]
+        }
+        if bags:
+            for name in sorted(set(bags)):
+                shutil.copytree(BAGS / name, self._staging / BAGS / name)
+            runtime_env["working_dir"] = str(self._staging)
+        return runtime_env
 
     def __enter__(self):
         return self
@@ -73,9 +83,13 @@ class RayExecutor:
         self.close()
 
     def close(self) -> None:
-        """Shut Ray down (a local instance ends; a cluster keeps running)."""
-        ray.shutdown()
-        shutil.rmtree(self._staging, ignore_errors=True)
+        """End the actors and shut Ray down (a local instance ends; a cluster keeps running)."""
+        try:
+            if ray.is_initialized():
+                self._end_actors()
+        finally:
+            ray.shutdown()
+            shutil.rmtree(self._staging, ignore_errors=True)
 
     @staticmethod
     def ship(path):
@@ -91,56 +105,32 @@ class RayExecutor:
         self, situations, snapshot, jobs, bar, make_evaluator, make_args, agent, on_record=None
     ) -> list:
         """As evaluation_workers.run_in_workers, on jobs Ray actors: [EpisodeRecord] in the
-        situations' order, bar advanced and on_record(record) called as each ends. An actor that
-        dies loses its episode to a rerun alone on a fresh actor (the others go on); one whose actor
-        dies again is a failed record that says so. Any other error ends the run and is raised."""
+        situations' order, bar advanced and on_record(record) called as each ends. The actors
+        outlive the call: each keeps its process and builds its evaluator anew for each call. An
+        actor that dies loses its episode to a second try on a fresh actor (the others go on); one
+        whose actor dies again is a failed record that says so. Any other error ends the run and
+        is raised."""
         snapshot = None if snapshot is None else pathlib.Path(snapshot).resolve()
+        self._calls += 1
+        setup = ray.put((self._calls, make_evaluator, make_args()))
         records = [None] * len(situations)
+        todo = collections.deque(range(len(situations)))
+        deaths = collections.Counter()
+        running = {}  # an episode's result ref -> (episode index, worker index)
+
+        def start(worker):
+            if worker not in self._actors:
+                self._actors[worker] = _EpisodeWorker.options(
+                    num_cpus=1, max_restarts=0, max_task_retries=0, scheduling_strategy="SPREAD"
+                ).remote(worker)
+            k = todo.popleft()
+            running[self._actors[worker].run.remote(setup, situations[k], snapshot)] = (k, worker)
 
         def ended(k):
             bar.set_postfix_str(situations[k].name)
             bar.update()
             if on_record is not None:
                 on_record(records[k])
-
-        lost = self._run_actors(
-            situations, range(len(situations)), records, jobs, snapshot, ended, make_evaluator,
-            make_args(),
-        )  # fmt: skip
-        lost_twice = []
-        for k in lost:
-            lost_twice += self._run_actors(
-                situations, [k], records, 1, snapshot, ended, make_evaluator, make_args()
-            )
-        agent = next((record.agent for record in records if record is not None), agent)
-        for k in lost_twice:
-            records[k] = EpisodeRecord(
-                **unjudged_fields(situations[k], agent),
-                wall_time_s=0.0,
-                outcome="failed",
-                message="its evaluation worker process died, twice",
-            )
-            ended(k)
-        return records
-
-    def _run_actors(
-        self, situations, pending, records, jobs, snapshot, ended, make_evaluator, args
-    ) -> list:
-        """Run the pending episodes (indices) on up to jobs actors, one at a time each, filling
-        records; the indices whose actor died. A dead actor is replaced by a fresh one of its
-        worker index while episodes remain."""
-        todo = collections.deque(pending)
-        actors = {}
-        running = {}  # an episode's result ref -> (episode index, worker index)
-        lost = []
-
-        def start(worker):
-            if worker not in actors:
-                actors[worker] = _EpisodeWorker.options(
-                    num_cpus=1, max_restarts=0, max_task_retries=0, scheduling_strategy="SPREAD"
-                ).remote(make_evaluator, worker, args)
-            k = todo.popleft()
-            running[actors[worker].run.remote(situations[k], snapshot)] = (k, worker)
 
         try:
             for worker in range(min(jobs, len(todo))):
@@ -151,8 +141,10 @@ class RayExecutor:
                 try:
                     records[k], node = ray.get(done)
                 except ray.exceptions.RayActorError:
-                    lost.append(k)
-                    actors.pop(worker)
+                    del self._actors[worker]
+                    deaths[k] += 1
+                    if deaths[k] == 1:
+                        todo.append(k)
                 except ray.exceptions.RayTaskError as error:
                     raise error.cause from None
                 else:
@@ -160,9 +152,30 @@ class RayExecutor:
                     ended(k)
                 if todo:
                     start(worker)
+        except BaseException:
+            self._end_actors()
+            raise
+        agent = next((record.agent for record in records if record is not None), agent)
+        for k in [k for k, count in deaths.items() if count > 1]:
+            records[k] = EpisodeRecord(
+                **unjudged_fields(situations[k], agent),
+                wall_time_s=0.0,
+                outcome="failed",
+                message="its evaluation worker process died, twice",
+            )
+            ended(k)
+        return records
+
+    def _end_actors(self) -> None:
+        """Close the actors' evaluators (a graph leaves its DDS domain), then end the actors."""
+        actors = list(self._actors.values())
+        self._actors.clear()
+        closing = [actor.close.remote() for actor in actors]
+        try:
+            ray.wait(closing, num_returns=len(closing), timeout=CLOSE_TIMEOUT_S)
         finally:
-            _close(list(actors.values()))
-        return lost
+            for actor in actors:
+                ray.kill(actor)
 
     def run_calls(self, function, calls: list, jobs: int):
         """Yield (index, function(*calls[index]) or the Exception it raised) as each call ends, the
@@ -199,18 +212,25 @@ def _call_on_node(function, call):
 
 @ray.remote
 class _EpisodeWorker:
-    """One evaluator (make_evaluator(worker, *args)) held by a Ray actor; its construction's error,
-    if it failed, raised by each run (as evaluation_workers' workers do)."""
+    """A Ray actor holding one evaluator at a time, as a spawned worker process does: the
+    evaluator of the run_episodes call whose episode it runs, built at its first (the previous one
+    closed), its construction's error raised by each of the call's runs."""
 
-    def __init__(self, make_evaluator, worker, args):
-        self.evaluator, self.error = None, None
-        try:
-            self.evaluator = make_evaluator(worker, *args)
-        except Exception as error:
-            self.error = error
+    def __init__(self, worker: int):
+        self.worker = worker
+        self.call, self.evaluator, self.error = None, None, None
 
-    def run(self, situation, snapshot):
-        """(the episode's EpisodeRecord, the id of the node it ran on)."""
+    def run(self, setup, situation, snapshot):
+        """(the episode's EpisodeRecord, the id of the node it ran on); setup: (the call's number,
+        make_evaluator, its arguments)."""
+        call, make_evaluator, args = setup
+        if call != self.call:
+            self.close()
+            self.call = call
+            try:
+                self.evaluator = make_evaluator(self.worker, *args)
+            except Exception as error:
+                self.error = error
         if self.error is not None:
             raise self.error
         return self.evaluator.run(situation, snapshot), ray.get_runtime_context().get_node_id()
@@ -218,13 +238,4 @@ class _EpisodeWorker:
     def close(self):
         if self.evaluator is not None:
             self.evaluator.close()
-
-
-def _close(actors) -> None:
-    """Close the actors' evaluators (a graph leaves its DDS domain), then end the actors."""
-    closing = [actor.close.remote() for actor in actors]
-    try:
-        ray.wait(closing, num_returns=len(closing), timeout=CLOSE_TIMEOUT_S)
-    finally:
-        for actor in actors:
-            ray.kill(actor)
+        self.evaluator, self.error = None, None

@@ -1,0 +1,153 @@
+"""The executors (tric_control.executors): Ray's actors give the process pool's records bit for bit,
+offline and through the nodes; tric-study on a 2-node Ray cluster on this machine gives a local
+run's results, both nodes working. Ray runs with one CPU a node and an 80 MB object store, and is
+always shut down."""
+
+import json
+import math
+
+import pytest
+
+from conftest import REFERENCE_BAGS as BAGS
+from conftest import record_fields
+from tric_control import executors, graph_evaluation, study
+from tric_control.offline import evaluate_offline
+from tric_learning.model_file import ModelFile
+from tric_learning.training import TrainingConfig, train_from_bags
+from tric_sim import situations
+from tric_sim.robot_model import RobotModel
+
+ray = pytest.importorskip("ray")
+
+#: Ray's object store in these tests, bytes (Ray's least is 75 MB).
+OBJECT_STORE_BYTES = 80 * 2**20
+#: Control ticks per episode here: enough to move and to be judged, short enough for a test.
+TICKS = 40
+
+
+@pytest.fixture(scope="module")
+def quick_model(tmp_path_factory):
+    """A model trained for seconds on 3 sphere demonstrations: it moves, which is all these tests
+    compare."""
+    return train_from_bags(
+        sorted((BAGS / "sphere").glob("*.mcap"))[::9],
+        tmp_path_factory.mktemp("model") / "quick.safetensors",
+        TrainingConfig(noisy_samples=5, max_iterations=20),
+        RobotModel(),
+    ).path
+
+
+def test_ray_actors_give_the_process_pool_s_records_bit_for_bit(quick_model):
+    """The same episodes, offline and through the nodes (each actor's graph on a DDS domain of its
+    own), from Ray's actors as from the process pool and in this process: every field but the wall
+    time equal."""
+    spheres = situations.dataset("sphere_test")[:3]
+    model = str(quick_model)
+    here = evaluate_offline(spheres, model, TICKS, progress=False)
+    pool = evaluate_offline(spheres, model, TICKS, progress=False, jobs=2)
+    with executors.open_executor(executors.ExecutorChoice("ray"), num_cpus=2) as ray_executor:
+        offline = evaluate_offline(
+            spheres, model, TICKS, progress=False, jobs=2, executor=ray_executor
+        )
+        nodes = graph_evaluation.evaluate(
+            spheres[:2], model, TICKS, progress=False, jobs=2, executor=ray_executor
+        )
+        assert sum(ray_executor.node_work.values()) == len(spheres) + 2
+    expected = [record_fields(r) for r in here]
+    assert [record_fields(r) for r in pool] == expected
+    assert [record_fields(r) for r in offline] == expected
+    assert [record_fields(r) for r in nodes] == expected[:2]
+    assert all(r.steps == TICKS for r in here)
+    assert not ray.is_initialized()
+
+
+def test_an_address_means_ray_and_processes_refuse_one(monkeypatch):
+    monkeypatch.delenv("RAY_ADDRESS", raising=False)
+
+    def choice(executor=None, address=None):
+        class Arguments:
+            pass
+
+        args = Arguments()
+        args.executor, args.address = executor, address
+        return executors.chosen_executor(args)
+
+    assert choice() == executors.ExecutorChoice("processes")
+    assert choice("ray") == executors.ExecutorChoice("ray", None)
+    assert choice(address="head:6379") == executors.ExecutorChoice("ray", "head:6379")
+    monkeypatch.setenv("RAY_ADDRESS", "head:6379")
+    assert choice().remote and choice("processes") == executors.ExecutorChoice("processes")
+    with pytest.raises(ValueError, match="--address runs on a Ray cluster"):
+        choice("processes", "head:6379")
+
+
+#: A study small enough for a test: two cells (seeds) of a short training, measured on the 15
+#: validation spheres with short episodes.
+TINY_STUDY = [
+    "--variant",
+    f"tiny=max_iterations=5,noisy_samples=5,grasp_steps={TICKS}",
+    "--tasks",
+    "sphere",
+    "--seeds",
+    "0",
+    "1",
+]
+
+
+def comparable(folder) -> dict:
+    """A study folder's rows and models without their timings (and the model files' digests, whose
+    metadata holds the timings); the models' arrays."""
+    results = json.loads((folder / "study.json").read_text())
+    rows = {}
+    for name, row in results["rows"].items():
+        model = {
+            k: v for k, v in row["model"].items() if k not in ("train_s", "file_sha1", "timing")
+        }
+        rows[name] = {**row, "model": model, "date": None}
+    arrays = {
+        path.name: {k: v.tobytes() for k, v in ModelFile.load(path).arrays.items()}
+        for path in sorted((folder / "models").iterdir())
+    }
+    return {"rows": rows, "failed": results["failed"], "arrays": arrays}
+
+
+@pytest.mark.slow
+def test_a_study_on_a_two_node_ray_cluster_gives_the_local_results(tmp_path, monkeypatch):
+    """tric-study --address on a 2-node cluster (one CPU each, on this machine): the trainings and
+    the episodes run on both nodes, the code and the bags reach them through Ray's runtime
+    environment, the models and rows come back to --out, and they equal a run here."""
+    from ray.cluster_utils import Cluster
+
+    monkeypatch.chdir(BAGS.parent)  # tric-study reads bags/ of the working directory
+    monkeypatch.delenv("RAY_ADDRESS", raising=False)
+    local = tmp_path / "local"
+    assert study.main([*TINY_STUDY, "--out", str(local), "--jobs", "1"]) == 0
+
+    opened = []
+
+    def open_and_keep(*args, **kwargs):
+        opened.append(executors.open_executor(*args, **kwargs))
+        return opened[-1]
+
+    monkeypatch.setattr(study, "open_executor", open_and_keep)
+    node = {"num_cpus": 1, "object_store_memory": OBJECT_STORE_BYTES}
+    cluster = Cluster(initialize_head=True, head_node_args={**node, "include_dashboard": False})
+    try:
+        cluster.add_node(**node)
+        cluster.wait_for_nodes()
+        remote = tmp_path / "remote"
+        arguments = [*TINY_STUDY, "--out", str(remote), "--jobs", "2"]
+        assert study.main([*arguments, "--address", cluster.address]) == 0
+        nodes = {node.node_id for node in cluster.list_all_nodes()}
+    finally:
+        ray.shutdown()
+        cluster.shutdown()
+    [executor] = opened
+    assert executor.kind == "ray"
+    assert set(executor.node_work) == nodes and len(nodes) == 2  # both nodes worked
+    # 2 trainings and 2 x 15 episodes
+    assert sum(executor.node_work.values()) == 2 + 2 * 15
+    assert comparable(remote) == comparable(local)
+    rows = json.loads((remote / "study.json").read_text())["rows"]
+    assert sorted(rows) == ["tiny/sphere/0", "tiny/sphere/1"]
+    assert all(math.isfinite(row["sets"]["sphere_val"]["cost_mean"]) for row in rows.values())
