@@ -2,6 +2,7 @@
 TRIC trained on the reference sphere bags once per session; helpers to wait, call and compare."""
 
 import dataclasses
+import json
 import math
 import pathlib
 import threading
@@ -12,6 +13,7 @@ import rclpy
 from rclpy.context import Context
 from rclpy.executors import SingleThreadedExecutor
 
+from tric_learning import model_file
 from tric_learning.training import TrainingConfig, train_from_bags
 from tric_sim.robot_model import RobotModel
 
@@ -152,3 +154,19 @@ def record_fields(record) -> dict:
     fields = dataclasses.asdict(record)
     del fields["wall_time_s"]
     return {k: "nan" if isinstance(v, float) and math.isnan(v) else v for k, v in fields.items()}
+
+
+def study_results(folder) -> dict:
+    """A tric-study folder's rows and failed cells without their timings (nor the model files'
+    digests: their metadata holds the timings), and its models' arrays: two runs of one study
+    give equal ones."""
+    results = json.loads((folder / "study.json").read_text())
+    rows = {}
+    for name, row in results["rows"].items():
+        model = {k: v for k, v in row["model"].items() if k not in ("train_s", "file_sha1")}
+        rows[name] = {**row, "model": model, "date": None}
+    arrays = {
+        path.name: {k: v.tobytes() for k, v in model_file.ModelFile.load(path).arrays.items()}
+        for path in sorted((folder / "models").iterdir())
+    }
+    return {"rows": rows, "failed": results["failed"], "arrays": arrays}

@@ -9,10 +9,9 @@ import math
 import pytest
 
 from conftest import REFERENCE_BAGS as BAGS
-from conftest import record_fields
+from conftest import record_fields, study_results
 from tric_control import executors, graph_evaluation, study
 from tric_control.offline import evaluate_offline
-from tric_learning.model_file import ModelFile
 from tric_learning.training import TrainingConfig, train_from_bags
 from tric_sim import situations
 from tric_sim.robot_model import RobotModel
@@ -94,23 +93,6 @@ TINY_STUDY = [
 ]
 
 
-def comparable(folder) -> dict:
-    """A study folder's rows and models without their timings (and the model files' digests, whose
-    metadata holds the timings); the models' arrays."""
-    results = json.loads((folder / "study.json").read_text())
-    rows = {}
-    for name, row in results["rows"].items():
-        model = {
-            k: v for k, v in row["model"].items() if k not in ("train_s", "file_sha1", "timing")
-        }
-        rows[name] = {**row, "model": model, "date": None}
-    arrays = {
-        path.name: {k: v.tobytes() for k, v in ModelFile.load(path).arrays.items()}
-        for path in sorted((folder / "models").iterdir())
-    }
-    return {"rows": rows, "failed": results["failed"], "arrays": arrays}
-
-
 @pytest.mark.slow
 def test_a_study_on_a_two_node_ray_cluster_gives_the_local_results(tmp_path, monkeypatch):
     """tric-study --address on a 2-node cluster (one CPU each, on this machine): the trainings and
@@ -147,7 +129,7 @@ def test_a_study_on_a_two_node_ray_cluster_gives_the_local_results(tmp_path, mon
     assert set(executor.node_work) == nodes and len(nodes) == 2  # both nodes worked
     # 2 trainings and 2 x 15 episodes
     assert sum(executor.node_work.values()) == 2 + 2 * 15
-    assert comparable(remote) == comparable(local)
+    assert study_results(remote) == study_results(local)
     rows = json.loads((remote / "study.json").read_text())["rows"]
     assert sorted(rows) == ["tiny/sphere/0", "tiny/sphere/1"]
     assert all(math.isfinite(row["sets"]["sphere_val"]["cost_mean"]) for row in rows.values())
