@@ -5,12 +5,17 @@ always shut down."""
 
 import json
 import math
+import os
+import pathlib
+import sys
 
 import pytest
+from tqdm import tqdm
 
 from conftest import REFERENCE_BAGS as BAGS
 from conftest import record_fields, study_results
 from tric_control import executors, graph_evaluation, study
+from tric_control.evaluation import EpisodeRecord, unjudged_fields
 from tric_control.offline import evaluate_offline
 from tric_learning.training import TrainingConfig, train_from_bags
 from tric_sim import situations
@@ -60,6 +65,49 @@ def test_ray_actors_give_the_process_pool_s_records_bit_for_bit(quick_model):
     assert not ray.is_initialized()
 
 
+class DyingEvaluator:
+    """Ends its worker process (as a segfault would) on situations named 'doomed', and on one
+    named 'once' the first time it runs (marker: a file in folder)."""
+
+    def __init__(self, folder):
+        self.folder = pathlib.Path(folder)
+
+    def run(self, situation, snapshot):
+        marker = self.folder / f"{situation.name}.ran"
+        if situation.name == "doomed" or (situation.name == "once" and not marker.exists()):
+            marker.touch()
+            os._exit(1)
+        return EpisodeRecord(
+            **unjudged_fields(situation, "stand-in"), wall_time_s=0.0, outcome="step_budget"
+        )
+
+    def close(self):
+        pass
+
+
+def make_dying_evaluator(_worker, folder):
+    return DyingEvaluator(folder)
+
+
+def test_a_dying_ray_actor_loses_only_its_own_episode(tmp_path):
+    """As a dying worker process of the pool (test_evaluation_workers): the episode of an actor
+    that dies is tried again on a fresh actor, and one whose actor dies again is a failed record
+    that says so; every other record is kept."""
+    ray.cloudpickle.register_pickle_by_value(sys.modules[__name__])  # tests/ is not on Ray's path
+    names = ["a", "once", "b", "doomed", "c"]
+    tests = [situations.sphere(name, (0.55, 0.0, 0.05)) for name in names]
+    with executors.open_executor(executors.ExecutorChoice("ray"), num_cpus=2) as ray_executor:
+        with tqdm(total=len(tests), disable=True) as bar:
+            records = ray_executor.run_episodes(
+                tests, None, 2, bar, make_dying_evaluator, lambda: (str(tmp_path),), "fallback"
+            )
+    assert [r.situation for r in records] == names
+    assert [r.outcome for r in records] == ["step_budget"] * 3 + ["failed", "step_budget"]
+    assert records[3].agent == "stand-in"  # the other records' agent
+    assert records[3].message == "its evaluation worker process died, twice"
+    assert (tmp_path / "once.ran").exists()
+
+
 def test_an_address_means_ray_and_processes_refuse_one(monkeypatch):
     monkeypatch.delenv("RAY_ADDRESS", raising=False)
 
@@ -68,7 +116,7 @@ def test_an_address_means_ray_and_processes_refuse_one(monkeypatch):
             pass
 
         args = Arguments()
-        args.executor, args.address = executor, address
+        args.executor, args.address, args.default_executor = executor, address, "processes"
         return executors.chosen_executor(args)
 
     assert choice() == executors.ExecutorChoice("processes")
@@ -103,7 +151,8 @@ def test_a_study_on_a_two_node_ray_cluster_gives_the_local_results(tmp_path, mon
     monkeypatch.chdir(BAGS.parent)  # tric-study reads bags/ of the working directory
     monkeypatch.delenv("RAY_ADDRESS", raising=False)
     local = tmp_path / "local"
-    assert study.main([*TINY_STUDY, "--out", str(local), "--jobs", "1"]) == 0
+    arguments = [*TINY_STUDY, "--out", str(local), "--jobs", "1", "--executor", "processes"]
+    assert study.main(arguments) == 0
 
     opened = []
 

@@ -43,7 +43,12 @@ import sys
 
 # Only what the arguments need: --help and argument errors answer before torch, pybullet,
 # pinocchio and rclpy are imported (main imports the rest once the arguments are checked).
-from tric_control.executors import add_executor_arguments, chosen_executor, open_executor
+from tric_control.executors import (
+    DEFAULT_EXECUTORS,
+    add_executor_arguments,
+    chosen_executor,
+    open_executor,
+)
 from tric_sim.dds_domains import MAX_DOMAIN_ID, private_domain_id
 from tric_sim.interrupts import run_interruptible
 from tric_sim.output_files import check_output_file, check_output_folder
@@ -99,7 +104,7 @@ def run(argv) -> int:
         default=1,
         help="evaluation graphs run at once, each in a process on its own domain (default 1)",
     )
-    add_executor_arguments(parser)
+    add_executor_arguments(parser, DEFAULT_EXECUTORS["tric-eval"])
     parser.add_argument(
         "--offline",
         action="store_true",

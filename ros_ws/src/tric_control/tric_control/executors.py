@@ -21,18 +21,22 @@ import tempfile
 
 #: The executors a tool may be given (--executor).
 EXECUTORS = ("processes", "ray")
-#: The executor when none is named and no Ray address is given (docs/decisions/executors.md).
-DEFAULT_EXECUTOR = "processes"
+#: Each tool's executor when none is named and no Ray address is given
+#: (docs/decisions/executors.md): Ray where a run holds many trainings and evaluations, for which
+#: it keeps its workers; spawned processes for tric-eval's one evaluation, which they start sooner.
+DEFAULT_EXECUTORS = {"tric-eval": "processes", "tric-study": "ray", "tric-experiments": "ray"}
 
 
-def add_executor_arguments(parser) -> None:
-    """--executor and --address on an argparse parser."""
+def add_executor_arguments(parser, default: str) -> None:
+    """--executor (default: default, or ray with an address) and --address on an argparse
+    parser."""
     parser.add_argument(
         "--executor",
         choices=EXECUTORS,
-        help=f"where parallel work runs (default: {DEFAULT_EXECUTOR}, or ray with an address): "
-        "spawned processes here, or Ray tasks and actors",
+        help=f"where parallel work runs: spawned processes here, or Ray tasks and actors (default: "
+        f"{default}; ray with an address)",
     )
+    parser.set_defaults(default_executor=default)
     parser.add_argument(
         "--address",
         metavar="HOST:PORT",
@@ -57,9 +61,10 @@ class ExecutorChoice:
 
 def chosen_executor(args) -> ExecutorChoice:
     """The executor of parsed --executor and --address (RAY_ADDRESS standing in for --address, as
-    Ray reads it); ValueError for --address with --executor processes."""
+    Ray reads it; the tool's default_executor when neither is given); ValueError for --address
+    with --executor processes."""
     address = args.address or os.environ.get("RAY_ADDRESS") or None
-    kind = args.executor or ("ray" if address else DEFAULT_EXECUTOR)
+    kind = args.executor or ("ray" if address else args.default_executor)
     if kind == "processes":
         if args.address:
             raise ValueError("--address runs on a Ray cluster: not with --executor processes")
@@ -68,10 +73,10 @@ def chosen_executor(args) -> ExecutorChoice:
 
 
 def open_executor(choice: ExecutorChoice = None, num_cpus: int = None, bags=()):
-    """The executor of choice (default: a process pool): ProcessExecutor, or RayExecutor started
-    (locally with num_cpus CPUs, None: all) or connected, with the project's code and the named
-    bag folders (under bags/) in its workers' runtime environment. Close it after use (it is a
-    context manager)."""
+    """The executor of choice (default: a process pool): ProcessExecutor, or RayExecutor, which
+    starts Ray (locally with num_cpus CPUs, None: all) or joins its cluster (the project's code and
+    the named bag folders under bags/ sent in its runtime environment) at its first work. Close it
+    after use (it is a context manager)."""
     if choice is None or choice.kind == "processes":
         return ProcessExecutor()
     from tric_control.ray_executor import RayExecutor

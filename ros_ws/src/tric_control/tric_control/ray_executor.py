@@ -1,9 +1,10 @@
 """Ray as the executor (tric_control.executors): episodes run on Ray actors, each holding one
-evaluator as a spawned worker process does, and calls (trainings) are Ray tasks. Started locally
-with no set-up, or joined on a cluster at an address; either way the project's code (its three
-Python packages) and the bag folders the run needs reach the workers through Ray's runtime
-environment (py_modules and working_dir), not a shared disk, and results come back to the caller.
-The workers' machines need the project's environment (make setup: the libraries and the built
+evaluator as a spawned worker process does, and calls (trainings) are Ray tasks. Ray starts
+locally with no set-up (its workers share this machine's packages and files), or joins a cluster
+at an address: there the project's code (its three Python packages) and the bag folders the run
+names reach the workers through Ray's runtime environment (py_modules and working_dir), not a
+shared disk; model files go as bytes, and results come back to the caller, who writes them. The
+cluster's machines need the project's environment (make setup: the libraries and the built
 messages). ROS-free."""
 
 import collections
@@ -19,8 +20,8 @@ import tric_sim
 from tric_control.evaluation import EpisodeRecord, unjudged_fields
 from tric_control.executors import ShippedFile
 
-#: Ray's object store on a local start, bytes: the work passes situations, model files and records
-#: (kilobytes to megabytes), never datasets.
+#: Ray's object store on a local start, bytes: the work passes situations, model files, records
+#: and tric-experiments' training datasets (up to about 30 MB).
 LOCAL_OBJECT_STORE_BYTES = 100 * 2**20
 #: Seconds an actor is given to close its evaluator (its graph) before it is killed.
 CLOSE_TIMEOUT_S = 30.0
@@ -39,27 +40,30 @@ class RayExecutor:
     def __init__(self, address: str = None, num_cpus: int = None, bags=()):
         if ray.is_initialized():
             raise RuntimeError("Ray is already initialized in this process")
-        self._staging = pathlib.Path(tempfile.mkdtemp(prefix="tric-ray-"))
-        try:
-            if address:
-                settings = {"runtime_env": self._runtime_env(bags)}
-            else:
-                settings = {
-                    "num_cpus": num_cpus,
-                    "object_store_memory": LOCAL_OBJECT_STORE_BYTES,
-                    "include_dashboard": False,
-                }
-            ray.init(
-                address=address or "local",
-                log_to_driver=False,
-                configure_logging=False,
-                **settings,
-            )
-        except BaseException:
-            shutil.rmtree(self._staging, ignore_errors=True)
-            raise
+        self.address, self.num_cpus, self.bags = address, num_cpus, tuple(bags)
         self.node_work = collections.Counter()
         self._actors, self._calls = {}, 0
+        self._staging = None
+
+    def _start(self) -> None:
+        """Start or join Ray, once (at the first work: a run with nothing to do starts nothing)."""
+        if self._staging is not None:
+            return
+        self._staging = pathlib.Path(tempfile.mkdtemp(prefix="tric-ray-"))
+        if self.address:
+            settings = {"runtime_env": self._runtime_env(self.bags)}
+        else:
+            settings = {
+                "num_cpus": self.num_cpus,
+                "object_store_memory": LOCAL_OBJECT_STORE_BYTES,
+                "include_dashboard": False,
+            }
+        ray.init(
+            address=self.address or "local",
+            log_to_driver=False,
+            configure_logging=False,
+            **settings,
+        )
 
     def _runtime_env(self, bags) -> dict:
         """The runtime environment of a cluster's workers: the project's Python packages, and a
@@ -84,12 +88,15 @@ class RayExecutor:
 
     def close(self) -> None:
         """End the actors and shut Ray down (a local instance ends; a cluster keeps running)."""
+        if self._staging is None:
+            return
         try:
             if ray.is_initialized():
                 self._end_actors()
         finally:
             ray.shutdown()
             shutil.rmtree(self._staging, ignore_errors=True)
+            self._staging = None
 
     @staticmethod
     def ship(path):
@@ -110,6 +117,7 @@ class RayExecutor:
         actor that dies loses its episode to a second try on a fresh actor (the others go on); one
         whose actor dies again is a failed record that says so. Any other error ends the run and
         is raised."""
+        self._start()
         snapshot = None if snapshot is None else pathlib.Path(snapshot).resolve()
         self._calls += 1
         setup = ray.put((self._calls, make_evaluator, make_args()))
@@ -180,6 +188,7 @@ class RayExecutor:
     def run_calls(self, function, calls: list, jobs: int):
         """Yield (index, function(*calls[index]) or the Exception it raised) as each call ends, the
         calls run as Ray tasks (one CPU each, at most jobs at once; function: module-level)."""
+        self._start()
         remote = _call_on_node.options(num_cpus=1, max_retries=0, scheduling_strategy="SPREAD")
         todo = collections.deque(enumerate(calls))
         running = {}

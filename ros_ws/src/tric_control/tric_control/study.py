@@ -41,7 +41,12 @@ import numpy as np
 
 # Only what the arguments need: --help and argument errors answer before torch, pybullet,
 # pinocchio and rclpy are imported (run imports tric_control.study_runs once they are checked).
-from tric_control.executors import add_executor_arguments, chosen_executor, open_executor
+from tric_control.executors import (
+    DEFAULT_EXECUTORS,
+    add_executor_arguments,
+    chosen_executor,
+    open_executor,
+)
 from tric_control.study_variants import DEFAULT_TASKS, MODEL_MEASURES, TASKS, parse_variant
 from tric_sim.interrupts import run_interruptible
 from tric_sim.output_files import WriteFailed, check_output_file, check_output_folder
@@ -129,7 +134,7 @@ def run(argv) -> int:
         default=os.cpu_count() or 1,
         help="trainings and offline episodes run at once (default: the number of CPUs)",
     )
-    add_executor_arguments(parser)
+    add_executor_arguments(parser, DEFAULT_EXECUTORS["tric-study"])
     args = parser.parse_args(argv)
     try:
         variants = [parse_variant(text) for text in args.variant or ["default="]]

@@ -50,7 +50,12 @@ import time
 
 # Only what the arguments need: --help and argument errors answer before torch, pybullet,
 # pinocchio, rclpy and matplotlib are imported (run_experiments and check_folder import the rest).
-from tric_control.executors import add_executor_arguments, chosen_executor, open_executor
+from tric_control.executors import (
+    DEFAULT_EXECUTORS,
+    add_executor_arguments,
+    chosen_executor,
+    open_executor,
+)
 from tric_control.experiments import EXPERIMENT_MODULES, experiment
 from tric_sim.interrupts import run_interruptible
 from tric_sim.output_files import WriteFailed, atomic_path, check_output_folder
@@ -79,7 +84,7 @@ def run(argv) -> int:
         help="evaluation graphs run at once, each in a process of its own (default: the CPUs, "
         "%(default)s)",
     )
-    add_executor_arguments(parser)
+    add_executor_arguments(parser, DEFAULT_EXECUTORS["tric-experiments"])
     parser.add_argument(
         "--check",
         action="store_true",
