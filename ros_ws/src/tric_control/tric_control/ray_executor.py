@@ -10,7 +10,9 @@ messages). ROS-free."""
 import collections
 import pathlib
 import shutil
+import signal
 import tempfile
+import threading
 
 import ray
 
@@ -25,6 +27,8 @@ from tric_control.executors import ShippedFile
 LOCAL_OBJECT_STORE_BYTES = 100 * 2**20
 #: Seconds an actor is given to close its evaluator (its graph) before it is killed.
 CLOSE_TIMEOUT_S = 30.0
+#: The signals that end a tool (tric_sim.interrupts).
+ENDING_SIGNALS = (signal.SIGINT, signal.SIGTERM)
 #: The bag folders' parent, relative to the caller's working directory and to the workers'.
 BAGS = pathlib.Path("bags")
 
@@ -43,7 +47,7 @@ class RayExecutor:
         self.address, self.num_cpus, self.bags = address, num_cpus, tuple(bags)
         self.node_work = collections.Counter()
         self._actors, self._calls = {}, 0
-        self._staging = None
+        self._staging, self._handlers = None, {}
 
     def _start(self) -> None:
         """Start or join Ray, once (at the first work: a run with nothing to do starts nothing)."""
@@ -58,12 +62,27 @@ class RayExecutor:
                 "object_store_memory": LOCAL_OBJECT_STORE_BYTES,
                 "include_dashboard": False,
             }
+        self._handlers = {signum: signal.getsignal(signum) for signum in ENDING_SIGNALS}
         ray.init(
             address=self.address or "local",
             log_to_driver=False,
             configure_logging=False,
             **settings,
         )
+        if threading.current_thread() is threading.main_thread():
+            for signum in ENDING_SIGNALS:
+                signal.signal(signum, self._shut_down_then_end)
+
+    def _shut_down_then_end(self, signum, frame):
+        """SIGINT or SIGTERM: shut Ray down (a local instance's processes would outlive a tool
+        that exits at once), then end as the tool's own handler does (tric_sim.interrupts)."""
+        ray.shutdown()
+        handler = self._handlers[signum]
+        signal.signal(signum, handler)
+        if callable(handler):
+            handler(signum, frame)
+        else:
+            signal.raise_signal(signum)
 
     def _runtime_env(self, bags) -> dict:
         """The runtime environment of a cluster's workers: the project's Python packages, and a
@@ -95,6 +114,9 @@ class RayExecutor:
                 self._end_actors()
         finally:
             ray.shutdown()
+            if threading.current_thread() is threading.main_thread():
+                for signum, handler in self._handlers.items():
+                    signal.signal(signum, handler)
             shutil.rmtree(self._staging, ignore_errors=True)
             self._staging = None
 
