@@ -10,6 +10,7 @@ import signal
 import subprocess
 import sys
 import tempfile
+import time
 
 import pytest
 from hypothesis import HealthCheck, settings
@@ -118,6 +119,44 @@ def test_tric_eval_interrupted_keeps_its_episodes_and_resume_continues(tmp_path)
     episodes = json.loads(out.read_text())["episodes"]
     assert [e["situation"] for e in episodes] == [f"sphere_test_{k:02d}" for k in range(15)]
     assert not partial.exists()
+
+
+#: Seconds a tool's processes may take to end after the tool did.
+ORPHAN_GRACE_S = 5.0
+
+
+def processes_marked(mark: str) -> list:
+    """The ids of the processes whose environment holds TRIC_TEST_MARK=mark."""
+    found = []
+    for folder in pathlib.Path("/proc").iterdir():
+        try:
+            if f"TRIC_TEST_MARK={mark}".encode() in (folder / "environ").read_bytes():
+                found.append(int(folder.name))
+        except (OSError, ValueError):  # not a process, one that ended, or not ours to read
+            continue
+    return found
+
+
+@pytest.mark.slow
+def test_tric_study_on_ray_terminated_leaves_no_ray_process(tmp_path, monkeypatch):
+    """SIGTERM ends tric-study on its local Ray instance (its default) with the tool's line and
+    143, and every process of that instance (Ray's daemons and workers inherit the tool's
+    environment) ends with it."""
+    mark = f"{os.getpid()}-{tmp_path.name}"
+    monkeypatch.setenv("TRIC_TEST_MARK", mark)
+    monkeypatch.chdir(pathlib.Path(__file__).resolve().parent.parent)  # bags/
+    variant = "tiny=max_iterations=3,noisy_samples=3,grasp_steps=40"
+    arguments = ["--variant", variant, "--tasks", "sphere", "--seeds", "0", "1"]
+    study = start("tric_control.study", *arguments, "--out", str(tmp_path), "--jobs", "2")
+    code, rest = signal_after(study, "sphere_val", 1, signal.SIGTERM)
+    assert code == 143, rest
+    assert "tric-study: terminated; the rows measured so far kept in study.json" in rest
+    # Ray's shutdown ends them before the tool exits (a few seconds' grace for their last
+    # moments); left to themselves, Ray's agents outlived the tool by a minute or more
+    deadline = time.monotonic() + ORPHAN_GRACE_S
+    while processes_marked(mark) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert processes_marked(mark) == []
 
 
 class RecordingInterrupted(RuleBasedStateMachine):
