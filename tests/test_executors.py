@@ -57,6 +57,8 @@ def test_ray_actors_give_the_process_pool_s_records_bit_for_bit(quick_model):
             spheres[:2], model, TICKS, progress=False, jobs=2, executor=ray_executor
         )
         assert sum(ray_executor.node_work.values()) == len(spheres) + 2
+        # a task between evaluations finds its CPU (the idle actors hold none)
+        assert list(ray_executor.run_calls(pow, [(2, 5)], 1)) == [(0, 32)]
     expected = [record_fields(r) for r in here]
     assert [record_fields(r) for r in pool] == expected
     assert [record_fields(r) for r in offline] == expected

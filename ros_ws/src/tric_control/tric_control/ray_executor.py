@@ -135,7 +135,9 @@ class RayExecutor:
     ) -> list:
         """As evaluation_workers.run_in_workers, on jobs Ray actors: [EpisodeRecord] in the
         situations' order, bar advanced and on_record(record) called as each ends. The actors
-        outlive the call: each keeps its process and builds its evaluator anew for each call. An
+        outlive the call: each keeps its process and builds its evaluator anew for each call; they
+        hold no CPU of Ray's between calls (num_cpus 0: jobs bounds them, and a training task
+        between two evaluations finds its CPU), spread over the nodes. An
         actor that dies loses its episode to a second try on a fresh actor (the others go on); one
         whose actor dies again is a failed record that says so. Any other error ends the run and
         is raised."""
@@ -151,7 +153,7 @@ class RayExecutor:
         def start(worker):
             if worker not in self._actors:
                 self._actors[worker] = _EpisodeWorker.options(
-                    num_cpus=1, max_restarts=0, max_task_retries=0, scheduling_strategy="SPREAD"
+                    num_cpus=0, max_restarts=0, max_task_retries=0, scheduling_strategy="SPREAD"
                 ).remote(worker)
             k = todo.popleft()
             running[self._actors[worker].run.remote(setup, situations[k], snapshot)] = (k, worker)
