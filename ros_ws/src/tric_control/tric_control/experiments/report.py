@@ -41,7 +41,7 @@ def write_report(out: pathlib.Path) -> pathlib.Path:
     checks = check_results(results)
     if checks:
         lines += [
-            "## The design's targets (design.md section 5), each for every seed",
+            "## The design's targets (docs/design.md section 5), each for every seed",
             "",
             "```",
             check_table(checks),

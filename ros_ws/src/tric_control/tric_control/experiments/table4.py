@@ -28,7 +28,7 @@ TITLE = (
 
 #: TRIC's rows on the other sets: label -> data set.
 OTHER_SETS = {"TRIC (val)": "box_val", "TRIC (train)": "box_train"}
-#: The least TRIC must open of the training boxes, each seed (design.md section 5).
+#: The least TRIC must open of the training boxes, each seed (docs/design.md section 5).
 TRAINING_TARGET = 9
 
 
