@@ -10,7 +10,7 @@ from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, QoSProfile
 from sensor_msgs.msg import JointState
 
-from conftest import call, run_periods, wait_for
+from conftest import call, publisher_matches, run_periods, wait_for
 from tric_msgs.msg import ObjectPoses, Perturbation
 from tric_msgs.msg import Situation as SituationMsg
 from tric_msgs.srv import EvaluateTask, Perturb, RenderScene, ResetScene
@@ -96,12 +96,11 @@ def test_lockstep_commands_of_another_stamp_are_dropped(ros_context, spin):
     # steps only when answered: a timeout step would need a minute
     simulator = make_simulator(ros_context, timeout=IN_PROCESS_LOCKSTEP_TIMEOUT_S)
     commander = Commander(ros_context)
+    states_matched = publisher_matches(simulator, simulator.state_pub)
+    commands_matched = publisher_matches(commander, commander.publisher)
     spin(simulator, commander)
     wait_for(
-        lambda: (
-            simulator.state_pub.get_subscription_count()
-            and commander.publisher.get_subscription_count()
-        ),
+        lambda: states_matched() and commands_matched(),
         what="the commander and the simulator matched",
     )
 

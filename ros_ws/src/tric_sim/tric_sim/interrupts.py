@@ -40,16 +40,22 @@ def line(prog: str, signum: int, kept: str = "") -> str:
     return f"{prog}: {word}" + (f"; {kept}" if kept else "")
 
 
+def end_at_once(prog: str, signum: int, kept: str = "") -> None:
+    """End the process now as signum ends a command: its worker processes ended, the temporary
+    files of writes in progress removed, the line printed, exit status 128 + signum."""
+    for child in multiprocessing.active_children():
+        child.terminate()
+    remove_temporaries()
+    sys.stdout.flush()
+    print(line(prog, signum, kept), file=sys.stderr, flush=True)
+    os._exit(exit_status(signum))
+
+
 def end_commands_on_signals(prog: str, kept: str = "") -> None:
     """As a command: SIGINT and SIGTERM end the process at once (see the module docstring)."""
 
     def end(signum, frame):
-        for child in multiprocessing.active_children():
-            child.terminate()
-        remove_temporaries()
-        sys.stdout.flush()
-        print(line(prog, signum, kept), file=sys.stderr, flush=True)
-        os._exit(exit_status(signum))
+        end_at_once(prog, signum, kept)
 
     signal.signal(signal.SIGINT, end)
     signal.signal(signal.SIGTERM, end)

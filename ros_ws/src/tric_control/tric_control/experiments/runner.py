@@ -1,9 +1,11 @@
 """The experiments' runner: trains (or re-uses) their models under DIR/models and evaluates
-them through the real nodes."""
+them through the real nodes, each evaluation kept under DIR/episodes, re-used when made as asked
+and continued after an interrupt (tric_control.kept_evaluations)."""
 
 import pathlib
 
 from tric_control.graph_evaluation import evaluate
+from tric_control.kept_evaluations import kept_evaluation
 from tric_learning import dpl, model_file
 from tric_learning.bag_dataset import load_dataset
 from tric_learning.dataset import Dataset
@@ -22,7 +24,7 @@ SEEDS = (0, 1, 2)
 
 class Runner:
     """Trains (or re-uses) models under out/models and runs evaluations with `jobs` worker graphs,
-    on private DDS domains from its own one up."""
+    on private DDS domains from its own one up, keeping their episodes under out/episodes."""
 
     def __init__(self, out: pathlib.Path, jobs: int = 1):
         self.out = out
@@ -84,6 +86,21 @@ class Runner:
         return path
 
     def evaluate(self, chosen, model, desc: str, max_steps: int = 0):
-        return evaluate(
-            chosen, model, max_steps, domain_id=self.domain_id, desc=desc, jobs=self.jobs
-        )
+        """[EpisodeRecord] of model (None: the teacher) on the situations chosen, max_steps ticks at
+        most (0: the task's default): those kept under out/episodes for the same model file,
+        situations, max_steps and code of the nodes that run and judge the episodes, the others
+        run (kept_evaluation)."""
+
+        def run(situations, on_record):
+            return evaluate(
+                situations,
+                model,
+                max_steps,
+                domain_id=self.domain_id,
+                desc=desc,
+                jobs=self.jobs,
+                on_record=on_record,
+            )
+
+        code = code_digest("tric_control.graph_evaluation")
+        return kept_evaluation(self.out / "episodes", chosen, model, max_steps, code, run)
