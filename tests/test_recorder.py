@@ -376,6 +376,29 @@ def test_bags_without_an_outcome_are_closed_complete_and_named_as_such(ros_conte
     assert str(refused.value).count("(no recorded outcome)") == 2
 
 
+def test_a_recorder_shut_down_mid_episode_leaves_that_bag_unfinished(ros_context, spin, tmp_path):
+    """A recorder node destroyed (as on SIGINT) while an episode is open keeps its finished bags
+    and leaves the open one as ".part" only, readable up to its last sample, and names it."""
+    recorder, player = recorder_and_player(ros_context, spin, tmp_path)
+    record_successful_episode(recorder, player, "done", 1_000_000_000)
+    player.event(EpisodeEvent.START, "cut", 3_000_000_000)
+    wait_for(lambda: recorder.busy, what="the second bag to open", changed=recorder.changed)
+    last = player.states(3_000_000_000, 30)
+    wait_for(
+        lambda: _samples_in(tmp_path / "cut.mcap.part") >= 2,
+        what="samples of the open episode",
+        changed=recorder.changed,
+    )
+    recorder.destroy_node()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["cut.mcap.part", "done.mcap"]
+    assert bags.bag_info(tmp_path / "done.mcap").complete
+    with pytest.raises(ValueError, match="an unfinished recording"):
+        bags.bag_info(tmp_path / "cut.mcap.part")
+    assert _samples_in(tmp_path / "cut.mcap.part") >= 2
+    [(episode, reason)] = recorder.failed
+    assert episode == "cut" and "left unfinished as" in reason and last > 0
+
+
 def test_recorder_killed_mid_demonstration_keeps_finished_bags(tmp_path):
     changes = FolderChanges(tmp_path)
     process = subprocess.Popen(

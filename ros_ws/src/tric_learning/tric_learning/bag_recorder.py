@@ -145,3 +145,7 @@ class BagRecorder:
 
     def abort(self) -> None:
         self.writer.discard()
+
+    def leave_unfinished(self) -> pathlib.Path:
+        """Stop recording and leave the bag as its ".part" (an interrupted episode); its path."""
+        return self.writer.abandon()

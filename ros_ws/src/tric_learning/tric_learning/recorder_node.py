@@ -112,8 +112,10 @@ class RecorderNode(Node):
         self._thread.join()
         self._poller.destroy()
         with self._lock:
-            if self._recorder is not None:
-                self._close(None)
+            if self._recorder is not None:  # shut down mid-episode: the bag stays unfinished
+                path = self._recorder.leave_unfinished()
+                self._recorder = None
+                self._failed(self._episode_id, f"interrupted; left unfinished as {path}")
             self.changed.notify_all()
         return super().destroy_node()
 

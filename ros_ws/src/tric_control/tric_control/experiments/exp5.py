@@ -87,7 +87,7 @@ def run(runner: Runner) -> dict:
         "trace": trace,
         "paper": "no number: Sec. 5.4 argues that a minimum of f attracts the controller from "
         "any start (Prop. 1, 2), and that TRIC reacts where DPL replays",
-        "discussion": discussion(rows),
+        "discussion": discussion(rows, trace),
     }
 
 
@@ -186,7 +186,32 @@ def _successes(cells: dict) -> str:
     return " ".join(f"{size}:{cell['ok']}" for size, cell in cells.items()) or "-"
 
 
-def discussion(rows: dict) -> str:
+def trace_text(trace: dict) -> str:
+    """What the trace of TRACE's push shows: f's rise at the push, how soon f is back below its
+    value before it, and the arm's speed over the episode's last second."""
+    t, f, speed = (np.asarray(trace[key], dtype=float) for key in ("t", "f", "speed"))
+    at = trace["push_at_s"]
+    before = f[t <= at][-1]
+    after = (t > at) & (t <= at + 0.5)
+    peak_t = t[after][np.nanargmax(f[after])]
+    back = t[(t > peak_t) & (f < before)]
+    last = speed[t > t[-1] - 1.0]
+    return (
+        f"Through the push of {trace['situation']} (TRIC, first seed), f rises from "
+        f"{before:.1f} to {np.nanmax(f[after]):.1f} and is back below {before:.1f} "
+        + (f"{back[0] - at:.2f} s after the push" if back.size else "never")
+        + f"; the grasp is {'a success' if trace['success'] else 'a failure'} "
+        f"({trace['outcome']}). Over the episode's last second the arm moves at "
+        f"{np.mean(last):.2f} rad/s on average (at most {np.max(last):.2f}): "
+        + (
+            "it rests."
+            if np.max(last) < 0.05
+            else "it does not come to rest where f stops falling, as Prop. 2 would have it."
+        )
+    )
+
+
+def discussion(rows: dict, trace: dict = None) -> str:
     tric, dpl = rows["TRIC"]["seeds"], rows["DPL joint space"]["seeds"]
     perturbed = [*FAMILIES, *BOX_FAMILIES]
 
@@ -249,9 +274,9 @@ def discussion(rows: dict) -> str:
             f"The teacher plans its grasp once, from the situation: a target that jumps 10 cm "
             f"leaves it {teacher['jump']['0.1']['ok']} of {COUNT}, where TRIC, which reads the "
             "target's pose every tick, keeps "
-            f"{'/'.join(str(cells['jump']['0.1']['ok']) for cells in tric.values())}."
+            f"{'/'.join(str(cells['jump']['0.1']['ok']) for cells in tric.values())}. "
         )
-    return text
+    return text + (trace_text(trace) if trace else "")
 
 
 def _trace(runner: Runner) -> dict:

@@ -239,6 +239,18 @@ class BagWriter:
         self._state = "closed"
         return self.path
 
+    def abandon(self) -> Path:
+        """Leaves the bag being written unfinished: flushes and closes the ".part" file, which
+        keeps everything written so far (readable with tolerant reading); returns its path."""
+        if self._state == "open":
+            try:
+                self._file.flush()
+                self._file.close()
+            except OSError:  # what was buffered cannot be written (a full disk)
+                pass
+            self._state = "abandoned"
+        return self.part_path
+
     def discard(self) -> None:
         """Drops the bag being written: closes and deletes the ".part" file."""
         if self._state == "open":
