@@ -87,6 +87,25 @@ def test_a_node_ends_on_a_signal_with_one_line_and_its_status(tmp_path, node, si
     assert (code, rest) == (status, f"{node}: {word}\n")
 
 
+@pytest.mark.parametrize("node", ["simulator", "controller"])
+def test_a_node_interrupted_during_its_imports_ends_with_one_line(tmp_path, node):
+    """SIGINT while the node's module still imports its libraries (Python reports each import as
+    it ends: the signal follows rclpy's first) ends it with one line and 130, no traceback (before:
+    a KeyboardInterrupt traceback from the middle of an import)."""
+    package = NODES[node][0]
+    process = subprocess.Popen(
+        [str(INSTALL / package / "lib" / package / node)],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+        env={**os.environ, "PYTHONPROFILEIMPORTTIME": "1"},
+        cwd=tmp_path,
+    )
+    code, rest = signal_after(process, "rclpy", 1, signal.SIGINT)
+    lines = [line for line in rest.splitlines() if not line.startswith("import time:")]
+    assert (code, lines) == (130, [f"{node}: interrupted"]), rest[-2000:]
+
+
 @pytest.mark.parametrize(
     "signum, status, word",
     [(signal.SIGINT, 130, "interrupted"), (signal.SIGTERM, 143, "terminated")],

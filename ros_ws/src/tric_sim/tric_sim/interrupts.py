@@ -12,6 +12,7 @@ until complete, so nothing else needs finishing. Called in-process (tests, scrip
 run_interruptible turns the signals into KeyboardInterrupt and the tool's own cleanup runs.
 """
 
+import importlib
 import multiprocessing
 import os
 import signal
@@ -80,3 +81,12 @@ def run_interruptible(prog: str, body, argv, kept: str = "") -> int:
         return exit_status(signum)
     finally:
         signal.signal(signal.SIGTERM, previous)
+
+
+def node_main(prog: str, module: str) -> int:
+    """A node's entry point (`ros2 run PKG NODE`): SIGINT and SIGTERM end it as they end a command
+    from its first instant, its module's imports included (torch and rclpy take seconds, and
+    rclpy's handlers are not installed yet); then module's main() runs the node, which installs
+    its own (tric_sim.ros_util.run_node)."""
+    end_commands_on_signals(prog)
+    return importlib.import_module(module).main()
