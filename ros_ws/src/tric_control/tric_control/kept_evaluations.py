@@ -71,7 +71,8 @@ def kept_evaluation(folder, situations, model, max_steps: int, code: str, run) -
 
 def _rounds(names, kept: dict) -> list:
     """The indices of the situations not yet kept, in rounds within which no name repeats."""
-    rounds, seen = [], collections.Counter()
+    rounds: list[list[int]] = []
+    seen: collections.Counter[str] = collections.Counter()
     for index, name in enumerate(names):
         if index not in kept:
             if len(rounds) <= seen[name]:

@@ -57,7 +57,7 @@ TRACE = ("sphere_test_00", Trial("push", 0.4))
 def run(runner: Runner) -> dict:
     """The experiment's rows, table, figures, the paper's numbers (none) and the discussion."""
     robot = runner.robot
-    rows = {}
+    rows: dict[str, dict] = {}
     for dataset, families in (("sphere_test", FAMILIES), ("box_test", BOX_FAMILIES)):
         base = situations.dataset(dataset)[:COUNT]
         trials = [(family, trial) for family, chosen in families.items() for trial in chosen]
@@ -211,7 +211,7 @@ def trace_text(trace: dict) -> str:
     )
 
 
-def discussion(rows: dict, trace: dict = None) -> str:
+def discussion(rows: dict, trace: dict | None = None) -> str:
     tric, dpl = rows["TRIC"]["seeds"], rows["DPL joint space"]["seeds"]
     perturbed = [*FAMILIES, *BOX_FAMILIES]
 
@@ -288,7 +288,7 @@ def _trace(runner: Runner) -> dict:
     situation = trial.apply(situations.find_situation(name), runner.robot)
     model = runner.model(**AGENTS["grasp"]["TRIC"], seed=SEEDS[0])
     evaluator = OfflineEvaluator("grasp", model)
-    trace = {"t": [], "f": [], "speed": []}
+    trace: dict[str, list[float]] = {"t": [], "f": [], "speed": []}
 
     def on_period(world, step):
         _, velocity = world.joint_state()

@@ -8,7 +8,7 @@ import os
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import yaml
 from mcap.writer import LIBRARY_IDENTIFIER, CompressionType
@@ -279,7 +279,8 @@ class BagWriter:
         far."""
         count = sum(t.message_count for t in self._topics.values())
         start_ns = self._start_ns or 0
-        duration_ns = (self._end_ns - start_ns) if count else 0
+        # a message written has set _end_ns
+        duration_ns = (cast(int, self._end_ns) - start_ns) if count else 0
         information = {
             "version": ROSBAG2_METADATA_VERSION,
             "storage_identifier": "mcap",
