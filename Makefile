@@ -18,7 +18,8 @@ help:
 	@echo "make experiments  the paper's experiments (EXPERIMENTS='fig9 table3' for some), results/REPORT.md"
 	@echo "make setup        create .venv, install pinned ROS 2 Jazzy wheels and libraries, colcon build"
 	@echo "make test         run the test suite (unit + in-process integration tests)"
-	@echo "make lint         ruff check and ruff format --check over every Python file (ruff.toml)"
+	@echo "make lint         ruff check and ruff format --check over every Python file (ruff.toml), and mypy"
+	@echo "                  over the ROS-free modules of tric_sim, tric_learning and tric_control (mypy.ini)"
 	@echo "make bench        run the benchmarks, write results/bench.json (BENCH_ARGS=--check: against the targets)"
 	@echo "make constraints  re-pin constraints.txt from the current .venv"
 	@echo "make clean        remove build outputs (keeps .venv)"
@@ -45,12 +46,13 @@ test: setup
 	$(IN_ENV) python -m pytest
 
 # Every Python file of the repository: the packages and their tests, the integration tests, the
-# benchmarks and the scripts.
+# benchmarks and the scripts. mypy checks the files mypy.ini names (the packages' ROS-free modules).
 LINT_PATHS := ros_ws/src tests benchmarks scripts conftest.py
 
 lint: setup
 	$(IN_ENV) ruff check $(LINT_PATHS)
 	$(IN_ENV) ruff format --check $(LINT_PATHS)
+	$(IN_ENV) mypy
 
 bench: setup
 	$(IN_ENV) python benchmarks/run.py $(BENCH_ARGS)

@@ -4,7 +4,7 @@
 features_us: median wall time of one call for the grasp task (8 landmarks, 224 features) at random
   configurations within the joint limits, the object at a sphere test position, us.
 features_box_us: the same for the box-opening task (5 landmarks, 80 features), us.
-Target (design.md): features_us <= 100.
+Target (docs/design.md): features_us <= 100.
 """
 
 import statistics

@@ -1,5 +1,5 @@
 """`--help` of the tools: the wall time of a fresh interpreter printing each tool's help (median of
-three runs per tool), and the slowest of them (design.md section 5: under 0.5 s)."""
+three runs per tool), and the slowest of them (docs/design.md section 5: under 0.5 s)."""
 
 import statistics
 import subprocess

@@ -3,7 +3,8 @@
 offline_speedup: the wall time of a TRIC model on the 15 sphere_test situations through the nodes
   (tric-eval: simulator, controller and client in one process, lockstep, one graph), divided by the
   same episodes offline (tric-eval --offline: the controller core on PhysicsWorld, one process).
-  Target (design.md): at least 3. offline_sphere_test_s and nodes_sphere_test_s give both times.
+  Target (docs/design.md): at least 5. offline_sphere_test_s and nodes_sphere_test_s give both
+  times.
 Training the model (the paper's defaults on bags/sphere) is not counted.
 """
 

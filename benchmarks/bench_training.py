@@ -2,7 +2,7 @@
 
 train_default_s: TRIC with the paper's defaults (K = 30, N = 27, M = 60, 100 L-BFGS iterations) on
   bags/sphere, noisy-sample generation included; split into train_default_sampling_s and
-  train_default_optimization_s. Target (design.md): <= 10 s on a 2-core machine.
+  train_default_optimization_s. Target (docs/design.md): <= 10 s on a 2-core machine.
 train_linear_s: the same with K = 0 (the linear model), also split.
 record_demo_s: one 5 s sphere demonstration recorded through the real nodes in lockstep (simulator,
   teacher, recorder in one process), wall s.

@@ -3,8 +3,9 @@
 Each module benchmarks/bench_*.py defines `run() -> dict` returning flat {key: number} results (keys
 are named in the issues, e.g. "sim_lockstep_rtf"). This runner calls them in name order, merges
 their results with a description of the machine, prints the object and writes it. --check then
-compares every key that has a target (TARGETS: design.md section 5 and the issues) with it, prints
-the comparison and exits 1 if one is missed; --check-only does that for an existing results file.
+compares every key that has a target (TARGETS: docs/design.md section 5 and the issues) with it,
+prints the comparison and exits 1 if one is missed; --check-only does that for an existing results
+file.
 
     python benchmarks/run.py [--only NAME ...] [--out results/bench.json] [--check | --check-only]
 """
@@ -24,14 +25,14 @@ HERE = pathlib.Path(__file__).resolve().parent
 
 #: key -> (at most / at least, bound, where the target comes from).
 TARGETS = {
-    "train_default_s": ("<=", 15.0, "design.md: training the default model"),
-    "controller_tick_p99_ms": ("<=", 0.5, "design.md: one controller tick, p99"),
-    "controller_vs_pink": ("<", 1.0, "design.md: tick p50 below pin-pink's solve_ik"),
-    "offline_speedup": (">=", 5.0, "design.md: offline evaluation against the nodes"),
-    "sim_lockstep_period_ratio": ("<=", 1.5, "design.md: lockstep period over raw physics"),
+    "train_default_s": ("<=", 15.0, "docs/design.md: training the default model"),
+    "controller_tick_p99_ms": ("<=", 0.5, "docs/design.md: one controller tick, p99"),
+    "controller_vs_pink": ("<", 1.0, "docs/design.md: tick p50 below pin-pink's solve_ik"),
+    "offline_speedup": (">=", 5.0, "docs/design.md: offline evaluation against the nodes"),
+    "sim_lockstep_period_ratio": ("<=", 1.5, "docs/design.md: lockstep period over raw physics"),
     "sim_lockstep_rtf": (">=", 20.0, "the lockstep simulator's real-time factor (an issue)"),
-    "main_job_s": ("<=", 300.0, "design.md: the whole main job"),
-    "help_max_s": ("<", 0.5, "design.md: --help of every tool"),
+    "main_job_s": ("<=", 300.0, "docs/design.md: the whole main job"),
+    "help_max_s": ("<", 0.5, "docs/design.md: --help of every tool"),
     "features_us": ("<=", 100.0, "phi and dphi/dq of the grasp task (an issue)"),
     "eval_rss_growth_mb": ("<", 50.0, "memory over 100 episodes (an issue)"),
 }

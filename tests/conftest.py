@@ -1,16 +1,27 @@
 """Fixtures for in-process ROS 2 tests: a fresh rclpy context and a spinning executor per test, and
-TRIC trained on the reference sphere bags once per session; helpers to wait, call and compare."""
+TRIC trained on the reference sphere bags once per session; helpers to wait, call and compare.
 
+Every wait here ends on an event, never on a poll: wait_for re-checks its predicate each time a
+Condition is notified, and the spin fixture notifies STATE_CHANGED after every callback that the
+test's executor runs (a message taken, a timer, a service answer, a matched event), so a predicate
+over what those callbacks change is checked as soon as it may have become true. State changed by a
+thread of its own has its own Condition (RecorderNode.changed); files written by another process
+are followed with inotify (FolderChanges)."""
+
+import ctypes
 import dataclasses
 import json
 import math
+import os
 import pathlib
+import select
 import threading
 import time
 
 import pytest
 import rclpy
 from rclpy.context import Context
+from rclpy.event_handler import EventHandler, QoSPublisherEventType
 from rclpy.executors import SingleThreadedExecutor
 
 from tric_learning import model_file
@@ -24,6 +35,8 @@ HANG_S = 120.0
 ABSENCE_PERIODS = 50
 #: The reference demonstrations shipped with the repository (bags/README.md).
 REFERENCE_BAGS = pathlib.Path(__file__).resolve().parent.parent / "bags"
+#: Notified after every callback the spin fixture's executor runs: wait_for's default Condition.
+STATE_CHANGED = threading.Condition()
 
 
 @pytest.fixture(scope="session")
@@ -62,14 +75,17 @@ def executor(ros_context):
 
 @pytest.fixture
 def spin(executor):
-    """spin(*nodes): add nodes to the test's executor and spin it in a background thread, which is
-    stopped and joined after the test, before the executor fixture destroys the nodes and the
-    executor (Executor.shutdown() while another thread spins can destroy what that thread uses)."""
+    """spin(*nodes): add nodes to the test's executor and spin it in a background thread, which
+    notifies STATE_CHANGED after every callback it runs; the thread is stopped and joined after the
+    test, before the executor fixture destroys the nodes and the executor (Executor.shutdown() while
+    another thread spins can destroy what that thread uses)."""
     stop, started = threading.Event(), []
 
     def spin_until_stopped():
         while not stop.is_set():
-            executor.spin_once(timeout_sec=0.05)
+            executor.spin_once()  # returns once it has run a callback
+            with STATE_CHANGED:
+                STATE_CHANGED.notify_all()
 
     def start(*nodes):
         for node in nodes:
@@ -82,19 +98,76 @@ def spin(executor):
 
     yield start
     stop.set()
+    executor.create_task(lambda: None)  # a callback to run: the spinning thread sees stop
     for thread in started:
         thread.join(HANG_S)
 
 
-def wait_for(predicate, timeout=HANG_S, what="condition"):
-    """Poll predicate() until it is truthy; its value, or an AssertionError after timeout s."""
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        value = predicate()
-        if value:
+def wait_for(predicate, timeout=HANG_S, what="condition", changed=STATE_CHANGED):
+    """predicate()'s first truthy value, checked now and each time the Condition changed is
+    notified (by default after every callback of the spin fixture's executor), holding its lock;
+    an AssertionError after timeout s."""
+    with changed:
+        value = changed.wait_for(predicate, timeout)
+    assert value, f"timed out after {timeout} s waiting for {what}"
+    return value
+
+
+def publisher_matches(node, publisher):
+    """A function giving how many subscriptions publisher has matched (DDS: its messages now reach
+    them), as its matched events report them. The events are handled by node's executor, so a
+    wait_for on it ends on them. publisher may be another node's, made without event callbacks:
+    an event that came before this call is still reported."""
+    matched = [0]
+
+    def on_matched(status):
+        matched[0] = status.current_count
+
+    node.add_waitable(
+        EventHandler(
+            callback_group=node.default_callback_group,
+            callback=on_matched,
+            event_type=QoSPublisherEventType.RCL_PUBLISHER_MATCHED,
+            parent_impl=publisher.handle,
+        )
+    )
+    return lambda: matched[0]
+
+
+class FolderChanges:
+    """The kernel's notices (inotify) of files created, written, closed or renamed in a folder,
+    for following what another process writes there: wait_for re-checks its predicate on each."""
+
+    _MASK = 0x002 | 0x008 | 0x080 | 0x100  # IN_MODIFY, IN_CLOSE_WRITE, IN_MOVED_TO, IN_CREATE
+
+    def __init__(self, folder: pathlib.Path):
+        libc = ctypes.CDLL(None, use_errno=True)
+        self._fd = libc.inotify_init1(os.O_NONBLOCK | os.O_CLOEXEC)
+        if self._fd < 0 or libc.inotify_add_watch(self._fd, os.fsencode(folder), self._MASK) < 0:
+            raise OSError(ctypes.get_errno(), f"cannot watch {folder}")
+
+    def wait_for(self, predicate, process, timeout=HANG_S, what="condition"):
+        """predicate()'s first truthy value, checked now and after each change in the folder;
+        an AssertionError when process (a subprocess.Popen) ends first or after timeout s."""
+        ended = os.pidfd_open(process.pid)
+        deadline = time.monotonic() + timeout
+        try:
+            while not (value := predicate()):
+                remaining = deadline - time.monotonic()
+                ready = select.select([self._fd, ended], [], [], max(remaining, 0))[0]
+                assert ready, f"timed out after {timeout} s waiting for {what}"
+                assert ended not in ready, f"the process ended before {what}"
+                while True:  # take every notice: each has been seen by the next check
+                    try:
+                        os.read(self._fd, 65536)
+                    except BlockingIOError:
+                        break
             return value
-        time.sleep(0.01)
-    raise AssertionError(f"timed out after {timeout} s waiting for {what}")
+        finally:
+            os.close(ended)
+
+    def close(self):
+        os.close(self._fd)
 
 
 def wait_future(future, timeout=HANG_S, what="future"):

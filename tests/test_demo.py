@@ -29,8 +29,8 @@ def cut_down(monkeypatch, train=(), test=()):
 @pytest.mark.slow
 def test_tric_demo_on_the_reference_bags(tmp_path, monkeypatch, capsys, reference_sphere_training):
     """--reuse bags/sphere --check --jobs 2 on two unseen spheres, TRIC trained with the defaults:
-    every TRIC grasp is good, lifted and free of collisions (design.md section 5, Table 1) and no
-    joint went 0.01 rad past a limit (section 6); the verdicts printed and --check's exit code
+    every TRIC grasp is good, lifted and free of collisions (docs/design.md section 5, Table 1) and
+    no joint went 0.01 rad past a limit (section 6); the verdicts printed and --check's exit code
     follow the numbers in demo.json. (Table 1's other target, TRIC's mean within 0.03 of the
     teacher's, is met by some trainings of these bags and missed by others: the training is
     repeatable on one machine, but another CPU rounds otherwise and gets another model; measured

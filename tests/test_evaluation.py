@@ -180,7 +180,7 @@ def test_tric_eval_writes_the_teacher_s_records_as_json(tmp_path):
     [record] = teacher["episodes"]
     assert record["situation"] == chosen[0].name and record["outcome"] == "demonstrated"
     assert record["grasp_cost"] < 0.25 and record["lift_passed"] and not record["collided"]
-    # design.md 6: no measured joint more than 0.01 rad past a limit
+    # docs/design.md 6: no measured joint more than 0.01 rad past a limit
     assert record["max_joint_overshoot"] <= 0.01
 
 

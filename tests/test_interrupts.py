@@ -1,6 +1,7 @@
-"""SIGINT and SIGTERM to the tools run as commands (issue 25, item 2): each ends with one line and
-exit status 130 or 143, every finished bag complete, the unfinished one only as .part, an earlier
-bag never replaced by a cut-short one, and no result file written half."""
+"""SIGINT and SIGTERM to the tools run as commands and to the nodes run as `ros2 run` runs them
+(issue 25, item 2): each ends with one line and exit status 130 or 143, every finished bag
+complete, the unfinished one only as .part, an earlier bag never replaced by a cut-short one, and
+no result file written half."""
 
 import json
 import os
@@ -38,6 +39,19 @@ def start(module: str, *arguments) -> subprocess.Popen:
     )
 
 
+#: The workspace's node executables, as `ros2 run PKG NODE` starts them.
+INSTALL = pathlib.Path(__file__).resolve().parent.parent / "ros_ws" / "install"
+#: Each node: (package, executable, ROS arguments, the log line that ends its start).
+NODES = {
+    "simulator": ("tric_sim", [], "simulating '"),
+    "teacher": ("tric_sim", [], "ready to demonstrate"),
+    "visualizer": ("tric_sim", ["-p", "foxglove_port:=0"], "Foxglove server on ws://127.0.0.1:"),
+    "recorder": ("tric_learning", ["-p", "output_dir:={tmp}"], "recording episodes of"),
+    "trainer": ("tric_learning", [], "ready to train"),
+    "controller": ("tric_control", [], "controller for 'grasp'"),
+}
+
+
 def signal_after(process: subprocess.Popen, marker: str, count: int, signum: int) -> tuple:
     """Send signum once marker has appeared count times on the tool's stderr (read line by line:
     the wait ends on the event); (exit status, the rest of stderr)."""
@@ -50,6 +64,47 @@ def signal_after(process: subprocess.Popen, marker: str, count: int, signum: int
     process.send_signal(signum)
     rest = process.communicate(timeout=HANG_S)[1]
     return process.returncode, rest
+
+
+@pytest.mark.parametrize(
+    "signum, status, word",
+    [(signal.SIGINT, 130, "interrupted"), (signal.SIGTERM, 143, "terminated")],
+)
+@pytest.mark.parametrize("node", list(NODES))
+def test_a_node_ends_on_a_signal_with_one_line_and_its_status(tmp_path, node, signum, status, word):
+    """A node spinning (its start logged) ends on SIGINT or SIGTERM with one line, the signal's
+    exit status and no traceback (it exited 0 before, the controller once with a traceback)."""
+    package, arguments, ready = NODES[node]
+    process = subprocess.Popen(
+        [str(INSTALL / package / "lib" / package / node), "--ros-args"]
+        + [argument.format(tmp=tmp_path) for argument in arguments],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+        env={**os.environ, "PYTHONFAULTHANDLER": "1"},
+        cwd=tmp_path,
+    )
+    code, rest = signal_after(process, ready, 1, signum)
+    assert (code, rest) == (status, f"{node}: {word}\n")
+
+
+@pytest.mark.parametrize("node", ["simulator", "controller"])
+def test_a_node_interrupted_during_its_imports_ends_with_one_line(tmp_path, node):
+    """SIGINT while the node's module still imports its libraries (Python reports each import as
+    it ends: the signal follows rclpy's first) ends it with one line and 130, no traceback (before:
+    a KeyboardInterrupt traceback from the middle of an import)."""
+    package = NODES[node][0]
+    process = subprocess.Popen(
+        [str(INSTALL / package / "lib" / package / node)],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+        env={**os.environ, "PYTHONPROFILEIMPORTTIME": "1"},
+        cwd=tmp_path,
+    )
+    code, rest = signal_after(process, "rclpy", 1, signal.SIGINT)
+    lines = [line for line in rest.splitlines() if not line.startswith("import time:")]
+    assert (code, lines) == (130, [f"{node}: interrupted"]), rest[-2000:]
 
 
 @pytest.mark.parametrize(

@@ -46,7 +46,7 @@ def test_offline_and_node_episodes_agree_on_three_spheres_and_a_box(models):
     [box_nodes] = graph_evaluation.evaluate(boxes, models["open_box"], 1200, progress=False)
     assert record_fields(box_offline) == record_fields(box_nodes)
     assert (box_offline.failure == "") == (box_offline.success and not box_offline.collided)
-    # design.md 6: no joint more than 0.01 rad past a limit
+    # docs/design.md 6: no joint more than 0.01 rad past a limit
     assert box_offline.max_joint_overshoot <= 0.01
 
 

@@ -6,13 +6,11 @@ recording."""
 import errno
 import json
 import math
-import os
 import pathlib
 import shutil
 import signal
 import subprocess
 import sys
-import time
 
 import numpy as np
 import pytest
@@ -23,7 +21,7 @@ from rclpy.parameter import Parameter
 from rosbags.highlevel import AnyReader
 from sensor_msgs.msg import JointState
 
-from conftest import run_periods, wait_for
+from conftest import FolderChanges, publisher_matches, run_periods, wait_for
 from tric_learning import bags, record_cli
 from tric_learning.bag_dataset import load_dataset
 from tric_learning.bag_layout import SAMPLES_TOPIC
@@ -260,14 +258,13 @@ def recorder_and_player(ros_context, spin, tmp_path, *parameters):
         context=ros_context,
         parameter_overrides=[Parameter("output_dir", value=str(tmp_path)), *parameters],
     )
-    player = spin(recorder, EpisodePlayer(ros_context, situations.sphere_grid()[4]))[1]
-    wait_for(
-        lambda: all(
-            player.count_subscribers(topic)
-            for topic in ("/episode", "/joint_states", "/object_poses")
-        ),
-        what="the recorder's subscriptions",
-    )
+    player = EpisodePlayer(ros_context, situations.sphere_grid()[4])
+    matches = [
+        publisher_matches(player, publisher)
+        for publisher in (player.event_pub, player.state_pub, player.poses_pub)
+    ]
+    spin(recorder, player)
+    wait_for(lambda: all(matched() for matched in matches), what="the recorder's subscriptions")
     return recorder, player
 
 
@@ -275,7 +272,9 @@ def record_successful_episode(recorder, player, episode_id: str, start_ns: int):
     """START, 30 states, END and a successful OUTCOME of episode_id, waited for until the
     recorder has finished a bag."""
     player.event(EpisodeEvent.START, episode_id, start_ns)
-    wait_for(lambda: recorder.busy, what=f"the bag of '{episode_id}' to open")
+    wait_for(
+        lambda: recorder.busy, what=f"the bag of '{episode_id}' to open", changed=recorder.changed
+    )
     last = player.states(start_ns, 30)
     player.event(EpisodeEvent.END, episode_id, last)
     player.event(
@@ -284,7 +283,7 @@ def record_successful_episode(recorder, player, episode_id: str, start_ns: int):
         last,
         TaskMetrics(task="grasp", grasp_cost=0.1, success=True, lid_angle=math.nan),
     )
-    wait_for(lambda: recorder.finished, what=f"the bag of '{episode_id}'")
+    wait_for(lambda: recorder.finished, what=f"the bag of '{episode_id}'", changed=recorder.changed)
 
 
 def test_an_aborted_episode_leaves_no_bag_and_the_next_one_is_recorded(ros_context, spin, tmp_path):
@@ -292,11 +291,13 @@ def test_an_aborted_episode_leaves_no_bag_and_the_next_one_is_recorded(ros_conte
     failure; the next episode (START, states, END, OUTCOME) is recorded as usual."""
     recorder, player = recorder_and_player(ros_context, spin, tmp_path)
     player.event(EpisodeEvent.START, "aborted", 1_000_000_000)
-    wait_for(lambda: recorder.busy, what="the aborted episode's bag to open")
+    wait_for(
+        lambda: recorder.busy, what="the aborted episode's bag to open", changed=recorder.changed
+    )
     assert [p.name for p in tmp_path.iterdir()] == ["aborted.mcap.part"]
     last = player.states(1_000_000_000, 30)
     player.event(EpisodeEvent.ABORT, "aborted", last)
-    wait_for(lambda: not recorder.busy, what="the abort")
+    wait_for(lambda: not recorder.busy, what="the abort", changed=recorder.changed)
     run_periods(player)
     assert list(tmp_path.iterdir()) == [] and recorder.finished == [] and recorder.failed == []
 
@@ -328,9 +329,11 @@ def test_a_disk_that_fills_mid_episode_loses_that_episode_only(
     monkeypatch.setattr(bag_recorder.BagRecorder, "joint_state", filling)
     recorder, player = recorder_and_player(ros_context, spin, tmp_path)
     player.event(EpisodeEvent.START, "full", 1_000_000_000)
-    wait_for(lambda: recorder.busy, what="the first episode's bag to open")
+    wait_for(
+        lambda: recorder.busy, what="the first episode's bag to open", changed=recorder.changed
+    )
     player.states(1_000_000_000, 30)
-    wait_for(lambda: recorder.failed, what="the failed write")
+    wait_for(lambda: recorder.failed, what="the failed write", changed=recorder.changed)
     ((episode, reason),) = recorder.failed
     assert episode == "full" and reason.startswith("its bag could not be written: ")
     assert "No space left on device" in reason and list(tmp_path.iterdir()) == []
@@ -350,10 +353,18 @@ def test_bags_without_an_outcome_are_closed_complete_and_named_as_such(ros_conte
     player.event(EpisodeEvent.START, "cut", 1_000_000_000)
     last = player.states(1_000_000_000, 30)
     player.event(EpisodeEvent.START, "silent", last + 10_000_000)
-    wait_for(lambda: recorder.finished, what="the first bag closed by the second START")
+    wait_for(
+        lambda: recorder.finished,
+        what="the first bag closed by the second START",
+        changed=recorder.changed,
+    )
     last = player.states(last + 10_000_000, 30)
     player.event(EpisodeEvent.END, "silent", last)
-    wait_for(lambda: len(recorder.finished) == 2, what="the second bag closed by the timeout")
+    wait_for(
+        lambda: len(recorder.finished) == 2,
+        what="the second bag closed by the timeout",
+        changed=recorder.changed,
+    )
     assert recorder.finished == [tmp_path / "cut.mcap", tmp_path / "silent.mcap"]
     assert recorder.failed == [] and not recorder.busy
     for path in recorder.finished:
@@ -365,27 +376,50 @@ def test_bags_without_an_outcome_are_closed_complete_and_named_as_such(ros_conte
     assert str(refused.value).count("(no recorded outcome)") == 2
 
 
+def test_a_recorder_shut_down_mid_episode_leaves_that_bag_unfinished(ros_context, spin, tmp_path):
+    """A recorder node destroyed (as on SIGINT) while an episode is open keeps its finished bags
+    and leaves the open one as ".part" only, readable up to its last sample, and names it."""
+    recorder, player = recorder_and_player(ros_context, spin, tmp_path)
+    record_successful_episode(recorder, player, "done", 1_000_000_000)
+    player.event(EpisodeEvent.START, "cut", 3_000_000_000)
+    wait_for(lambda: recorder.busy, what="the second bag to open", changed=recorder.changed)
+    last = player.states(3_000_000_000, 30)
+    wait_for(
+        lambda: _samples_in(tmp_path / "cut.mcap.part") >= 2,
+        what="samples of the open episode",
+        changed=recorder.changed,
+    )
+    recorder.destroy_node()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["cut.mcap.part", "done.mcap"]
+    assert bags.bag_info(tmp_path / "done.mcap").complete
+    with pytest.raises(ValueError, match="an unfinished recording"):
+        bags.bag_info(tmp_path / "cut.mcap.part")
+    assert _samples_in(tmp_path / "cut.mcap.part") >= 2
+    [(episode, reason)] = recorder.failed
+    assert episode == "cut" and "left unfinished as" in reason and last > 0
+
+
 def test_recorder_killed_mid_demonstration_keeps_finished_bags(tmp_path):
-    env = dict(os.environ)
+    changes = FolderChanges(tmp_path)
     process = subprocess.Popen(
         [sys.executable, "-m", "tric_learning.record_cli", "sphere_train", "--out", str(tmp_path)],
-        env=env,
         stdout=subprocess.DEVNULL,
         stderr=subprocess.DEVNULL,
     )
+
+    def finished_and_partial():
+        finished = sorted(tmp_path.glob("*.mcap"))
+        partial = sorted(tmp_path.glob("*.mcap.part"))
+        return finished and partial and _samples_in(partial[0]) >= 5 and finished
+
     try:
-        deadline = time.monotonic() + 120
-        while time.monotonic() < deadline:
-            finished = sorted(tmp_path.glob("*.mcap"))
-            partial = sorted(tmp_path.glob("*.mcap.part"))
-            if finished and partial and _samples_in(partial[0]) >= 5:
-                break
-            time.sleep(0.05)
-        else:
-            pytest.fail("the recorder never had a finished bag and a bag in progress at once")
+        finished = changes.wait_for(
+            finished_and_partial, process, what="a finished bag and a bag in progress at once"
+        )
     finally:
         process.send_signal(signal.SIGKILL)
         process.wait()
+        changes.close()
     dataset = load_dataset(finished, RobotModel())
     assert all(demo.length == 40 for demo in dataset.demos)
     interrupted = sorted(tmp_path.glob("*.mcap.part"))[0]

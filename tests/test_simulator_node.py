@@ -10,7 +10,7 @@ from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, QoSProfile
 from sensor_msgs.msg import JointState
 
-from conftest import call, run_periods, wait_for
+from conftest import call, publisher_matches, run_periods, wait_for
 from tric_msgs.msg import ObjectPoses, Perturbation
 from tric_msgs.msg import Situation as SituationMsg
 from tric_msgs.srv import EvaluateTask, Perturb, RenderScene, ResetScene
@@ -62,7 +62,7 @@ def test_lockstep_commander_drives_the_arm_to_a_target(ros_context, spin):
     # one state per 10 ms of simulated time, none skipped
     assert np.all(np.diff(stamps) == 10_000_000)
     final = np.array(commander.states[-1].position)
-    assert np.abs(final - target).max() < 0.01  # design.md 6's joint tolerance, 0.01 rad
+    assert np.abs(final - target).max() < 0.01  # docs/design.md 6's joint tolerance, 0.01 rad
     assert commander.poses and commander.poses[-1].names[0] == "object"
 
 
@@ -82,7 +82,7 @@ def test_bad_commands_are_refused_and_the_joints_hold(ros_context, spin):
         commander.publisher.publish(command)  # zero stamp: applies to whatever period is current
     wait_for(lambda: len(commander.states) > 40, what="more periods")
     assert np.allclose(simulator.world.targets, HOME)
-    # design.md 6's 0.01 rad
+    # docs/design.md 6's 0.01 rad
     assert np.abs(np.array(commander.states[-1].position) - HOME).max() < 0.01
     # a partial command moves only the joints it names
     commander.publisher.publish(JointState(name=["arm_1_joint"], position=[0.3]))
@@ -96,12 +96,11 @@ def test_lockstep_commands_of_another_stamp_are_dropped(ros_context, spin):
     # steps only when answered: a timeout step would need a minute
     simulator = make_simulator(ros_context, timeout=IN_PROCESS_LOCKSTEP_TIMEOUT_S)
     commander = Commander(ros_context)
+    states_matched = publisher_matches(simulator, simulator.state_pub)
+    commands_matched = publisher_matches(commander, commander.publisher)
     spin(simulator, commander)
     wait_for(
-        lambda: (
-            simulator.state_pub.get_subscription_count()
-            and commander.publisher.get_subscription_count()
-        ),
+        lambda: states_matched() and commands_matched(),
         what="the commander and the simulator matched",
     )
 

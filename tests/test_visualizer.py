@@ -1,18 +1,17 @@
 """The live views: a real WebSocket client on `tric-eval --viz` while a short lockstep episode runs,
 the visualizer node's ROS topics against the situation's geometry, and `ros2 run tric_sim
-visualizer` alone (a clean exit on SIGINT, a one-line refusal of a bad port)."""
+visualizer` alone (a one-line refusal of a bad port; its end on SIGINT and SIGTERM is
+tested with every node's in test_interrupts)."""
 
 import asyncio
 import base64
 import json
 import math
 import pathlib
-import signal
 import socket
 import struct
 import subprocess
 import threading
-import time
 
 import numpy as np
 import pytest
@@ -23,7 +22,7 @@ from rclpy.qos import DurabilityPolicy, QoSProfile
 from std_msgs.msg import String
 from visualization_msgs.msg import Marker, MarkerArray
 
-from conftest import call, wait_for
+from conftest import HANG_S, call, wait_for
 from tric_control import evaluate_cli
 from tric_control.top_features import TOP_FEATURES
 from tric_learning import bags, model_file
@@ -31,6 +30,7 @@ from tric_learning.recording import record_offline
 from tric_learning.training import TrainingConfig, train
 from tric_msgs.srv import ResetScene
 from tric_sim import messages, scene, scene_view, situations
+from tric_sim.foxglove_view import FoxgloveView
 from tric_sim.robot_model import RobotModel
 from tric_sim.simulator_node import SimulatorNode
 from tric_sim.situation_files import save_situations
@@ -131,30 +131,25 @@ def free_port() -> int:
         return probe.getsockname()[1]
 
 
-async def watch(port: int, done: threading.Event) -> dict:
-    """Connect (retrying until the server is up), subscribe to every channel and collect everything
-    until done is set: {"info": serverInfo, "channels": {topic: advertisement}, "messages": {topic:
-    [(log time, payload)]}, "times": [ns]}."""
-    deadline = time.monotonic() + 120
-    while True:
-        try:
-            connection = await websockets.connect(
-                f"ws://127.0.0.1:{port}", subprotocols=[SUBPROTOCOL], max_size=None
-            )
-            break
-        except OSError:
-            if time.monotonic() > deadline:
-                raise
-            await asyncio.sleep(0.1)
+async def watch(port: int, serving: threading.Event, views: list) -> dict:
+    """Once serving is set (the tool's Foxglove server listens, or the tool ended: views empty),
+    connect, subscribe to every channel and collect everything until the tool stops its server:
+    {"info": serverInfo, "channels": {topic: advertisement}, "messages": {topic: [(log time,
+    payload)]}, "times": [ns]}."""
     seen = {"info": None, "channels": {}, "messages": {}, "times": []}
+    started = await asyncio.get_running_loop().run_in_executor(None, serving.wait, HANG_S)
+    assert started, "the tool neither started its server nor ended"
+    if not views:
+        return seen
+    connection = await websockets.connect(
+        f"ws://127.0.0.1:{port}", subprotocols=[SUBPROTOCOL], max_size=None
+    )
     by_subscription = {}
     async with connection:
         assert connection.subprotocol == SUBPROTOCOL
-        while not done.is_set():
+        while True:
             try:
-                frame = await asyncio.wait_for(connection.recv(), 0.2)
-            except asyncio.TimeoutError:
-                continue
+                frame = await asyncio.wait_for(connection.recv(), HANG_S)
             except websockets.ConnectionClosed:  # the tool is done and has stopped its server
                 break
             if isinstance(frame, str):
@@ -182,7 +177,7 @@ async def watch(port: int, done: threading.Event) -> dict:
     return seen
 
 
-def test_tric_eval_viz_serves_the_episode_live(model_path, tmp_path):
+def test_tric_eval_viz_serves_the_episode_live(model_path, tmp_path, monkeypatch):
     """`tric-eval --viz --record DIR` on one sphere: a Foxglove client gets the server's info and
     the channels, then the scene of the situation, the frames as the robot moves, the value f, the
     step and the top features of every few ticks; the recorded bag has the status of every tick."""
@@ -190,8 +185,15 @@ def test_tric_eval_viz_serves_the_episode_live(model_path, tmp_path):
     situations_file = tmp_path / "one.yaml"
     save_situations(situations_file, [situation])
     port = free_port()
-    done = threading.Event()
-    exit_codes = []
+    serving, views, exit_codes = threading.Event(), [], []
+    listen = FoxgloveView.__init__
+
+    def listen_and_tell(view, *args, **kwargs):
+        listen(view, *args, **kwargs)
+        views.append(view)
+        serving.set()
+
+    monkeypatch.setattr(FoxgloveView, "__init__", listen_and_tell)
 
     def run_tool():
         try:
@@ -213,14 +215,13 @@ def test_tric_eval_viz_serves_the_episode_live(model_path, tmp_path):
                 )
             )
         finally:
-            done.set()
+            serving.set()
 
     tool = threading.Thread(target=run_tool)
     tool.start()
     try:
-        seen = asyncio.run(watch(port, done))
+        seen = asyncio.run(watch(port, serving, views))
     finally:
-        done.set()
         tool.join()
     assert exit_codes == [0]
 
@@ -366,30 +367,6 @@ def test_visualizer_publishes_the_description_and_the_scene_markers(ros_context,
 
 
 # --- ros2 run tric_sim visualizer ----------------------------------------------------------
-
-
-def test_visualizer_runs_alone_and_exits_cleanly_on_sigint():
-    process = subprocess.Popen(
-        [str(VISUALIZER), "--ros-args", "-p", "foxglove_port:=0"],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.STDOUT,
-        text=True,
-    )
-    lines = []
-    try:
-        for line in process.stdout:
-            lines.append(line)
-            if "Foxglove server on ws://127.0.0.1:" in line:  # the last line of its start
-                break
-        assert any("visualizing at 30 Hz" in line for line in lines), "".join(lines)
-        process.send_signal(signal.SIGINT)
-        output, _ = process.communicate(timeout=30)
-    finally:
-        if process.poll() is None:
-            process.kill()
-            process.wait()
-    assert process.returncode == 0, "".join(lines) + output
-    assert "Traceback" not in output
 
 
 def test_visualizer_refuses_a_bad_port_in_one_line():

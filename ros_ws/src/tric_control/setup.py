@@ -27,7 +27,7 @@ setup(
     license="Apache-2.0",
     entry_points={
         "console_scripts": [
-            "controller = tric_control.controller_node:main",
+            "controller = tric_control.nodes:controller",
             "tric-eval = tric_control.evaluate_cli:main",
             "tric-demo = tric_control.demo_cli:main",
             "tric-experiments = tric_control.experiments.cli:main",

@@ -20,9 +20,9 @@ setup(
     license="Apache-2.0",
     entry_points={
         "console_scripts": [
-            "recorder = tric_learning.recorder_node:main",
+            "recorder = tric_learning.nodes:recorder",
             "tric-record = tric_learning.record_cli:main",
-            "trainer = tric_learning.trainer_node:main",
+            "trainer = tric_learning.nodes:trainer",
             "tric-train = tric_learning.train_cli:main",
             "tric-analyze = tric_learning.analyze_cli:main",
         ]

@@ -25,10 +25,10 @@ setup(
     package_data={PACKAGE: ["description/*.urdf", "description/*.srdf"]},
     entry_points={
         "console_scripts": [
-            "simulator = tric_sim.simulator_node:main",
-            "teacher = tric_sim.teacher_node:main",
+            "simulator = tric_sim.nodes:simulator",
+            "teacher = tric_sim.nodes:teacher",
             "tric-snapshot = tric_sim.snapshot:main",
-            "visualizer = tric_sim.visualizer_node:main",
+            "visualizer = tric_sim.nodes:visualizer",
         ]
     },
 )

@@ -117,3 +117,37 @@ def test_check_only_reads_a_folder_and_exits_by_the_targets(tmp_path, capsys):
     (tmp_path / "table1.json").write_text(json.dumps({"rows": rows}))
     assert cli.main(["--check-only", "--out", str(tmp_path)]) == 1
     assert "MISSED TRIC within 0.03" in capsys.readouterr().out
+
+
+def exp5_cells(ok_by_size, collisions=0, overshoot=0.0):
+    """{size: cell} of one exp5 family: ok_by_size {size text: successes of 10}."""
+    return {
+        size: {"ok": ok, "episodes": 10, "collisions": collisions, "max_overshoot": overshoot}
+        for size, ok in ok_by_size.items()
+    }
+
+
+def test_exp5_largest_holding_size_and_the_safety_checks():
+    from tric_control.experiments.exp5 import held_text, largest_holding
+
+    assert largest_holding(exp5_cells({"0": 10, "0.1": 9, "0.2": 7, "0.4": 9})) == 0.1
+    assert held_text(exp5_cells({"0": 10, "0.1": 9, "0.2": 7, "0.4": 9})) == "0.1"
+    assert held_text(exp5_cells({"0": 10, "0.1": 8, "0.2": 8})) == ">=0.2"
+    assert held_text(exp5_cells({"0": 10, "0.1": 7})) == "0"
+    assert held_text(exp5_cells({"0": 7, "0.1": 9})) == "none"
+    safe = {"push": exp5_cells({"0": 10, "0.2": 9}), "box push": exp5_cells({"0": 9, "0.2": 9})}
+    box_collision = {
+        "push": exp5_cells({"0": 10, "0.2": 9}),
+        "box push": {"0": safe["box push"]["0"], **exp5_cells({"0.2": 9}, collisions=2)},
+    }
+    past_limit = {
+        "push": {"0": safe["push"]["0"], **exp5_cells({"0.2": 9}, overshoot=0.02, collisions=1)},
+        "box push": safe["box push"],
+    }
+    rows = {"TRIC": {"seeds": {"0": safe, "1": box_collision, "2": past_limit}}}
+    checks = by_target(check_results({"exp5": {"rows": rows}}))
+    limits = checks[("exp5", "TRIC: perturbed, no joint > 0.01 rad past its limit")]
+    assert limits.measured == ["0.0000", "0.0000", "0.0200"] and not limits.met
+    table = checks[("exp5", "TRIC: perturbed grasps, no collision with the table")]
+    # the box pushes' collisions (the box body, or the table) are not this check's
+    assert table.measured == ["0", "0", "1"] and not table.met

@@ -19,8 +19,8 @@
 --viz serves a live Foxglove view of the whole run (tric_sim.visualizer_node) on ws://127.0.0.1:P
 (default 8765); the evaluations then run on one graph (--jobs 1), the one it shows.
 
-The targets (design.md): TRIC's mean grasp cost within 0.03 of the teacher's and every TRIC grasp
-below 0.25. They are printed as met or not; --check makes the exit code 1 when one is not met.
+The targets (docs/design.md): TRIC's mean grasp cost within 0.03 of the teacher's and every TRIC
+grasp below 0.25. They are printed as met or not; --check makes the exit code 1 when one is not met.
 """
 
 import argparse

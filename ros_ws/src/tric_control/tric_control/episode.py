@@ -20,6 +20,7 @@ margin, tick times). Units: rad, m, s; stamps in ns.
 import math
 import time
 from dataclasses import dataclass, field
+from typing import cast
 
 import numpy as np
 
@@ -65,11 +66,11 @@ class Step:
     None."""
 
     command: np.ndarray
-    tick: Tick = None
+    tick: Tick | None = None
     held: str = ""
     step_norm: float = 0.0
     tick_ms: float = 0.0
-    outcome: tuple = None
+    outcome: tuple | None = None
 
 
 class EpisodeRunner:
@@ -108,7 +109,8 @@ class EpisodeRunner:
         self.on_violation = on_violation or (lambda _: None)
         self.max_step = robot.velocity_limits * period
         self.stats = EpisodeStats()
-        self.previous = None  # the last command sent (n,), None before the first state
+        # the last command sent (n,), None before the first state
+        self.previous: np.ndarray | None = None
 
     @property
     def started(self) -> bool:
@@ -118,7 +120,9 @@ class EpisodeRunner:
         """The required objects that object_poses lacks."""
         return [name for name in self.required_objects if name not in object_poses]
 
-    def step(self, q, object_poses: dict, stamp_ns: int = None, now_ns: int = None) -> Step:
+    def step(
+        self, q, object_poses: dict, stamp_ns: int | None = None, now_ns: int | None = None
+    ) -> Step:
         """The command for the measured state q (n,) stamped stamp_ns, at time now_ns (both None:
         never stale). Raises ValueError for a q of the wrong size or with NaN/inf, RuntimeError when
         the controller fails on this input."""
@@ -191,7 +195,7 @@ class EpisodeRunner:
         command; a non-finite or mis-sized target holds the previous command. Violations are counted
         and reported (on_violation) if count."""
         target = np.asarray(target, dtype=float)
-        previous = self.previous
+        previous = cast(np.ndarray, self.previous)  # step and hold set it first
         if target.shape != previous.shape or not np.all(np.isfinite(target)):
             self._violation("a non-finite or mis-sized target; holding the previous command")
             return previous.copy()

@@ -12,6 +12,7 @@ import json
 import math
 import pathlib
 from dataclasses import asdict, dataclass, fields
+from typing import Any
 
 import numpy as np
 
@@ -222,9 +223,10 @@ def record_from_json(data: dict) -> EpisodeRecord:
     names = {f.name: f for f in fields(EpisodeRecord)}
     if not isinstance(data, dict) or set(data) - set(names):
         raise ValueError(f"not an episode record: {str(data)[:200]}")
-    return EpisodeRecord(
-        **{k: math.nan if v is None and names[k].type is float else v for k, v in data.items()}
-    )
+    values: dict[str, Any] = {
+        k: math.nan if v is None and names[k].type is float else v for k, v in data.items()
+    }
+    return EpisodeRecord(**values)
 
 
 def write_json(path, data: dict) -> pathlib.Path:
@@ -242,7 +244,7 @@ class PartialRecords:
         self.path = pathlib.Path(f"{result_path}.partial")
         self.agent = agent
         self.names = [situation.name for situation in situations]
-        self.records = {}
+        self.records: dict[str, EpisodeRecord] = {}
 
     def resume(self) -> dict:
         """{situation name: EpisodeRecord} of the file, kept as this run's; {} without a file;

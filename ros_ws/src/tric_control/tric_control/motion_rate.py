@@ -28,6 +28,7 @@ Units: rad, m, s.
 
 import math
 from dataclasses import dataclass, field
+from typing import cast
 
 import daqp
 import numpy as np
@@ -49,7 +50,8 @@ from tric_sim.proximity import Proximity
 from tric_sim.robot_model import RobotModel
 
 try:
-    from tric_control import _value_kernel
+    # (a compiled extension module: the type checker does not see it)
+    from tric_control import _value_kernel  # type: ignore[attr-defined]
 except ImportError as error:  # not built: the numpy objective
     _value_kernel, _KERNEL_ERROR = None, error
 #: Whether the compiled objective (tric_control._value_kernel) is built.
@@ -158,9 +160,9 @@ class StepQP:
         self.initialized = False
         self._upper = np.full(rows, -UNBOUNDED_BELOW)
         #: Which solver gave the last step: "daqp", "proxsuite" or None (none found one).
-        self.solved_by = None
+        self.solved_by: str | None = None
 
-    def solve(self, hessian, linear, rows, lower, box_low, box_high) -> np.ndarray:
+    def solve(self, hessian, linear, rows, lower, box_low, box_high) -> np.ndarray | None:
         # the cost divided by its largest coefficient (same minimizer): the solver's absolute
         # tolerance then means the same for an objective of any scale
         scale = max(
@@ -225,8 +227,8 @@ class MotionRateController:
         objective,
         period: float = 0.01,
         *,
-        contacts: dict = None,
-        limits: list = None,
+        contacts: dict | None = None,
+        limits: list | None = None,
         max_lead=None,
         domain_damper: bool = True,
     ):
@@ -255,9 +257,9 @@ class MotionRateController:
             slices.append(slice(start, start + limit.rows))
             start += limit.rows
         self.qp = StepQP(n, start)
-        self.reference = None
-        self.values = []
-        self.history = []
+        self.reference: np.ndarray | None = None
+        self.values: list[float] = []
+        self.history: list[np.ndarray] = []
         self._step_metric = 2.0 * np.eye(n)  # the |dq|^2 term's Hessian
         self._max_step = robot.velocity_limits * period
         self._state = StepState(max_step=self._max_step)
@@ -291,10 +293,8 @@ class MotionRateController:
         q = np.asarray(q, dtype=float)
         if self.reference is None:
             self.reset(q)
-        previous = self.reference
-        self.reference = q + np.maximum(
-            np.minimum(self.reference - q, self.max_lead), -self.max_lead
-        )
+        previous = cast(np.ndarray, self.reference)  # reset has set it
+        self.reference = q + np.maximum(np.minimum(previous - q, self.max_lead), -self.max_lead)
         model = self.objective(q, object_poses)
         state = self._state
         state.q, state.reference, state.objective = q, self.reference, model
@@ -311,8 +311,8 @@ class MotionRateController:
             limit.bound(state, low, high)
         state.low, state.high = low, high
         rows, lower = self._rows, self._lower
-        for limit, rows_of, lower_of in self._constraining:
-            limit.constrain(state, rows_of, lower_of)
+        for limit, rows_view, lower_view in self._constraining:
+            limit.constrain(state, rows_view, lower_view)
         step = self.qp.solve(hessian, linear, rows, lower, low, high)
         if step is None:  # the solver found no step: hold still this tick
             step = np.zeros(robot.n_joints)
@@ -360,7 +360,7 @@ class Objective:
     linear: np.ndarray
     value: float
     gradient_norm: float
-    gradient: np.ndarray = None
+    gradient: np.ndarray | None = None
     domain_rows: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
     domain_margins: np.ndarray = field(default_factory=lambda: np.zeros(0))
     domain_names: list = field(default_factory=list)
@@ -390,7 +390,7 @@ class ValueObjective:
         delta: float,
         rho: float,
         feature_names=None,
-        compiled: bool = None,
+        compiled: bool | None = None,
     ):
         if not (delta > 0 and rho > 0):
             raise ValueError("delta and rho must be positive")
@@ -412,10 +412,11 @@ class ValueObjective:
             scaling.kept[moving],
             self._factor[moving],
         )
-        self.scaled_features = self.value_gradient = None
+        self.scaled_features: np.ndarray | None = None
+        self.value_gradient: np.ndarray | None = None
         self._kernel = self._compiled_kernel(compiled)
 
-    def _compiled_kernel(self, compiled: bool):
+    def _compiled_kernel(self, compiled: bool | None):
         """The compiled kernel for this objective, or None (see the class docstring)."""
         if compiled is False:
             return None

@@ -16,6 +16,7 @@ the controller can run has its constructor here; the controller node refuses the
 """
 
 import math
+from typing import Any
 
 import numpy as np
 
@@ -51,7 +52,7 @@ def _tric_objective(model_file: ModelFile, robot: RobotModel) -> ValueObjective:
     rho."""
     numbers = {}
     for name in ("delta", "rho"):
-        value = model_file.info.get(name)
+        value: Any = model_file.info.get(name)  # anything the file holds
         try:
             value = float(value)
         except (TypeError, ValueError):
@@ -75,7 +76,7 @@ def _dpl_objective(model_file: ModelFile, robot: RobotModel, period: float) -> "
     if not (math.isfinite(period) and period > 0):
         raise ValueError(f"the control period must be finite and positive, got {period!r}")
     try:
-        sample_period = model_file.info.get("sample_period_s")
+        sample_period: Any = model_file.info.get("sample_period_s")  # anything the file holds
         try:
             sample_period = float(sample_period)
         except (TypeError, ValueError):

@@ -6,6 +6,8 @@ tric-analyze's Fig. 16; values are the scaled features u in [0, 1] over the trai
 gradients are df/du, both from the objective's latest evaluation (no extra computation per tick).
 """
 
+from typing import cast
+
 import numpy as np
 
 from tric_control.motion_rate import ValueObjective
@@ -35,5 +37,6 @@ class TopFeatures:
         return (
             list(self.names),
             self.objective.scaled_features[self.indices].tolist(),
-            self.objective.value_gradient[self.indices].tolist(),
+            # set with scaled_features
+            cast(np.ndarray, self.objective.value_gradient)[self.indices].tolist(),
         )

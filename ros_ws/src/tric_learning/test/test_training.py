@@ -210,13 +210,13 @@ def test_trained_value_function_falls_along_every_demonstration(grid_dataset, gr
 
 @pytest.mark.xfail(
     strict=True,
-    reason="goal (design.md section 5): mean cosine <= -0.8 over every step that moves at all "
+    reason="goal (docs/design.md section 5): mean cosine <= -0.8 over every step that moves at all "
     "(> 1e-3 rad, no filter from the training); measured -0.70 on the 7 grid demonstrations with "
     "TrainingConfig()'s defaults (its cosine weighted by |dq|: -0.87); the slow steps' directions "
     "are not followed (docs/decisions/paper-fidelity.md)",
 )
 def test_trained_value_function_follows_the_demonstrations(grid_dataset, grid_training):
-    """The design's goal (design.md section 5, Fig. 12-17), measured over every step with no
+    """The design's goal (docs/design.md section 5, Fig. 12-17), measured over every step with no
     filter from the training."""
     measures = gradient_measures(grid_training.model, grid_dataset)
     print(f"{measures}; {grid_training.train_time_s:.1f} s")
@@ -225,7 +225,7 @@ def test_trained_value_function_follows_the_demonstrations(grid_dataset, grid_tr
 
 @pytest.mark.xfail(
     strict=False,
-    reason="goal (design.md section 5): f falls on >= 95% of the moving steps; measured 93.5% "
+    reason="goal (docs/design.md section 5): f falls on >= 95% of the moving steps; measured 93.5% "
     "on the 7 grid demonstrations with TrainingConfig()'s defaults (95.5% of the steps of at "
     "least 0.01 rad); not strict: a few steps from the target, another CPU's model may reach it",
 )

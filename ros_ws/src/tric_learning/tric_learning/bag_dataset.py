@@ -4,6 +4,7 @@ recorded outcome, before it joins the dataset (load_dataset)."""
 
 import logging
 import pathlib
+from typing import cast
 
 import numpy as np
 
@@ -61,7 +62,7 @@ def bag_paths(paths, tolerant: bool = False, notice=None) -> list:
 
 def load_dataset(
     paths,
-    robot: RobotModel = None,
+    robot: RobotModel | None = None,
     progress=None,
     *,
     include_failed: bool = False,
@@ -78,6 +79,7 @@ def load_dataset(
     FeatureMap on its own q and object poses (check_features)."""
     notice = notice or _log.warning
     files = bag_paths(paths, tolerant, notice)
+    origin: dict[str, pathlib.Path]
     definition, demos, failed, origin, feature_map = None, [], [], {}, None
     for k, path in enumerate(files):
         demo, bag_definition = _load_demo(path, tolerant, notice)
@@ -121,7 +123,8 @@ def load_dataset(
     for entry in failed:
         notice(f"included {entry}, as include_failed asks")
     try:
-        return Dataset(definition, demos).check()
+        # bag_paths gives at least one bag, whose definition this is
+        return Dataset(cast(FeatureDefinition, definition), demos).check()
     except ValueError as error:
         raise ValueError(f"the bags do not make a dataset: {error}") from None
 

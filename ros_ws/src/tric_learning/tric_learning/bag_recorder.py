@@ -46,8 +46,8 @@ class BagRecorder:
         self.definition = FeatureDefinition.for_task(situation.task, robot)
         self.sampler = EpisodeSampler(FeatureMap(self.definition, robot), period)
         self.robot = robot
-        self.poses = {}
-        self.end_ns = None
+        self.poses: dict = {}
+        self.end_ns: int | None = None
         self.latest_state_ns = -1
         self.pending = None
         self.writer = bags.BagWriter(
@@ -145,3 +145,7 @@ class BagRecorder:
 
     def abort(self) -> None:
         self.writer.discard()
+
+    def leave_unfinished(self) -> pathlib.Path:
+        """Stop recording and leave the bag as its ".part" (an interrupted episode); its path."""
+        return self.writer.abandon()

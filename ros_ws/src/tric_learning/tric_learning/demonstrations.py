@@ -3,7 +3,6 @@ and the recorder in one in-process graph, one MCAP bag per situation (tric-recor
 tric-experiments record with it)."""
 
 import pathlib
-import time
 
 from rclpy.action import ActionClient
 from rclpy.node import Node
@@ -70,14 +69,14 @@ def demonstrate_all(
             result = wait(
                 handle.get_result_async(), 600.0, f"the demonstration of '{situation.name}'"
             ).result
-            deadline = time.monotonic() + 30.0
-            while (
-                len(recorder.finished) == done_before
-                and len(recorder.failed) == failed_before
-                and result.success
-                and time.monotonic() < deadline
-            ):
-                time.sleep(0.01)
+            if result.success:  # the recorder closes the episode's bag, or names why not
+                with recorder.changed:
+                    recorder.changed.wait_for(
+                        lambda before=(done_before, failed_before): (
+                            len(recorder.finished) > before[0] or len(recorder.failed) > before[1]
+                        ),
+                        timeout=30.0,
+                    )
             path = recorder.finished[-1] if len(recorder.finished) > done_before else None
             if path is None and result.success:
                 result.success = False

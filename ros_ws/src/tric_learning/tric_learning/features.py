@@ -21,6 +21,7 @@ where Jv, Jw are the world-aligned linear and angular frame Jacobians.
 import hashlib
 import json
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import pinocchio as pin
@@ -102,8 +103,9 @@ class FeatureDefinition:
         }
 
     @classmethod
-    def from_dict(cls, data: dict) -> "FeatureDefinition":
-        """The definition from to_dict()'s data, or ValueError if it is malformed."""
+    def from_dict(cls, data: Any) -> "FeatureDefinition":
+        """The definition from to_dict()'s data, or ValueError if it is malformed (data: anything
+        read from a file)."""
         try:
             definition = cls(
                 str(data["task"]),
@@ -198,7 +200,8 @@ class FeatureMap:
         self._jacobian_index, self._extra_jacobian_indices, self.moves_with_q = (
             self._jacobian_indices(robot)
         )
-        self._object_rotations = {}  # object name -> (its xyzw quaternion, rotation matrix)
+        # object name -> (its xyzw quaternion, rotation matrix)
+        self._object_rotations: dict[str, tuple] = {}
 
     def _relative_supports(self, robot: RobotModel) -> np.ndarray:
         """relative_supports (P, E): the columns of data.J that move each landmark (none for

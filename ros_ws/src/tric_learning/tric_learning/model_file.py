@@ -71,7 +71,7 @@ class ModelFile:
         return path
 
     @classmethod
-    def load(cls, path, expected: FeatureDefinition = None) -> "ModelFile":
+    def load(cls, path, expected: FeatureDefinition | None = None) -> "ModelFile":
         """Read a model file; ValueError if unreadable, not a TRIC model, its arrays not those its
         digest was made of, or (when expected is given) trained on another feature definition. A
         file without a digest (older) is read with a warning logged."""

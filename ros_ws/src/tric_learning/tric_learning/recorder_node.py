@@ -52,7 +52,9 @@ BACKLOG = 20
 
 class RecorderNode(Node):
     """Records episodes to bags (see the module docstring). `finished` lists the bags written,
-    `failed` the (episode id, reason) of episodes that could not be recorded."""
+    `failed` the (episode id, reason) of episodes that could not be recorded; `changed`, a
+    threading.Condition, is notified whenever they or `busy` may have changed (wait on it to
+    follow the recorder from another thread)."""
 
     def __init__(self, **kwargs):
         super().__init__("recorder", **kwargs)
@@ -84,6 +86,7 @@ class RecorderNode(Node):
         self.finished = []
         self.failed = []
         self._lock = threading.Lock()
+        self.changed = threading.Condition(self._lock)
         self._recorder = None
         self._ended_at = None
         self._outcome = None
@@ -109,8 +112,11 @@ class RecorderNode(Node):
         self._thread.join()
         self._poller.destroy()
         with self._lock:
-            if self._recorder is not None:
-                self._close(None)
+            if self._recorder is not None:  # shut down mid-episode: the bag stays unfinished
+                path = self._recorder.leave_unfinished()
+                self._recorder = None
+                self._failed(self._episode_id, f"interrupted; left unfinished as {path}")
+            self.changed.notify_all()
         return super().destroy_node()
 
     @property
@@ -136,6 +142,7 @@ class RecorderNode(Node):
                     self._apply(batch)
                 except OSError as error:  # a full disk, a folder removed: this episode is lost
                     self._lose_episode(f"its bag could not be written: {error}")
+                self.changed.notify_all()
 
     def _apply(self, batch):
         """Apply a batch of (stamp, order, k, kind, msg) in order (holding the lock)."""
@@ -270,6 +277,7 @@ class RecorderNode(Node):
                         "closing its bag with the states it has"
                     )
                 self._close(self._outcome)
+                self.changed.notify_all()
 
 
 def _order(kind: str, msg) -> int:

@@ -42,8 +42,8 @@ class EpisodeSampler:
             raise ValueError("the sampling period must be positive")
         self.features = feature_map
         self.period_ns = int(round(period * 1e9))
-        self.samples = []
-        self._next_ns = None
+        self.samples: list[Sample] = []
+        self._next_ns: int | None = None
 
     def offer(self, stamp_ns: int, q: np.ndarray, object_poses: dict):
         """A Sample if this state is due, else None."""

@@ -18,6 +18,7 @@ import multiprocessing
 import signal
 import warnings
 from dataclasses import dataclass
+from typing import cast
 
 import numpy as np
 from scipy.special import ndtr, ndtri
@@ -111,13 +112,13 @@ def generate(
     if scene_step not in (0, -1):
         raise ValueError("the samples' scene step must be 0 or -1")
     offsets = step_offsets(dataset)
-    results = [None] * len(dataset.demos)
+    results: list = [None] * len(dataset.demos)  # (steps, y, weight) of each demo, once drawn
     job = (dataset, robot, count, sigma, seed, contact_tolerance, scene_step)
     if workers > 1 and len(dataset.demos) > 1 and "fork" in multiprocessing.get_all_start_methods():
         _sample_in_workers(job, workers, results, progress)
     for i in range(len(dataset.demos)):
         if results[i] is None:  # no workers, or a worker died before returning this demo
-            results[i] = _demo_samples(*job[:2], i, *job[2:])
+            results[i] = _demo_samples(dataset, robot, i, *job[2:])
             if progress is not None:
                 progress(sum(r is not None for r in results), len(dataset.demos))
     kept = np.zeros(offsets[-1], dtype=int)
@@ -131,7 +132,7 @@ def generate(
     )
 
 
-_JOB = None
+_JOB: tuple | None = None
 
 
 def worker_pool(workers: int) -> concurrent.futures.ProcessPoolExecutor:
@@ -181,7 +182,7 @@ def _sample_in_workers(job, workers: int, results: list, progress) -> None:
 
 
 def _forked_demo(index: int):
-    dataset, robot, *rest = _JOB
+    dataset, robot, *rest = cast(tuple, _JOB)  # set before the workers were forked
     return index, _demo_samples(dataset, robot, index, *rest)
 
 

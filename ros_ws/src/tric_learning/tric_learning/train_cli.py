@@ -23,6 +23,7 @@ written), 130 when interrupted.
 import argparse
 import functools
 import sys
+from collections.abc import Callable
 
 from tqdm import tqdm
 
@@ -46,7 +47,8 @@ class StageBars:
             "optimizing": (max_iterations * members, "it"),
         }
         self.enabled = enabled
-        self.stage, self.bar = None, None
+        self.stage: str | None = None
+        self.bar: tqdm | None = None
 
     def __call__(self, stage: str, fraction: float, losses):
         if stage != self.stage:
@@ -245,6 +247,7 @@ def main(argv=None) -> int:
 
 def run(argv) -> int:
     args = parse_arguments(argv)
+    config: DplConfig | TrainingConfig
     if args.kind in DPL_KINDS:
         dpl_defaults = DplConfig()
         config = DplConfig(
@@ -278,12 +281,13 @@ def run(argv) -> int:
         print(f"{PROG}: {error}", file=sys.stderr)
         return 2
     from tric_learning.bag_dataset import bag_paths
-    from tric_learning.bag_training import model_output_path
+    from tric_learning.bag_training import BagTraining, model_output_path
     from tric_learning.dpl import train_dpl_from_bags
     from tric_learning.training import train_from_bags
     from tric_sim.robot_model import RobotModel
 
-    job = (
+    # config is the DplConfig or the TrainingConfig that job takes
+    job: Callable[..., BagTraining] = (
         functools.partial(train_dpl_from_bags, kind=args.kind)
         if args.kind in DPL_KINDS
         else train_from_bags

@@ -81,7 +81,7 @@ def train(
     robot: RobotModel,
     config: TrainingConfig | None = None,
     progress=None,
-    extra_samples: samples.NoisySamples = None,
+    extra_samples: samples.NoisySamples | None = None,
 ) -> TrainingResult:
     """Train f on dataset. progress(stage, fraction, losses) is called during sampling and after
     each optimizer evaluation (losses: dict of the current terms, or None). extra_samples: more

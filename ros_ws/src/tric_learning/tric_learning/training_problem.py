@@ -51,6 +51,7 @@ class TrainingProblem:
         self.noisy_weight = torch.tensor(weight, dtype=dtype)
         # L_g: the steps with a direction, their (scaled) Jacobians du/dq and directions
         offsets = samples.step_offsets(dataset)
+        directions: list | np.ndarray  # a list, then an array (G, n)
         rows, jacobians, directions = [], [], []
         for i, demo in enumerate(dataset.demos):
             delta = np.diff(demo.q, axis=0)

@@ -41,7 +41,7 @@ class Scaling:
         varying = np.flatnonzero(high - low > MIN_RANGE)
         scaled = (y[:, varying] - low[varying]) / (high[varying] - low[varying])
         correlation = np.abs(np.corrcoef(scaled, rowvar=False))
-        kept = []
+        kept: list[int] = []
         for k in range(len(varying)):
             if all(correlation[k, j] <= correlation_threshold for j in kept):
                 kept.append(k)
@@ -66,7 +66,7 @@ class ValueFunction:
     w1: np.ndarray
     w2: np.ndarray
     w3: np.ndarray
-    b1: np.ndarray = None  # (K,); None: zeros, the paper's model
+    b1: np.ndarray | None = None  # (K,); None: zeros, the paper's model
 
     def __post_init__(self):
         if self.b1 is None:

@@ -93,7 +93,7 @@ def servo_run(world, robot):
 
 def test_servos_bring_the_joints_to_their_targets(world, robot):
     trajectory, _, target = servo_run(world, robot)
-    assert np.abs(trajectory[-1] - target).max() < 0.01  # design.md 6's joint tolerance, 0.01 rad
+    assert np.abs(trajectory[-1] - target).max() < 0.01  # docs/design.md 6: 0.01 rad
 
 
 @pytest.mark.xfail(

@@ -71,8 +71,8 @@ def test_grasp_teacher_grasps_and_lifts(world, robot, situation):
     phases = []
     demonstrate(world, robot, situation, 5.0, lambda w, t, k: phases.append(t.phase))
     result = metrics.evaluate(world, robot, run_lift_test=True)
-    # well below a good grasp's 0.25, so that a TRIC grasp within 0.03 of the teacher's (design.md
-    # 5) is a good grasp too
+    # well below a good grasp's 0.25, so that a TRIC grasp within 0.03 of the teacher's
+    # (docs/design.md 5) is a good grasp too
     assert result.grasp_cost < 0.15, result.cost_terms
     assert result.lift_passed and result.success and not result.collided
     assert phases.index("close") < phases.index("hold") < 500  # phased, and done within 5 s

@@ -73,7 +73,7 @@ class SceneCollision:
             self._sphere_radius[self._combo_first] + self._sphere_radius[self._combo_second]
         )
         self._pair_starts = np.flatnonzero(np.r_[True, np.diff(self._combo_pair) != 0])
-        self._functors = {}
+        self._functors: dict[tuple[int, int], coal.ComputeDistance] = {}
         self._request = coal.DistanceRequest()
         self._result = coal.DistanceResult()
 
@@ -98,7 +98,7 @@ class SceneCollision:
         placements = self.body_placements(object_poses)
         free = np.ones(len(qs), dtype=bool)
         # (configuration, robot geometry, body index or None, other robot geometry or None)
-        suspects = []
+        suspects: list[tuple] = []
         for b, (body, placement) in enumerate(zip(self.bodies, placements)):
             for geometry, (joint, local, shape) in enumerate(self.robot_geometries):
                 if not self._moving[geometry]:

@@ -16,6 +16,7 @@ Every message is logged at its simulated time, and the server announces that tim
 import json
 import pathlib
 import threading
+from typing import Any
 
 import foxglove
 import foxglove.layouts as fl
@@ -79,7 +80,7 @@ class FoxgloveView:
             raise ValueError(f"the Foxglove port must be in [0, 65535], got {port}")
         self._context = foxglove.Context()
         self._lock = threading.Lock()
-        self._scene = None
+        self._scene: SceneUpdate | None = None
         self._scene_time = 0
         self._scene_channel = SceneUpdateChannel(SCENE_TOPIC, context=self._context)
         self._tf_channel = FrameTransformsChannel(TF_TOPIC, context=self._context)
@@ -249,12 +250,13 @@ def _entity(primitive, stamp_ns: int) -> SceneEntity:
         size=Vector3(x=sx, y=sy, z=sz),
         color=Color(r=r, g=g, b=b, a=a),
     )
+    solids: dict[str, Any] = {field: [solid]}  # e.g. cubes=[CubePrimitive]
     return SceneEntity(
         timestamp=_timestamp(stamp_ns),
         frame_id=primitive.frame,
         id=primitive.id,
         frame_locked=True,
-        **{field: [solid]},
+        **solids,
     )
 
 

@@ -68,11 +68,11 @@ class GraspTeacher:
         self.kind = situation.object_kind
         self.servo = PoseServo(robot, period)
         self.phase = "reach"
-        self.reference = None
+        self.reference: np.ndarray | None = None
         self.knuckle = robot.joint_names.index("finger_2_knuckle_joint")
         self.fingers = [[robot.joint_names.index(j) for j in pair] for pair in FINGER_JOINTS]
         self.finger_state = ["closing"] * 3
-        self.grasp_pose = None
+        self.grasp_pose: pin.SE3 | None = None
 
     # --- poses ---------------------------------------------------------------------------------
 

@@ -12,6 +12,7 @@ until complete, so nothing else needs finishing. Called in-process (tests, scrip
 run_interruptible turns the signals into KeyboardInterrupt and the tool's own cleanup runs.
 """
 
+import importlib
 import multiprocessing
 import os
 import signal
@@ -40,16 +41,22 @@ def line(prog: str, signum: int, kept: str = "") -> str:
     return f"{prog}: {word}" + (f"; {kept}" if kept else "")
 
 
+def end_at_once(prog: str, signum: int, kept: str = "") -> None:
+    """End the process now as signum ends a command: its worker processes ended, the temporary
+    files of writes in progress removed, the line printed, exit status 128 + signum."""
+    for child in multiprocessing.active_children():
+        child.terminate()
+    remove_temporaries()
+    sys.stdout.flush()
+    print(line(prog, signum, kept), file=sys.stderr, flush=True)
+    os._exit(exit_status(signum))
+
+
 def end_commands_on_signals(prog: str, kept: str = "") -> None:
     """As a command: SIGINT and SIGTERM end the process at once (see the module docstring)."""
 
     def end(signum, frame):
-        for child in multiprocessing.active_children():
-            child.terminate()
-        remove_temporaries()
-        sys.stdout.flush()
-        print(line(prog, signum, kept), file=sys.stderr, flush=True)
-        os._exit(exit_status(signum))
+        end_at_once(prog, signum, kept)
 
     signal.signal(signal.SIGINT, end)
     signal.signal(signal.SIGTERM, end)
@@ -74,3 +81,12 @@ def run_interruptible(prog: str, body, argv, kept: str = "") -> int:
         return exit_status(signum)
     finally:
         signal.signal(signal.SIGTERM, previous)
+
+
+def node_main(prog: str, module: str) -> int:
+    """A node's entry point (`ros2 run PKG NODE`): SIGINT and SIGTERM end it as they end a command
+    from its first instant, its module's imports included (torch and rclpy take seconds, and
+    rclpy's handlers are not installed yet); then module's main() runs the node, which installs
+    its own (tric_sim.ros_util.run_node)."""
+    end_commands_on_signals(prog)
+    return importlib.import_module(module).main()

@@ -17,11 +17,12 @@ import os
 import pathlib
 import shutil
 import uuid
+from typing import cast
 
 #: The longest file name when the file system does not say (bytes; Linux's NAME_MAX).
 DEFAULT_NAME_MAX = 255
 #: The temporary files of the writes in progress in this process (atomic_path).
-_temporaries = set()
+_temporaries: set[pathlib.Path] = set()
 
 
 class WriteFailed(OSError):
@@ -29,7 +30,8 @@ class WriteFailed(OSError):
     the path and the cause, for a tool to print as its answer."""
 
     def __str__(self) -> str:
-        return self.strerror
+        # always set: atomic_path raises it as WriteFailed(errno, text)
+        return cast(str, self.strerror)
 
 
 def _probe_folder(folder: pathlib.Path, what: str) -> None:

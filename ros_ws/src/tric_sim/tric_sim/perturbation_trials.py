@@ -14,6 +14,7 @@ the trials of one situation grow along one direction.
 
 import dataclasses
 import zlib
+from typing import Any
 
 import numpy as np
 
@@ -42,7 +43,7 @@ class Trial:
 
     kind: str
     size: float
-    at_s: float = None
+    at_s: float | None = None
 
     @property
     def label(self) -> str:
@@ -58,7 +59,7 @@ class Trial:
         rng = np.random.default_rng(
             [zlib.crc32(situation.name.encode()), situation.seed, KINDS.index(self.kind)]
         )
-        changed = {"name": name}
+        changed: dict[str, Any] = {"name": name}
         if self.kind in ("push", "start"):
             direction = np.zeros(robot.n_joints)
             arm = rng.standard_normal(len(robot.arm_indices))

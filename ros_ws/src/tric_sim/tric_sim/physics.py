@@ -10,6 +10,7 @@ on a hinge with friction (tric_sim.bullet_scene builds them). Units: m, rad, s, 
 """
 
 import dataclasses
+from typing import cast
 
 import numpy as np
 
@@ -117,9 +118,9 @@ class PhysicsWorld:
         self._stop_high = np.array([info[9] for info in infos])
         self._stop_names = [info[1].decode() for info in infos]
         self.periods = 0
-        self.situation = None
-        self.bodies = {}
-        self.body_roles = {}
+        self.situation: Situation | None = None
+        self.bodies: dict[str, int] = {}
+        self.body_roles: dict[str, str] = {}
         self.fixture = None
         self.fixture_position = np.zeros(3)
         self.reset_period = 0
@@ -374,8 +375,10 @@ class PhysicsWorld:
                     uid, 0, computeForwardKinematics=True, physicsClientId=self.client
                 )
                 poses["lid"] = (tuple(link[4]), tuple(link[5]))
+                # a box body exists only once reset has set the situation
+                situation = cast(Situation, self.situation)
                 edge = scene.se3(link[4], link[5]) * scene.lid_edge_offset(
-                    self.situation.object_dimensions[0]
+                    situation.object_dimensions[0]
                 )
                 poses["lid_edge"] = scene.pose_tuple(edge)
         return poses

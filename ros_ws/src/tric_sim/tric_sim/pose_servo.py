@@ -81,6 +81,9 @@ class PoseServo:
         desired *= min(1.0, float(np.min(max_step / np.maximum(np.abs(desired), 1e-12))))
         hessian = np.eye(len(arm))
         gradient = -desired
+        # the constraints' rows and lower bounds: lists, then arrays
+        rows: list | np.ndarray
+        lower: list | np.ndarray
         rows, lower = [], []
         for fid in self.clearance_frames:
             z = robot.data.oMf[fid].translation[2]

@@ -217,6 +217,10 @@ class Proximity:
         pin.updateGeometryPlacements(model, data, self.geometry_model, self.geometry_data)
         # (a NaN bound, after a non-finite q, sends its pair to coal)
         candidates = self._order[~(bounds.take(self._order) >= influence + BOUND_SLACK)].tolist()
+        # the pairs within influence, their distances and witness points: lists, then arrays
+        close: list | np.ndarray
+        distances: list | np.ndarray
+        points: list | np.ndarray
         close, distances, points, normals, checked = [], [], [], [], []
         geometry_model, geometry_data, compute = (
             self.geometry_model,
@@ -257,7 +261,7 @@ class Proximity:
         )
 
     def _rows(
-        self, pairs: list, distances: np.ndarray, points: np.ndarray, aways: np.ndarray
+        self, pairs: np.ndarray, distances: np.ndarray, points: np.ndarray, aways: np.ndarray
     ) -> np.ndarray:
         """The rows (k, n) that map a joint step to the change of the pairs' distances (k,): the
         unit directions aways (k, 3) in which the first sides move away from the second, on the

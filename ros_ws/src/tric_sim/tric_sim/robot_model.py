@@ -10,6 +10,7 @@ import hashlib
 import pathlib
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass
+from typing import cast
 
 import numpy as np
 import pinocchio as pin
@@ -74,7 +75,7 @@ def _parse_axes(urdf_path: pathlib.Path) -> dict:
         if joint.get("type") == "revolute":
             tag = joint.find("axis")
             axis = (
-                np.array([float(v) for v in tag.get("xyz").split()])
+                np.array([float(v) for v in cast(str, tag.get("xyz")).split()])
                 if tag is not None
                 else np.array([1.0, 0, 0])
             )
@@ -88,10 +89,11 @@ def _parse_mimics(urdf_path: pathlib.Path) -> tuple:
     for joint in root.iter("joint"):
         tag = joint.find("mimic")
         if tag is not None:
+            # a URDF joint has a name, and its mimic tag names the joint it follows
             mimics.append(
                 MimicJoint(
-                    joint.get("name"),
-                    tag.get("joint"),
+                    cast(str, joint.get("name")),
+                    cast(str, tag.get("joint")),
                     float(tag.get("multiplier", 1.0)),
                     float(tag.get("offset", 0.0)),
                 )
@@ -371,7 +373,7 @@ def write_srdf(samples: int = 20000, seed: int = 0, path: pathlib.Path = SRDF_PA
             robot.model, robot.data, geometry, data, rng.uniform(robot.lower, robot.upper)
         )
         closest = np.minimum(closest, [result.min_distance for result in data.distanceResults])
-    links = {}
+    links: dict[tuple[str, str], float] = {}
     for pair, distance in zip(geometry.collisionPairs, closest):
         a = robot.model.frames[geometry.geometryObjects[pair.first].parentFrame].name
         b = robot.model.frames[geometry.geometryObjects[pair.second].parentFrame].name

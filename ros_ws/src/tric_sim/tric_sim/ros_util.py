@@ -3,6 +3,7 @@ exception a canceled goal raises, run_node (the body of every node executable's 
 in-process graph the tools run their nodes in, on a private DDS domain."""
 
 import os
+import signal
 import sys
 import threading
 import time
@@ -12,6 +13,8 @@ from rclpy.context import Context
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.signals import SignalHandlerOptions
+
+from tric_sim.interrupts import end_at_once, end_commands_on_signals
 
 #: The periodic state topics (/joint_states, /object_poses, /clock, /joint_command, ~/status):
 #: reliable, shallow.
@@ -26,38 +29,79 @@ class Canceled(Exception):
     """The goal was canceled while a node drove the robot (an episode, a demonstration)."""
 
 
+#: Wall seconds a node has, after SIGINT or SIGTERM, to leave the ROS graph in order (its executor
+#: stopped, the node destroyed, the context shut down) before its process ends at once: the node
+#: ends within 2 s either way.
+NODE_CLEANUP_S = 1.5
+
+
 def run_node(node_class, prog: str, args=None) -> int:
-    """Run node_class() under rclpy as `ros2 run` runs it; prog names the executable in the error
-    message. Spins the node until Ctrl-C (also one while it is being built) or an external
-    shutdown, then destroys it. A node that refuses its parameters (ValueError) ends the process
-    with its message on one line and exit status 2; otherwise the status is 0. The executor is
-    made before the node, whose constructor announces it is ready: a Ctrl-C right after that line
-    finds the executor whole (one interrupted in its own constructor leaves rclpy printing a
-    traceback when it is collected)."""
-    rclpy.init(args=args)
+    """Run node_class() under rclpy as `ros2 run` runs it; prog names the executable in its lines.
+    A node that refuses its parameters (ValueError) ends the process with its message on one line
+    and exit status 2; an external shutdown of the context ends it with status 0.
+
+    SIGINT or SIGTERM ends the process (run_node does not return) with one line and exit status
+    130 or 143, as a tool ends (tric_sim.interrupts.end_at_once): while the node is being built, at
+    once; once it spins, after leaving the ROS graph in order (else other processes would see it
+    until its DDS lease ends), or at once when that takes more than NODE_CLEANUP_S or a second
+    signal comes. rclpy's own handlers, which shut the context down under the node's running
+    threads, are not installed: the executor spins in a thread of its own while the main thread,
+    where signal handlers run, waits."""
+    previous = {signum: signal.getsignal(signum) for signum in (signal.SIGINT, signal.SIGTERM)}
+    end_commands_on_signals(prog)
     try:
-        executor = SingleThreadedExecutor()
-        node = node_class()
-    except ValueError as error:
-        print(f"{prog}: {error}", file=sys.stderr)
-        rclpy.try_shutdown()
-        return 2
-    except KeyboardInterrupt:  # Ctrl-C while the node was being built
-        rclpy.try_shutdown()
-        return 0
-    except Exception:
-        if not rclpy.ok():  # Ctrl-C while the node was being built: rclpy shut its context down
-            return 0
-        raise
-    try:
-        executor.add_node(node)
-        executor.spin()
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
+        rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
+        try:
+            node = node_class()
+        except ValueError as error:
+            print(f"{prog}: {error}", file=sys.stderr)
+            rclpy.try_shutdown()
+            return 2
+        return _spin_until_signal(node, prog)
     finally:
-        executor.shutdown()
-        node.destroy_node()
-        rclpy.try_shutdown()
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)
+
+
+def _spin_until_signal(node, prog: str) -> int:
+    """Spin node until SIGINT or SIGTERM (see run_node) or an external shutdown (status 0)."""
+    executor = SingleThreadedExecutor()
+    executor.add_node(node)
+    ended, failures, stopping = threading.Event(), [], {}
+
+    def on_signal(signum, frame):
+        if stopping:  # a second signal: no more waiting
+            end_at_once(prog, stopping["signum"])
+        stopping["signum"] = signum
+        stopping["deadline"] = threading.Timer(NODE_CLEANUP_S, end_at_once, (prog, signum))
+        stopping["deadline"].daemon = True
+        stopping["deadline"].start()
+        ended.set()
+
+    def spin():
+        try:
+            executor.spin()
+        except ExternalShutdownException:
+            pass
+        except BaseException as error:  # raised again in the main thread
+            failures.append(error)
+        finally:
+            ended.set()
+
+    signal.signal(signal.SIGINT, on_signal)
+    signal.signal(signal.SIGTERM, on_signal)
+    spinner = threading.Thread(target=spin, name=f"{prog}_executor")
+    spinner.start()
+    ended.wait()
+    executor.shutdown()
+    spinner.join()
+    node.destroy_node()
+    rclpy.try_shutdown()
+    if stopping:  # out of the graph: the interpreter's own teardown (seconds with torch) skipped
+        stopping["deadline"].cancel()
+        end_at_once(prog, stopping["signum"])
+    if failures:
+        raise failures[0]
     return 0
 
 

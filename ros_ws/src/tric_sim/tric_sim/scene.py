@@ -51,7 +51,7 @@ class Contact:
     """
 
     depth: float
-    side: tuple = None
+    side: tuple | None = None
     cushion: float = 0.0
     cushion_weight: float = 0.0
 
@@ -83,7 +83,7 @@ class Body:
     orientation: tuple
     #: (position, xyzw) of the solid in the body's frame (the lid's plate in its hinge frame); None:
     #: the solid is centred on the frame.
-    geometry_offset: tuple = None
+    geometry_offset: tuple | None = None
 
     def solid_placement(self, pose=None) -> pin.SE3:
         """World placement of the body's solid with its frame at pose (position, xyzw), default the

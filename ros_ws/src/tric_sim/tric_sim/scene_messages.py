@@ -70,7 +70,7 @@ def marker_array(primitives, stamp_ns: int) -> MarkerArray:
     """A DELETEALL marker, then one marker per primitive (ids numbered per namespace)."""
     stamp = time_msg(stamp_ns)
     markers = [Marker(action=Marker.DELETEALL)]
-    numbers = {}
+    numbers: dict[str, int] = {}
     for primitive in primitives:
         number = numbers[primitive.group] = numbers.get(primitive.group, -1) + 1
         x, y, z = (float(v) for v in primitive.position)

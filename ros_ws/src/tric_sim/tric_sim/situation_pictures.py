@@ -25,7 +25,7 @@ def demonstration_strip(
     duration = STRIP_DURATION[situation.task]
     periods = int(round(duration / world.control_period))
     wanted = {int(round(k * (periods - 1) / (frames - 1))): k for k in range(frames)}
-    images = [None] * frames
+    images: list = [None] * frames  # (seconds, image) of each frame, once captured
 
     def capture(w, _teacher, period):
         if period in wanted:

@@ -219,7 +219,7 @@ def sphere_wide_set(count: int = 20, seed: int = 9) -> list:
     """Spheres outside the training grid, up to WIDE_MARGIN from it: drawn uniformly in the grid
     grown by WIDE_MARGIN on every side, the draws inside the grid skipped."""
     rng = np.random.default_rng(seed)
-    out = []
+    out: list[Situation] = []
     while len(out) < count:
         position = rng.uniform(GRID_LOW - WIDE_MARGIN, GRID_HIGH + WIDE_MARGIN)
         if np.all(position >= GRID_LOW) and np.all(position <= GRID_HIGH):

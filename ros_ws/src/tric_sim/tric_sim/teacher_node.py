@@ -56,6 +56,7 @@ class TeacherNode(Node):
             goal_callback=self._on_goal,
             cancel_callback=lambda _: CancelResponse.ACCEPT,
         )
+        self.get_logger().info(f"ready to demonstrate on ~/demonstrate with {simulator}")
 
     def destroy_node(self):
         self._server.destroy()

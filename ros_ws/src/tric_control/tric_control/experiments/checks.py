@@ -1,5 +1,5 @@
 """tric-experiments --check: the experiments' results (their JSON) against the design's targets
-(targets.py, design.md section 5), each target for every training seed.
+(targets.py, docs/design.md section 5), each target for every training seed.
 
 Each check is one target of one experiment: its text, the measured value of each seed, and whether
 every seed meets it. An experiment without a target (fig8, table2, fig9: curves to look at) has no
@@ -21,9 +21,9 @@ from tric_control.experiments.targets import (
 )
 from tric_sim.metrics import GOOD_GRASP
 
-#: How far a measured joint may go past its limit, rad (design.md section 6).
+#: How far a measured joint may go past its limit, rad (docs/design.md section 6).
 OVERSHOOT_LIMIT = 0.01
-#: Table 4: training boxes TRIC reproduces of 10 (design.md section 5).
+#: Table 4: training boxes TRIC reproduces of 10 (docs/design.md section 5).
 BOX_TRAINING_TARGET = 9
 
 

@@ -29,6 +29,9 @@ NAME (default: all, in this order):
             the feature scores and the mean gradients df/dy by step.
 
 Models are trained on the reference bags in bags/ (kept in DIR/models and re-used when present).
+Every evaluation's episodes are kept in DIR/episodes, keyed on the model file, the situations, the
+step budget and the code of the nodes: a rerun re-uses a complete evaluation and runs only the
+episodes an interrupted one had not judged; a changed key re-uses nothing.
 Every evaluation runs --jobs (default: the number of CPUs) graphs of simulator, teacher and
 controller nodes at once, each in a process and DDS domain of its own
 (tric_control.graph_evaluation): spawned processes here, or Ray actors (--executor ray: a local
@@ -62,7 +65,12 @@ from tric_sim.output_files import WriteFailed, atomic_path, check_output_folder
 
 
 def main(argv=None) -> int:
-    return run_interruptible("tric-experiments", run, argv, "the experiments finished so far kept")
+    return run_interruptible(
+        "tric-experiments",
+        run,
+        argv,
+        "the experiments finished and the episodes judged so far kept (a rerun continues)",
+    )
 
 
 def run(argv) -> int:
@@ -73,7 +81,13 @@ def run(argv) -> int:
         metavar="NAME",
         help=f"experiments to run (default: all of {', '.join(EXPERIMENT_MODULES)})",
     )
-    parser.add_argument("--out", default="results", help="results folder (default: results)")
+    parser.add_argument(
+        "--out",
+        default="results",
+        help="results folder (default: results); its models/ and episodes/ are re-used: a model or "
+        "an evaluation made as asked is not made again, and a rerun after an interrupt runs only "
+        "the episodes not yet judged",
+    )
     parser.add_argument(
         "--situations", type=int, default=30, help="situations per shift in fig9 (default 30)"
     )

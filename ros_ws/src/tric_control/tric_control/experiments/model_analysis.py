@@ -39,6 +39,7 @@ TOP_FEATURES = 20
 
 def run(runner: Runner) -> dict:
     """The experiment's rows, table, figure(s), the paper's numbers and the discussion."""
+    rows: dict[str, dict]
     rows, figures = {}, []
     for task, name in ANALYSIS_TASKS.items():
         dataset = load_dataset([BAGS / task], runner.robot)

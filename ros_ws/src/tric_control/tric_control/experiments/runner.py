@@ -1,5 +1,7 @@
 """The experiments' runner: trains (or re-uses) their models under DIR/models and evaluates
-them through the real nodes, on an executor (tric_control.executors: processes here, or Ray)."""
+them through the real nodes, each evaluation kept under DIR/episodes, re-used when made as asked
+and continued after an interrupt (tric_control.kept_evaluations); the trainings and episodes run on
+an executor (tric_control.executors: processes here, or Ray)."""
 
 import pathlib
 
@@ -7,6 +9,7 @@ import torch
 
 from tric_control.executors import ProcessExecutor
 from tric_control.graph_evaluation import evaluate
+from tric_control.kept_evaluations import kept_evaluation
 from tric_learning import dpl, model_file
 from tric_learning.bag_dataset import load_dataset
 from tric_learning.dataset import Dataset
@@ -37,7 +40,8 @@ def trained_model_file(kind: str, dataset: Dataset, config, threads: int):
 
 class Runner:
     """Trains (or re-uses) models under out/models and runs evaluations with `jobs` worker graphs,
-    on private DDS domains from its own one up; both on executor (None: processes here)."""
+    on private DDS domains from its own one up, keeping their episodes under out/episodes; both
+    on executor (None: processes here)."""
 
     def __init__(self, out: pathlib.Path, jobs: int = 1, executor=None):
         self.out = out
@@ -102,12 +106,22 @@ class Runner:
         return result
 
     def evaluate(self, chosen, model, desc: str, max_steps: int = 0):
-        return evaluate(
-            chosen,
-            model,
-            max_steps,
-            domain_id=self.domain_id,
-            desc=desc,
-            jobs=self.jobs,
-            executor=self.executor,
-        )
+        """[EpisodeRecord] of model (None: the teacher) on the situations chosen, max_steps ticks at
+        most (0: the task's default): those kept under out/episodes for the same model file,
+        situations, max_steps and code of the nodes that run and judge the episodes, the others
+        run (kept_evaluation)."""
+
+        def run(situations, on_record):
+            return evaluate(
+                situations,
+                model,
+                max_steps,
+                domain_id=self.domain_id,
+                desc=desc,
+                jobs=self.jobs,
+                on_record=on_record,
+                executor=self.executor,
+            )
+
+        code = code_digest("tric_control.graph_evaluation")
+        return kept_evaluation(self.out / "episodes", chosen, model, max_steps, code, run)

@@ -28,7 +28,7 @@ TITLE = (
 
 #: TRIC's rows on the other sets: label -> data set.
 OTHER_SETS = {"TRIC (val)": "box_val", "TRIC (train)": "box_train"}
-#: The least TRIC must open of the training boxes, each seed (design.md section 5).
+#: The least TRIC must open of the training boxes, each seed (docs/design.md section 5).
 TRAINING_TARGET = 9
 
 
@@ -40,7 +40,7 @@ def run(runner: Runner) -> dict:
         "DPL joint space": dict(name="box_dpl_joint", bags="box", kind="dpl_joint"),
         "DPL finger space": dict(name="box_dpl_finger", bags="box", kind="dpl_finger"),
     }
-    rows = {}
+    rows: dict[str, dict] = {}
     runs = [(name, model, tests) for name, model in agents.items()]
     runs += [
         (label, agents["TRIC"], situations.dataset(name)) for label, name in OTHER_SETS.items()

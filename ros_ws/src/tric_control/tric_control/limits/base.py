@@ -13,6 +13,7 @@ binds the step (active). Units: rad, m, s.
 """
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -30,15 +31,16 @@ class StepState:
     objective: the objective's model at q (tric_control.motion_rate.Objective).
     closest: the collision pairs near q, closest first (tric_sim.proximity.Closest).
     low, high: the step's box bounds (n,) once every limit has tightened them.
+    Each is None until the step sets it (a test sets only what the limit it tries reads): typed Any.
     """
 
-    q: np.ndarray = None
-    reference: np.ndarray = None
-    max_step: np.ndarray = None
-    objective: object = None
-    closest: object = None
-    low: np.ndarray = None
-    high: np.ndarray = None
+    q: Any = None
+    reference: Any = None
+    max_step: Any = None
+    objective: Any = None
+    closest: Any = None
+    low: Any = None
+    high: Any = None
 
 
 class Limit:

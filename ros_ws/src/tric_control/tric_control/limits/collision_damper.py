@@ -1,6 +1,8 @@
 """Collision avoidance as velocity dampers on the closest pairs of robot geometries and scene bodies
 (or other robot geometries). ROS-free. Units: m, s."""
 
+from typing import cast
+
 import numpy as np
 
 from tric_control.limits.base import UNBOUNDED_BELOW, Limit, StepState, damper_bounds
@@ -26,7 +28,8 @@ class CollisionDamper(Limit):
         self.rows, self.safety, self.self_safety, self.damping = rows, safety, self_safety, damping
         self._used = 0
         self._margins = np.empty(rows)
-        self._names, self._safety = None, None
+        self._names: tuple | None = None
+        self._safety: np.ndarray | None = None
 
     def constrain(self, state: StepState, rows: np.ndarray, lower: np.ndarray) -> None:
         closest = state.closest
@@ -41,7 +44,8 @@ class CollisionDamper(Limit):
             self._names = closest.body_names
             self._safety = np.array([self.safety] * len(self._names) + [self.self_safety])
         margins = self._margins[:used]
-        np.subtract(distances, self._safety.take(bodies), out=margins)
+        safety = cast(np.ndarray, self._safety)  # made for these body names
+        np.subtract(distances, safety.take(bodies), out=margins)
         held = rules.held(closest)[:used]
         if np.count_nonzero(held):
             np.add(distances, rules.depth.take(bodies), out=margins, where=held)

@@ -1,6 +1,8 @@
 """A task's contacts (tric_sim.scene.Contact by scene body name) applied to collision pairs: which
 pairs of the hand with a body it may press hold their leave at the moment. ROS-free. Units: m."""
 
+from typing import cast
+
 import numpy as np
 
 
@@ -17,9 +19,9 @@ class ContactRules:
     def __init__(self, contacts: dict):
         self.contacts = dict(contacts)
         self.widest_cushion = max((rule.cushion for rule in self.contacts.values()), default=0.0)
-        self._names = None  # the body names the tables were made for
+        self._names: tuple | None = None  # the body names the tables were made for
         self._closest = None  # the Closest of the last answer
-        self._held = None
+        self._held: np.ndarray | None = None
 
     def _tables(self, body_names: tuple) -> None:
         self._names = body_names
@@ -44,7 +46,7 @@ class ContactRules:
     def held(self, closest) -> np.ndarray:
         """(k,) bool: which pairs of closest hold their body's contact now."""
         if closest is self._closest:
-            return self._held
+            return cast(np.ndarray, self._held)  # the answer for this closest
         if closest.body_names is not self._names:
             self._tables(closest.body_names)
         bodies = closest.bodies

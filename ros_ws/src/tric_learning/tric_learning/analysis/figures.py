@@ -89,7 +89,7 @@ def write_figures(
     out: pathlib.Path,
     top: int,
     feature_rank: int = DEFAULT_FEATURE_RANK,
-    robot: RobotModel = None,
+    robot: RobotModel | None = None,
 ) -> list:
     """The figures of model on dataset in out (created): Fig. 13, 14a, 16, 17a, 15 and 17b/c, then
     Fig. 12 for box-opening demos and Fig. 14b when a robot model is given; their paths."""

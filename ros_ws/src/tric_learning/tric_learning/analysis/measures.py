@@ -326,8 +326,8 @@ def ranked_feature(model: ValueFunction, feature_names, rank: int):
 
 
 def feature_over_time(
-    model: ValueFunction, dataset: Dataset, rank: int, gradients: np.ndarray = None
-):
+    model: ValueFunction, dataset: Dataset, rank: int, gradients: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray, str]:
     """Fig. 17b/c: the raw value (N, T_max) and df/du (N, T_max) (u: the feature rescaled to
     [0, 1]) of the feature ranked rank by score along every demo, NaN past a demo's end, and its
     name. gradients: gradients_along_demos(model, dataset) if already computed."""

@@ -95,8 +95,10 @@ def plot_kernel_pca(inputs: dict, path: pathlib.Path) -> pathlib.Path:
     for column, (title, points) in enumerate(panels):
         axes = figure.add_subplot(1, len(panels), column + 1)
         projected, bandwidth = kernel_pca(points)
-        axes.scatter(*projected.T, c=inputs["value"], cmap="viridis", norm=norm, s=9)
-        axes.scatter(
+        # (the two columns of projected are x and y; mypy takes an unpacked array for every
+        # positional parameter, s and c included)
+        axes.scatter(*projected.T, c=inputs["value"], cmap="viridis", norm=norm, s=9)  # type: ignore[misc]
+        axes.scatter(  # type: ignore[misc]
             *projected[last].T,
             facecolors="none",
             edgecolors="tab:red",

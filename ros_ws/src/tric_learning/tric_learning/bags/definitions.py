@@ -9,6 +9,7 @@ import json
 import os
 import re
 from pathlib import Path
+from typing import Any
 
 from rosidl_adapter.parser import parse_message_string
 from rosidl_parser.definition import (
@@ -118,7 +119,7 @@ def definition_fields(type_name: str, text: str) -> dict[str, tuple]:
     return fields
 
 
-def _check_generated_class(msg_class: type, checked: set | None = None) -> None:
+def _check_generated_class(msg_class: type[Any], checked: set | None = None) -> None:
     """ValueError when an rclpy message class, or one nested in it, has other fields than its
     installed .msg file declares (a stale build): its messages would not decode with that
     definition."""

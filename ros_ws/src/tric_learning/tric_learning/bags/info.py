@@ -7,6 +7,7 @@ import os
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
+from typing import IO, cast
 
 from mcap.reader import SeekingReader
 from mcap.records import Channel, Message, Metadata, Schema
@@ -63,6 +64,7 @@ def bag_info(path: str | os.PathLike, *, tolerant: bool = False) -> BagInfo:
         summary = _summary(file) if finished else None
         if summary is not None and summary.statistics is not None:
             statistics = summary.statistics
+            stream = cast(IO[bytes], file)  # mcap only reads, seeks and tells
             try:
                 return _bag_info(
                     path,
@@ -70,12 +72,13 @@ def bag_info(path: str | os.PathLike, *, tolerant: bool = False) -> BagInfo:
                     summary.schemas,
                     summary.channels.values(),
                     statistics.channel_message_counts,
-                    list(SeekingReader(file, record_size_limit=file.size).iter_metadata()),
+                    list(SeekingReader(stream, record_size_limit=file.size).iter_metadata()),
                     statistics.message_start_time,
                     statistics.message_end_time,
                 )
             except _INDEX_ERRORS:
                 pass  # a damaged index or metadata record: read the records instead
+    counts: dict[int, int]
     schemas, channels, counts, metadata = {}, {}, {}, []
     start_ns = end_ns = None
     try:

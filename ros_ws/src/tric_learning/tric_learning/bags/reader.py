@@ -8,7 +8,7 @@ import os
 import struct
 from collections.abc import Iterable, Iterator, Mapping
 from pathlib import Path
-from typing import Any, NamedTuple
+from typing import IO, Any, NamedTuple, cast
 
 import zstandard
 from mcap.exceptions import McapError
@@ -98,7 +98,10 @@ def _open_bag(path: Path) -> _BagFile:
                 + ("it is empty" if file.size == 0 else "it does not start with the MCAP magic")
             )
         try:
-            header = next(StreamReader(file, skip_magic=True, record_size_limit=file.size).records)
+            stream = cast(IO[bytes], file)  # mcap only reads, seeks and tells
+            header = next(
+                StreamReader(stream, skip_magic=True, record_size_limit=file.size).records
+            )
         except (StopIteration, *_DAMAGE_ERRORS):
             header = None  # a damaged start, reported by whoever reads on
         if header is not None and (not isinstance(header, Header) or header.profile != "ros2"):
@@ -131,7 +134,8 @@ def _is_finished(file: _BagFile) -> bool:
 def _summary(file: _BagFile) -> Summary | None:
     """The MCAP summary section of a finished bag; None when it has none or it does not read."""
     try:
-        return SeekingReader(file, record_size_limit=file.size).get_summary()
+        stream = cast(IO[bytes], file)  # mcap only reads, seeks and tells
+        return SeekingReader(stream, record_size_limit=file.size).get_summary()
     except _INDEX_ERRORS:
         return None
 
@@ -142,7 +146,8 @@ def _records(path: Path) -> Iterator[Any]:
     Raises _Damage where the file stops being readable (a truncated file: at its end).
     """
     with _open_bag(path) as file:
-        records = StreamReader(file, validate_crcs=True, record_size_limit=file.size).records
+        stream = cast(IO[bytes], file)  # mcap only reads, seeks and tells
+        records = StreamReader(stream, validate_crcs=True, record_size_limit=file.size).records
         messages_read = 0
         while True:
             try:
@@ -253,15 +258,16 @@ def read_bag(
             raise _refusal(path)
         if finished and not tolerant and expected:
             summary = _summary(file)
-            for channel in summary.channels.values() if summary else ():
-                if channel.schema_id in summary.schemas:
-                    _check_type(
-                        path,
-                        channel.topic,
-                        summary.schemas[channel.schema_id],
-                        expected,
-                        optional,
-                    )
+            if summary:
+                for channel in summary.channels.values():
+                    if channel.schema_id in summary.schemas:
+                        _check_type(
+                            path,
+                            channel.topic,
+                            summary.schemas[channel.schema_id],
+                            expected,
+                            optional,
+                        )
     return _messages(path, selected, expected, optional, tolerant)
 
 

@@ -8,7 +8,7 @@ import os
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import yaml
 from mcap.writer import LIBRARY_IDENTIFIER, CompressionType
@@ -239,6 +239,18 @@ class BagWriter:
         self._state = "closed"
         return self.path
 
+    def abandon(self) -> Path:
+        """Leaves the bag being written unfinished: flushes and closes the ".part" file, which
+        keeps everything written so far (readable with tolerant reading); returns its path."""
+        if self._state == "open":
+            try:
+                self._file.flush()
+                self._file.close()
+            except OSError:  # what was buffered cannot be written (a full disk)
+                pass
+            self._state = "abandoned"
+        return self.part_path
+
     def discard(self) -> None:
         """Drops the bag being written: closes and deletes the ".part" file."""
         if self._state == "open":
@@ -267,7 +279,8 @@ class BagWriter:
         far."""
         count = sum(t.message_count for t in self._topics.values())
         start_ns = self._start_ns or 0
-        duration_ns = (self._end_ns - start_ns) if count else 0
+        # a message written has set _end_ns
+        duration_ns = (cast(int, self._end_ns) - start_ns) if count else 0
         information = {
             "version": ROSBAG2_METADATA_VERSION,
             "storage_identifier": "mcap",
