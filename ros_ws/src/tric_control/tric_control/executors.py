@@ -51,7 +51,7 @@ class ExecutorChoice:
     (None: a Ray instance of the run's own on this machine)."""
 
     kind: str
-    address: str = None
+    address: str | None = None
 
     @property
     def remote(self) -> bool:
@@ -72,7 +72,7 @@ def chosen_executor(args) -> ExecutorChoice:
     return ExecutorChoice(kind, address)
 
 
-def open_executor(choice: ExecutorChoice = None, num_cpus: int = None, bags=()):
+def open_executor(choice: ExecutorChoice | None = None, num_cpus: int | None = None, bags=()):
     """The executor of choice (default: a process pool): ProcessExecutor, or RayExecutor, which
     starts Ray (locally with num_cpus CPUs, None: all) or joins its cluster (the project's code and
     the named bag folders under bags/ sent in its runtime environment) at its first work. Close it
@@ -93,7 +93,8 @@ class ShippedFile:
     content: bytes
 
 
-_shipped_paths = {}
+#: The paths local_path() wrote, by the sha1 of their content.
+_shipped_paths: dict[str, pathlib.Path] = {}
 
 
 def local_path(file):

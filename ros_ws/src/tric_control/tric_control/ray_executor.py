@@ -13,6 +13,7 @@ import shutil
 import signal
 import tempfile
 import threading
+from typing import Any
 
 import ray
 
@@ -41,21 +42,24 @@ class RayExecutor:
 
     kind = "ray"
 
-    def __init__(self, address: str = None, num_cpus: int = None, bags=()):
+    def __init__(self, address: str | None = None, num_cpus: int | None = None, bags=()):
         if ray.is_initialized():
             raise RuntimeError("Ray is already initialized in this process")
         self.address, self.num_cpus, self.bags = address, num_cpus, tuple(bags)
-        self.node_work = collections.Counter()
-        self._actors, self._calls = {}, 0
-        self._staging, self._handlers = None, {}
+        self.node_work: collections.Counter[str] = collections.Counter()
+        self._actors: dict[int, Any] = {}
+        self._calls = 0
+        self._staging: pathlib.Path | None = None
+        self._handlers: dict[int, Any] = {}
 
     def _start(self) -> None:
         """Start or join Ray, once (at the first work: a run with nothing to do starts nothing)."""
         if self._staging is not None:
             return
         self._staging = pathlib.Path(tempfile.mkdtemp(prefix="tric-ray-"))
+        settings: dict[str, Any]
         if self.address:
-            settings = {"runtime_env": self._runtime_env(self.bags)}
+            settings = {"runtime_env": self._runtime_env(self._staging, self.bags)}
         else:
             settings = {
                 "num_cpus": self.num_cpus,
@@ -84,19 +88,20 @@ class RayExecutor:
         else:
             signal.raise_signal(signum)
 
-    def _runtime_env(self, bags) -> dict:
+    @staticmethod
+    def _runtime_env(staging: pathlib.Path, bags) -> dict:
         """The runtime environment of a cluster's workers: the project's Python packages, and a
-        working directory holding bags/<name> for each name in bags."""
-        runtime_env = {
+        working directory (staging) holding bags/<name> for each name in bags."""
+        runtime_env: dict[str, Any] = {
             "py_modules": [
-                str(pathlib.Path(package.__file__).resolve().parent)
+                str(pathlib.Path(str(package.__file__)).resolve().parent)
                 for package in (tric_sim, tric_learning, tric_control)
             ]
         }
         if bags:
             for name in sorted(set(bags)):
-                shutil.copytree(BAGS / name, self._staging / BAGS / name)
-            runtime_env["working_dir"] = str(self._staging)
+                shutil.copytree(BAGS / name, staging / BAGS / name)
+            runtime_env["working_dir"] = str(staging)
         return runtime_env
 
     def __enter__(self):
@@ -145,10 +150,10 @@ class RayExecutor:
         snapshot = None if snapshot is None else pathlib.Path(snapshot).resolve()
         self._calls += 1
         setup = ray.put((self._calls, make_evaluator, make_args()))
-        records = [None] * len(situations)
+        records: list[Any] = [None] * len(situations)
         todo = collections.deque(range(len(situations)))
-        deaths = collections.Counter()
-        running = {}  # an episode's result ref -> (episode index, worker index)
+        deaths: collections.Counter[int] = collections.Counter()
+        running: dict[Any, tuple[int, int]] = {}  # a result's ref -> (episode, worker index)
 
         def start(worker):
             if worker not in self._actors:
@@ -215,7 +220,7 @@ class RayExecutor:
         self._start()
         remote = _call_on_node.options(num_cpus=1, max_retries=0, scheduling_strategy="SPREAD")
         todo = collections.deque(enumerate(calls))
-        running = {}
+        running: dict[Any, int] = {}
         try:
             while todo or running:
                 while todo and len(running) < max(jobs, 1):
