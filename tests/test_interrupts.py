@@ -6,12 +6,12 @@ no result file written half."""
 import json
 import os
 import pathlib
+import select
 import shutil
 import signal
 import subprocess
 import sys
 import tempfile
-import time
 
 import pytest
 from hypothesis import HealthCheck, settings
@@ -192,6 +192,19 @@ def processes_marked(mark: str) -> list:
     return found
 
 
+def ends_within(pid: int, seconds: float) -> bool:
+    """Whether the process pid ends (or has ended) within seconds, waiting on its pidfd."""
+    try:
+        pidfd = os.pidfd_open(pid)
+    except ProcessLookupError:
+        return True
+    try:
+        readable, _, _ = select.select([pidfd], [], [], seconds)
+        return bool(readable)
+    finally:
+        os.close(pidfd)
+
+
 @pytest.mark.slow
 def test_tric_study_on_ray_terminated_leaves_no_ray_process(tmp_path, monkeypatch):
     """SIGTERM ends tric-study on its local Ray instance (its default) with the tool's line and
@@ -206,12 +219,11 @@ def test_tric_study_on_ray_terminated_leaves_no_ray_process(tmp_path, monkeypatc
     code, rest = signal_after(study, "sphere_val", 1, signal.SIGTERM)
     assert code == 143, rest
     assert "tric-study: terminated; the rows measured so far kept in study.json" in rest
-    # Ray's shutdown ends them before the tool exits (a few seconds' grace for their last
-    # moments); left to themselves, Ray's agents outlived the tool by a minute or more
-    deadline = time.monotonic() + ORPHAN_GRACE_S
-    while processes_marked(mark) and time.monotonic() < deadline:
-        time.sleep(0.1)
-    assert processes_marked(mark) == []
+    # Ray's shutdown ends them as the tool exits (a few seconds' grace for their last moments,
+    # each waited for on its pidfd); left to themselves, Ray's agents outlived the tool by a
+    # minute or more
+    outlived = [pid for pid in processes_marked(mark) if not ends_within(pid, ORPHAN_GRACE_S)]
+    assert outlived == []
 
 
 class RecordingInterrupted(RuleBasedStateMachine):
