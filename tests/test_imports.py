@@ -121,3 +121,86 @@ def test_help_and_argument_errors_answer_before_the_heavy_libraries(module):
         assert proc.returncode == 0, proc.stderr
         assert f"HEAVY [] STATUS {status}" in proc.stdout, (arguments, proc.stdout, proc.stderr)
         assert text in proc.stdout + proc.stderr, (arguments, proc.stdout, proc.stderr)
+
+
+def project_modules() -> dict:
+    """{module name: its source file} of every module of the three Python packages."""
+    root = pathlib.Path(__file__).parents[1] / "ros_ws" / "src"
+    modules = {}
+    for package in ("tric_sim", "tric_learning", "tric_control"):
+        base = root / package
+        for path in (base / package).rglob("*.py"):
+            parts = path.relative_to(base).with_suffix("").parts
+            name = ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+            modules[name] = path
+    return modules
+
+
+def import_graph() -> dict:
+    """{module: the project's modules it imports anywhere in its source (inside functions too)}."""
+    modules = project_modules()
+    graph = {}
+    for name, path in modules.items():
+        package = name if path.name == "__init__.py" else name.rpartition(".")[0]
+        imported = set()
+        for node in _runtime_nodes(ast.parse(path.read_text())):
+            if isinstance(node, ast.Import):
+                imported.update(alias.name for alias in node.names)
+            elif isinstance(node, ast.ImportFrom):
+                base = node.module or ""
+                if node.level:
+                    parent = package.rsplit(".", node.level - 1)[0] if node.level > 1 else package
+                    base = f"{parent}.{base}" if base else parent
+                imported.add(base)
+                imported.update(f"{base}.{alias.name}" for alias in node.names)
+        graph[name] = {m for m in imported if m in modules and m != name}
+    return graph
+
+
+def _runtime_nodes(tree):
+    """The nodes of tree, but those under `if TYPE_CHECKING:` (imports for annotations only)."""
+    todo = [tree]
+    while todo:
+        node = todo.pop()
+        yield node
+        for child in ast.iter_child_nodes(node):
+            test = getattr(child, "test", None) if isinstance(child, ast.If) else None
+            if test is not None and "TYPE_CHECKING" in ast.unparse(test):
+                todo.extend(child.orelse)
+            else:
+                todo.append(child)
+
+
+def test_no_module_imports_itself_through_others():
+    """No import circle between the project's modules, counting imports inside functions (which
+    only hide a circle)."""
+    graph = import_graph()
+    state, path, circles = {}, [], []
+
+    def visit(module):
+        state[module] = "open"
+        path.append(module)
+        for other in sorted(graph[module]):
+            if state.get(other) == "open":
+                circles.append(path[path.index(other) :] + [other])
+            elif other not in state:
+                visit(other)
+        path.pop()
+        state[module] = "done"
+
+    for module in sorted(graph):
+        if module not in state:
+            visit(module)
+    assert not circles, "import circles: " + "; ".join(" -> ".join(c) for c in circles)
+
+
+def test_packages_import_only_downward():
+    """tric_sim imports neither tric_learning nor tric_control; tric_learning not tric_control."""
+    order = ("tric_sim", "tric_learning", "tric_control")
+    upward = [
+        f"{module} -> {other}"
+        for module, others in import_graph().items()
+        for other in others
+        if order.index(other.split(".")[0]) > order.index(module.split(".")[0])
+    ]
+    assert not upward, upward

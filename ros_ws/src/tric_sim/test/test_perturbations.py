@@ -13,6 +13,7 @@ from tric_sim.perturbation_trials import Trial, parse_trial
 from tric_sim.perturbations import Perturbation
 from tric_sim.physics import PhysicsWorld
 from tric_sim.robot_model import RobotModel
+from tric_sim.scene_check import check_scene
 from tric_sim.situation import Situation
 from tric_sim.situation_files import load_situations, save_situations
 
@@ -118,7 +119,7 @@ def test_impossible_perturbations_are_refused_before_the_episode(robot):
     for situation, perturbation, message in cases:
         perturbed = dataclasses.replace(situation, perturbations=(perturbation,))
         with pytest.raises(ValueError, match="perturbation|perturbations") as error:
-            perturbed.validate(n, robot)
+            check_scene(perturbed.validate(n), robot)
         assert message in str(error.value)
     with pytest.raises(ValueError, match="not KIND:SIZE"):
         parse_trial("kick:0.2")

@@ -133,7 +133,7 @@ def _home_with(changes: dict) -> list:
 )
 def test_physically_impossible_situations_are_refused(robot, situation, reason, tmp_path):
     with pytest.raises(ValueError, match=f"situation '{situation.name}': {reason}"):
-        situation.validate(robot=robot)
+        check_scene(situation.validate(), robot)
     path = tmp_path / "situations.yaml"
     path.write_text(yaml.safe_dump({"situations": [situation.to_dict()]}))
     with pytest.raises(ValueError, match=reason):

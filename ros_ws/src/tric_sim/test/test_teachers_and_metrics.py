@@ -13,6 +13,7 @@ from tric_sim import situations as S
 from tric_sim.grasp_teacher import GraspTeacher
 from tric_sim.physics import PhysicsWorld
 from tric_sim.robot_model import FINGERTIPS, PALM, RobotModel
+from tric_sim.shapes import object_surface
 from tric_sim.teachers import demonstrate
 
 
@@ -30,9 +31,7 @@ def world(robot):
 
 def test_sphere_surface_distance_and_normal():
     placement = pin.SE3(np.eye(3), np.array([1.0, 0.0, 0.0]))
-    distance, normal = metrics.object_surface(
-        "sphere", (0.1,), placement, np.array([[1.0, 0.0, 0.5]])
-    )
+    distance, normal = object_surface("sphere", (0.1,), placement, np.array([[1.0, 0.0, 0.5]]))
     assert math.isclose(distance[0], 0.4) and np.allclose(normal[0], [0, 0, 1])
 
 
@@ -45,7 +44,7 @@ def test_cylinder_surface_distance_side_cap_and_inside():
             [0.0, 0.0, 0.02],
         ]
     )  # inside, nearest the side
-    distance, normal = metrics.object_surface("cylinder", (0.4, 0.05), placement, points)
+    distance, normal = object_surface("cylinder", (0.4, 0.05), placement, points)
     assert np.allclose(distance, [0.25, 0.3, -0.03])
     assert np.allclose(normal[0], [0, 1, 0]) and np.allclose(normal[1], [1, 0, 0], atol=1e-12)
 

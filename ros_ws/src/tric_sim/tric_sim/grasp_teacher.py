@@ -11,25 +11,26 @@ QP with joint limits, velocity limits and a table-clearance constraint):
 Units: m, rad, s.
 """
 
-import math
-
 import numpy as np
 import pinocchio as pin
 
-from tric_sim import metrics, scene
+from tric_sim import scene
 from tric_sim.grasp_approach import approach_direction, cylinder_grasp_point, frame_from
 from tric_sim.pose_servo import PoseServo
-from tric_sim.robot_model import FINGERTIPS, PALM, RobotModel
+from tric_sim.robot_model import (
+    DISTAL_LINKS,
+    DISTAL_RADIUS,
+    FINGERTIPS,
+    PALM,
+    PRESHAPE,
+    RobotModel,
+)
+from tric_sim.shapes import object_surface
 from tric_sim.situation import Situation
 
 #: Palm-centre distance to the object's surface at the grasp and at the pre-grasp pose, m.
 GRASP_GAP = {"sphere": 0.025, "cylinder": 0.035}
 PREGRASP_DISTANCE = {"sphere": 0.10, "cylinder": 0.14}
-#: Hand pre-shapes: (knuckle, proximal, distal) in rad. Spheres: the three fingers spread at 120
-#: degrees; cylinders: fingers 2 and 3 side by side, facing the thumb, opened wide enough that the
-#: proximal links clear the cylinder until the palm is in place (see
-#: docs/decisions/cylinder-teacher.md).
-PRESHAPE = {"sphere": (math.pi / 3, -0.45, 0.35), "cylinder": (0.0, -0.9, 0.6)}
 #: Phase tolerances: palm position (m) and orientation (rad) error to leave reach / approach.
 REACH_TOLERANCE = (0.015, 0.08)
 APPROACH_TOLERANCE = (0.004, 0.04)
@@ -181,10 +182,10 @@ class GraspTeacher:
             if self.finger_state[k] != "closing":
                 continue
             distal = self._link_distance(
-                metrics.DISTAL_LINKS[k], FINGERTIPS[k], placement, dims, metrics.DISTAL_RADIUS
+                DISTAL_LINKS[k], FINGERTIPS[k], placement, dims, DISTAL_RADIUS
             )
             proximal = self._link_distance(
-                PROXIMAL_LINKS[k], metrics.DISTAL_LINKS[k], placement, dims, 0.016
+                PROXIMAL_LINKS[k], DISTAL_LINKS[k], placement, dims, 0.016
             )
             if distal <= CONTACT_DISTANCE or reference[dist] >= self.robot.upper[dist] - 0.05:
                 reference[prox] = min(reference[prox] + SQUEEZE, self.robot.upper[prox])
@@ -201,5 +202,5 @@ class GraspTeacher:
         start = self.robot.frame_placement(start_frame).translation
         end = self.robot.frame_placement(end_frame).translation
         samples = start + np.linspace(0.0, 1.0, 9)[:, None] * (end - start)
-        distance, _ = metrics.object_surface(self.kind, dims, placement, samples)
+        distance, _ = object_surface(self.kind, dims, placement, samples)
         return float(distance.min() - radius)

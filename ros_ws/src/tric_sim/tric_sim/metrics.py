@@ -45,7 +45,16 @@ import numpy as np
 import pinocchio as pin
 
 from tric_sim import scene
-from tric_sim.robot_model import FINGERTIPS, HAND_JOINTS, PALM, RobotModel
+from tric_sim.robot_model import (
+    DISTAL_LINKS,
+    DISTAL_RADIUS,
+    FINGERTIPS,
+    HAND_JOINTS,
+    PALM,
+    PRESHAPE,
+    RobotModel,
+)
+from tric_sim.shapes import object_surface
 
 #: The grasp cost's terms (see the module docstring): a finger's distance to the surface that
 #: costs 1, m; the palm's distance that costs nothing, and the excess over it that costs 1, m; the
@@ -58,9 +67,6 @@ PALM_ALIGNMENT_TOLERANCE = math.radians(60)
 GOOD_GRASP = 0.25
 #: A box is counted as opened when its lid angle exceeds this (Sec. 5.3.5), rad.
 LID_OPEN_ANGLE = 0.3
-#: Distal link geometry (see the URDF): a segment from the distal joint to the tip centre, radius.
-DISTAL_LINKS = ("finger_1_distal_link", "finger_2_distal_link", "finger_3_distal_link")
-DISTAL_RADIUS = 0.014
 LIFT_HEIGHT = 0.10
 LIFT_DURATION = 1.0
 LIFT_HOLD = 0.5
@@ -102,28 +108,6 @@ class TaskMetrics:
     max_joint_overshoot: float = 0.0
     overshoot_joint: str = ""
     failure: str = ""
-
-
-def object_surface(kind: str, dimensions, placement: pin.SE3, points: np.ndarray):
-    """Signed distance (m) of points (k, 3) to a sphere's or a finite cylinder's surface, and the
-    outward unit normals (k, 3) at their nearest surface points."""
-    local = (points - placement.translation) @ placement.rotation
-    if kind == "sphere":
-        norm = np.linalg.norm(local, axis=1)
-        normals = local / np.maximum(norm, 1e-12)[:, None]
-        return norm - dimensions[0], normals @ placement.rotation.T
-    height, radius = dimensions
-    radial = local.copy()
-    radial[:, 2] = 0.0
-    rho = np.linalg.norm(radial, axis=1)
-    d_radial, d_axial = rho - radius, np.abs(local[:, 2]) - height / 2
-    outside = np.hypot(np.maximum(d_radial, 0), np.maximum(d_axial, 0))
-    inside = np.minimum(np.maximum(d_radial, d_axial), 0)
-    radial_dir = radial / np.maximum(rho, 1e-12)[:, None]
-    axial_dir = np.zeros_like(local)
-    axial_dir[:, 2] = np.sign(local[:, 2])
-    normals = np.where((d_radial >= d_axial)[:, None], radial_dir, axial_dir)
-    return outside + inside, normals @ placement.rotation.T
 
 
 def grasp_cost_terms(robot: RobotModel, q, kind: str, dimensions, placement: pin.SE3) -> dict:
@@ -178,8 +162,6 @@ def finger_flexion(robot: RobotModel, q) -> float:
 
 def open_flexion(kind: str) -> float:
     """The flexion (as finger_flexion) of the teacher's open pre-shape for an object kind, rad."""
-    from tric_sim.grasp_teacher import PRESHAPE  # the grasp teacher imports this module
-
     _, proximal, distal = PRESHAPE[kind]
     return proximal + distal
 

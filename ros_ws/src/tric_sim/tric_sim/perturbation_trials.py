@@ -89,7 +89,7 @@ class Trial:
         else:
             changed["initial_joint_positions"] = _random_start(situation, self.size, rng, robot)
         perturbed = dataclasses.replace(situation, **changed)
-        return perturbed.validate(robot.n_joints, robot)
+        return check_scene(perturbed.validate(robot.n_joints), robot)
 
 
 def parse_trial(text: str) -> Trial:

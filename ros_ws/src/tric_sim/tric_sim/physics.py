@@ -18,6 +18,7 @@ from tric_sim import scene
 from tric_sim.bullet import pb, quiet_stdout
 from tric_sim.bullet_scene import LATERAL_FRICTION, LID_RANGE, SPINNING_FRICTION, create_body
 from tric_sim.robot_model import RobotModel
+from tric_sim.scene_check import check_scene
 from tric_sim.situation import Situation
 
 #: Distance beyond which robot-to-scene distances are not resolved (reported as this value), m: the
@@ -142,7 +143,7 @@ class PhysicsWorld:
         The clock advances by one control period, so that the new scene's first state is stamped
         after every state of the previous one (subscribers tell the scenes apart by stamp).
         ValueError for an invalid or physically impossible situation (scene_check.check_scene)."""
-        situation.validate(self.robot.n_joints, self.robot)
+        check_scene(situation.validate(self.robot.n_joints), self.robot)
         q0 = (
             self.robot.check_configuration(
                 situation.initial_joint_positions, "initial_joint_positions"
@@ -210,7 +211,7 @@ class PhysicsWorld:
         extended = dataclasses.replace(
             self.situation, perturbations=self.situation.perturbations + perturbations
         )
-        self.situation = extended.validate(self.robot.n_joints, self.robot)
+        self.situation = check_scene(extended.validate(self.robot.n_joints), self.robot)
 
     @property
     def elapsed_s(self) -> float:

@@ -7,8 +7,8 @@ import numpy as np
 import pinocchio as pin
 import proxsuite
 
-from tric_sim import metrics
 from tric_sim.robot_model import FINGERTIPS, PALM, RobotModel
+from tric_sim.shapes import object_surface
 
 #: The palm pose servo descends the pose error E = |dx|^2 + ORIENTATION_LENGTH^2 |drot|^2 (m^2)
 #: along its joint-space gradient, with steps that make E fall at SERVO_RATE (1/s): exponentially,
@@ -100,7 +100,7 @@ class PoseServo:
                 rows.append(np.zeros(len(arm)))
                 lower.append(-1e20)
                 continue
-            distance, normal = metrics.object_surface(
+            distance, normal = object_surface(
                 avoid[0], avoid[1], avoid[2], robot.data.oMf[fid].translation[None, :]
             )
             rows.append(normal[0] @ jac_point)

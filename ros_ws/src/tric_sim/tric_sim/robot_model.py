@@ -7,6 +7,7 @@ coupled knuckle of finger 3 follows finger 2's knuckle. Units: m, rad, s.
 
 import copy
 import hashlib
+import math
 import pathlib
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass
@@ -31,6 +32,15 @@ FINGERTIPS = ("finger_1_tip", "finger_2_tip", "finger_3_tip")
 FINGER_MIDDLES = ("finger_1_middle", "finger_2_middle", "finger_3_middle")
 FINGER_BASES = ("finger_1_base", "finger_2_base", "finger_3_base")
 BASE = "base_link"
+
+#: Distal link geometry (see the URDF): a segment from the distal joint to the tip centre, radius m.
+DISTAL_LINKS = ("finger_1_distal_link", "finger_2_distal_link", "finger_3_distal_link")
+DISTAL_RADIUS = 0.014
+#: The hand's pre-shapes for a grasp: (knuckle, proximal, distal) in rad. Spheres: the three fingers
+#: spread at 120 degrees; cylinders: fingers 2 and 3 side by side, facing the thumb, opened wide
+#: enough that the proximal links clear the cylinder until the palm is in place (see
+#: docs/decisions/cylinder-teacher.md).
+PRESHAPE = {"sphere": (math.pi / 3, -0.45, 0.35), "cylinder": (0.0, -0.9, 0.6)}
 
 ARM_JOINTS = tuple(f"arm_{i}_joint" for i in range(1, 8))
 HAND_JOINTS = (

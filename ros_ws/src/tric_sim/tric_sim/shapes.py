@@ -1,6 +1,7 @@
 """The solid primitives of scenes and of the robot's collision model, as geometry: coal shapes,
-signed distances of points to a scene body, bounding spheres, and separating-axis tests vectorized
-over configurations (tric_sim.collision uses them to check many configurations at once). Units: m.
+signed distances of points to a scene body or an object's surface (with its normals), bounding
+spheres, and separating-axis tests vectorized over configurations (tric_sim.collision uses them to
+check many configurations at once). Units: m.
 """
 
 import math
@@ -9,7 +10,7 @@ import coal
 import numpy as np
 import pinocchio as pin
 
-from tric_sim import metrics, scene
+from tric_sim import scene
 
 
 def coal_shape(shape: str, dimensions):
@@ -68,7 +69,7 @@ def exact_distances(
         axes = rotations @ local.rotation
         relative = np.einsum("bji,bj->bi", axes, placement.translation - centres)
         cylinder = pin.SE3.Identity()
-        distance, _ = metrics.object_surface(
+        distance, _ = object_surface(
             "cylinder", (2 * shape.halfLength, shape.radius), cylinder, relative
         )
         return distance - body.dimensions[0]
@@ -82,7 +83,7 @@ def body_distance(body: scene.Body, placement: pin.SE3, points: np.ndarray) -> n
         offsets = points - placement.translation
         return np.sqrt(np.einsum("ka,ka->k", offsets, offsets)) - body.dimensions[0]
     if body.shape == "cylinder":
-        return metrics.object_surface(body.shape, body.dimensions, placement, points)[0]
+        return object_surface(body.shape, body.dimensions, placement, points)[0]
     local = (points - placement.translation) @ placement.rotation
     q = np.abs(local) - np.asarray(body.dimensions) / 2
     outside = np.maximum(q, 0.0)
@@ -154,3 +155,25 @@ def body_solid(body: scene.Body, placement: pin.SE3, count: int):
         height / 2,
         radius,
     )
+
+
+def object_surface(kind: str, dimensions, placement: pin.SE3, points: np.ndarray):
+    """Signed distance (m) of points (k, 3) to a sphere's or a finite cylinder's surface, and the
+    outward unit normals (k, 3) at their nearest surface points."""
+    local = (points - placement.translation) @ placement.rotation
+    if kind == "sphere":
+        norm = np.linalg.norm(local, axis=1)
+        normals = local / np.maximum(norm, 1e-12)[:, None]
+        return norm - dimensions[0], normals @ placement.rotation.T
+    height, radius = dimensions
+    radial = local.copy()
+    radial[:, 2] = 0.0
+    rho = np.linalg.norm(radial, axis=1)
+    d_radial, d_axial = rho - radius, np.abs(local[:, 2]) - height / 2
+    outside = np.hypot(np.maximum(d_radial, 0), np.maximum(d_axial, 0))
+    inside = np.minimum(np.maximum(d_radial, d_axial), 0)
+    radial_dir = radial / np.maximum(rho, 1e-12)[:, None]
+    axial_dir = np.zeros_like(local)
+    axial_dir[:, 2] = np.sign(local[:, 2])
+    normals = np.where((d_radial >= d_axial)[:, None], radial_dir, axial_dir)
+    return outside + inside, normals @ placement.rotation.T

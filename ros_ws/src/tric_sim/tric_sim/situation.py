@@ -59,9 +59,9 @@ class Situation:
     #: Perturbations scheduled within the episode (tric_sim.perturbations).
     perturbations: tuple = ()
 
-    def validate(self, n_joints: int = 14, robot=None) -> "Situation":
-        """Return self, or raise ValueError naming the first problem. With a robot
-        (tric_sim.robot_model.RobotModel), the scene is checked against it too (see check_scene)."""
+    def validate(self, n_joints: int = 14) -> "Situation":
+        """Return self, or raise ValueError naming the first problem. Whether the scene can
+        physically be, against a robot, is tric_sim.scene_check.check_scene's."""
         check_name(self.name)
         where = f"situation '{quoted(self.name, NAME_QUOTE)}'"
         if not isinstance(self.task, str) or self.task not in TASK_OBJECTS:
@@ -112,10 +112,6 @@ class Situation:
         if any(p.kind == "move_target" for p in self.perturbations):
             moved = np.asarray(self.object_position) + target_displacement(self.perturbations)
             _check_position(tuple(moved), f"{where}: the object moved by its perturbations to")
-        if robot is not None:
-            from tric_sim.scene_check import check_scene  # it imports this module
-
-            check_scene(self, robot)
         return self
 
     def to_dict(self) -> dict:

@@ -1,0 +1,27 @@
+"""The docs agree with the code: every node's parameters are in its package's README."""
+
+import ast
+import pathlib
+
+import pytest
+
+SRC = pathlib.Path(__file__).parents[1] / "ros_ws" / "src"
+
+
+def declared_parameters(node_module: pathlib.Path) -> list:
+    """The names of the parameters a node module declares (tric_sim.parameters.declare)."""
+    return [
+        ast.literal_eval(call.args[1])
+        for call in ast.walk(ast.parse(node_module.read_text()))
+        if isinstance(call, ast.Call) and getattr(call.func, "id", "") == "declare"
+    ]
+
+
+@pytest.mark.parametrize("node", sorted(SRC.glob("*/*/*_node.py")), ids=lambda p: p.stem)
+def test_every_parameter_of_a_node_is_in_its_package_readme(node):
+    package = node.parents[1]
+    readme = (package / "README.md").read_text()
+    parameters = declared_parameters(node)
+    assert parameters, f"{node.name} declares no parameter"
+    missing = [name for name in parameters if f"`{name}`" not in readme]
+    assert not missing, f"{package.name}/README.md lacks {missing} of {node.name}"
