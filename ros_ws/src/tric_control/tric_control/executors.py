@@ -10,14 +10,11 @@ Two kinds of work go through an executor:
 - calls: run_calls(function, calls, jobs) yields (index, result or the Exception it raised) as
   each function(*calls[index]) ends (trainings).
 Files a worker reads (model files) go through ship(path) -> what the worker opens with
-local_path(); results come back to the caller, who writes them.
+shipped_files.local_path(); results come back to the caller, who writes them.
 """
 
 import dataclasses
-import hashlib
 import os
-import pathlib
-import tempfile
 
 #: The executors a tool may be given (--executor).
 EXECUTORS = ("processes", "ray")
@@ -82,33 +79,6 @@ def open_executor(choice: ExecutorChoice | None = None, num_cpus: int | None = N
     from tric_control.ray_executor import RayExecutor
 
     return RayExecutor(choice.address, num_cpus=num_cpus, bags=bags)
-
-
-@dataclasses.dataclass(frozen=True)
-class ShippedFile:
-    """A file's bytes, carried to a worker that may not share the caller's disk; local_path()
-    writes them once per worker process."""
-
-    name: str
-    content: bytes
-
-
-#: The paths local_path() wrote, by the sha1 of their content.
-_shipped_paths: dict[str, pathlib.Path] = {}
-
-
-def local_path(file):
-    """A path to open for file: a path as given, or a ShippedFile's bytes written to a temporary
-    folder of this process (once per content)."""
-    if not isinstance(file, ShippedFile):
-        return file
-    digest = hashlib.sha1(file.content).hexdigest()
-    if digest not in _shipped_paths:
-        folder = pathlib.Path(tempfile.mkdtemp(prefix="tric-shipped-"))
-        path = folder / file.name
-        path.write_bytes(file.content)
-        _shipped_paths[digest] = path
-    return _shipped_paths[digest]
 
 
 class ProcessExecutor:

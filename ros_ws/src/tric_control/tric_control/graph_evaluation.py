@@ -26,8 +26,9 @@ from tric_control.evaluation import (  # noqa: E402
     evaluated_task,
     unjudged_fields,
 )
-from tric_control.executors import ProcessExecutor, local_path  # noqa: E402
+from tric_control.executors import ProcessExecutor  # noqa: E402
 from tric_control.objectives import RUNNABLE_KINDS  # noqa: E402
+from tric_control.shipped_files import local_path  # noqa: E402
 from tric_learning.recorder_node import RecorderNode  # noqa: E402
 from tric_msgs.action import Demonstrate, Execute  # noqa: E402
 from tric_msgs.msg import EpisodeEvent  # noqa: E402

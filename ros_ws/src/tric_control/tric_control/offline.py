@@ -19,9 +19,10 @@ from tqdm import tqdm
 
 from tric_control.episode import DEFAULT_MAX_STEPS, EpisodeRunner
 from tric_control.evaluation import EpisodeRecord, evaluated_task, unjudged_fields
-from tric_control.executors import ProcessExecutor, local_path
+from tric_control.executors import ProcessExecutor
 from tric_control.motion_rate import MotionRateController
 from tric_control.objectives import CONTROL_PERIOD, make_objective
+from tric_control.shipped_files import local_path
 from tric_learning.features import FeatureDefinition
 from tric_learning.model_file import ModelFile
 from tric_sim import metrics, teachers

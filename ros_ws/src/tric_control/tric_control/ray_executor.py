@@ -21,7 +21,7 @@ import tric_control
 import tric_learning
 import tric_sim
 from tric_control.evaluation import EpisodeRecord, unjudged_fields
-from tric_control.executors import ShippedFile
+from tric_control.shipped_files import ShippedFile
 
 #: Ray's object store on a local start, bytes: the work passes situations, model files, records
 #: and tric-experiments' training datasets (up to about 30 MB).
