@@ -35,7 +35,7 @@ def test_tric_demo_on_the_reference_bags(tmp_path, monkeypatch, capsys, referenc
     teacher's, is met by some trainings of these bags and missed by others: the training is
     repeatable on one machine, but another CPU rounds otherwise and gets another model; measured
     gaps on these two spheres from 0.028 to 0.033 on 2026-12-01, the last on the CI machine; see
-    the README's shortfalls.)"""
+    docs/fidelity.md's shortfalls.)"""
     tests = situations.dataset("sphere_test")[3:5]
     cut_down(monkeypatch, test=tests)
     asked = []

@@ -1,7 +1,10 @@
-"""The docs agree with the code: every node's parameters are in its package's README."""
+"""The docs agree with the code: every node's parameters are in its package's README, and the
+architecture page's layout is the tree's."""
 
 import ast
 import pathlib
+import subprocess
+import sys
 
 import pytest
 
@@ -25,3 +28,11 @@ def test_every_parameter_of_a_node_is_in_its_package_readme(node):
     assert parameters, f"{node.name} declares no parameter"
     missing = [name for name in parameters if f"`{name}`" not in readme]
     assert not missing, f"{package.name}/README.md lacks {missing} of {node.name}"
+
+
+def test_the_architecture_page_lists_every_module_as_the_tree_has_it():
+    script = pathlib.Path(__file__).parents[1] / "scripts" / "write_layout.py"
+    result = subprocess.run(
+        [sys.executable, str(script), "--check"], capture_output=True, text=True, timeout=60
+    )
+    assert result.returncode == 0, result.stderr

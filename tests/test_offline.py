@@ -1,5 +1,5 @@
 """tric-eval --offline: the controller core on the physics without nodes gives the episodes the
-nodes give, the same records bit for bit but the wall time (the README's tables come from the nodes;
+nodes give, the same records bit for bit but the wall time (the results' tables come from the nodes;
 sweeps run offline)."""
 
 import json

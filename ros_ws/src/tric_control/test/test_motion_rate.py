@@ -388,8 +388,8 @@ def test_make_objective_runs_tric_models_and_refuses_the_others(robot):
 
 
 class KeepBelow(Limit):
-    """Joint `joint` stays below `angle` (rad), approached as a velocity damper (the README's
-    example)."""
+    """Joint `joint` stays below `angle` (rad), approached as a velocity damper (the example of
+    docs/controller.md)."""
 
     rows = 1
 

@@ -4,7 +4,7 @@ The same episodes as through the nodes (tric_control.graph_evaluation), without 
 is reset to the situation, the model's controller is run by the same EpisodeRunner as the controller
 node's, each command goes to the physics as the simulator would apply it, and the final state is
 judged by the same hidden metrics (with the lift test for grasps). The teacher runs its core
-(tric_sim.teachers.demonstrate) the same way. Sweeps and method studies use this; the README's
+(tric_sim.teachers.demonstrate) the same way. Sweeps and method studies use this; the results'
 tables come from the nodes.
 
 An episode through the nodes and offline differ only in the lockstep protocol's timing (the

@@ -53,7 +53,7 @@ def discussion(rows: dict) -> str:
     if tric["cost_mean"] < PAPER_TRIC and teacher["cost_mean"] < PAPER_TEACHER:
         text += (
             " Both our costs are lower than the paper's, but our grasp cost is our own metric "
-            "(tric_sim.metrics, see the README), not the paper's (Dragiev et al. 2011), so only "
+            "(tric_sim.metrics, docs/metrics.md), not the paper's (Dragiev et al. 2011), so only "
             "the gap to the teacher compares."
         )
     return text
