@@ -18,7 +18,7 @@ def test_check_only_exits_by_the_targets_and_derives_the_lockstep_ratio(tmp_path
     runner = bench_runner()
     results = {"train_default_s": 15.0, "help_max_s": 0.2, "machine_cpus": 2}
     results.update(runner.derived({"sim_lockstep_period_us": 300, "sim_physics_period_us": 200}))
-    assert results["sim_lockstep_period_ratio"] == 1.5
+    assert results["sim_lockstep_overhead"] == 1.5
     path = tmp_path / "bench.json"
     path.write_text(json.dumps(results))
     assert runner.main(["--check-only", "--out", str(path)]) == 0
