@@ -45,14 +45,8 @@ from pink.limits import ConfigurationLimit, Limit, VelocityLimit
 from pink.tasks import Task
 
 from tric_control.limits import CollisionDamper, DomainDamper, SoftContact, StepState
-from tric_control.motion_rate import (
-    COMPILED,
-    INFLUENCE,
-    JOINT_MARGIN,
-    MotionRateController,
-    default_limits,
-)
-from tric_control.objectives import make_objective
+from tric_control.motion_rate import INFLUENCE, JOINT_MARGIN, MotionRateController, default_limits
+from tric_control.objectives import COMPILED, make_objective
 from tric_learning import model_file
 from tric_learning.bag_dataset import load_dataset
 from tric_learning.recording import record_offline

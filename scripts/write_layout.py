@@ -19,7 +19,7 @@ PACKAGES = ("tric_sim", "tric_learning", "tric_control")
 def first_sentence(path: pathlib.Path) -> str:
     """The first sentence of a module's docstring, on one line."""
     text = " ".join((ast.get_docstring(ast.parse(path.read_text())) or "").split())
-    match = re.match(r"(.+?\.)(\s|$)", text)
+    match = re.match(r"(.+?\.)(\s+[A-Z(`]|\s*$)", text)
     return (match.group(1) if match else text).rstrip(".")
 
 

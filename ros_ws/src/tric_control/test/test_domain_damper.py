@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 from tric_control.limits import UNBOUNDED_BELOW, DomainDamper, StepState
-from tric_control.motion_rate import DAMPING, DOMAIN_MARGIN, DOMAIN_ROWS, Objective, ValueObjective
+from tric_control.motion_rate import DAMPING, DOMAIN_MARGIN, DOMAIN_ROWS
+from tric_control.objectives import Objective, ValueObjective
 from tric_learning.features import FeatureDefinition, FeatureMap
 from tric_learning.value_function import Scaling, ValueFunction
 from tric_sim.robot_model import RobotModel

@@ -19,12 +19,10 @@ from tric_control.motion_rate import (
     SAFETY,
     STEP_QUANTUM,
     MotionRateController,
-    Objective,
     StepQP,
-    ValueObjective,
     default_limits,
 )
-from tric_control.objectives import make_objective
+from tric_control.objectives import Objective, ValueObjective, make_objective
 from tric_learning.features import FeatureDefinition, FeatureMap
 from tric_learning.model_file import ModelFile, value_function_arrays
 from tric_learning.value_function import Scaling, ValueFunction

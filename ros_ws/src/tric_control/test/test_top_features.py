@@ -3,7 +3,7 @@ score, read from the objective's latest evaluation; none for a policy without a 
 
 import numpy as np
 
-from tric_control.motion_rate import Objective, ValueObjective
+from tric_control.objectives import Objective, ValueObjective
 from tric_control.top_features import TopFeatures
 from tric_learning.features import FeatureDefinition, FeatureMap
 from tric_learning.value_function import Scaling, ValueFunction

@@ -7,7 +7,8 @@ rad, m."""
 import numpy as np
 import pytest
 
-from tric_control.motion_rate import COMPILED, DOMAIN_ROWS, ValueObjective
+from tric_control.motion_rate import DOMAIN_ROWS
+from tric_control.objectives import COMPILED, ValueObjective
 from tric_learning.features import FeatureDefinition, FeatureMap
 from tric_learning.value_function import Scaling, ValueFunction
 from tric_sim.robot_model import RobotModel

@@ -10,7 +10,7 @@ from typing import cast
 
 import numpy as np
 
-from tric_control.motion_rate import ValueObjective
+from tric_control.objectives import ValueObjective
 
 #: How many features a status carries.
 TOP_FEATURES = 10

@@ -28,7 +28,7 @@ class StepState:
     q: the measured joint positions (n,), rad.
     reference: the command the step starts from (n,), rad.
     max_step: the per-tick step bound of each joint (n,), rad (velocity limit times period).
-    objective: the objective's model at q (tric_control.motion_rate.Objective).
+    objective: the objective's model at q (tric_control.objectives.Objective).
     closest: the collision pairs near q, closest first (tric_sim.proximity.Closest).
     low, high: the step's box bounds (n,) once every limit has tightened them.
     Each is None until the step sets it (a test sets only what the limit it tries reads): typed Any.

@@ -1,10 +1,11 @@
-"""Objectives of the motion-rate controller, built from model files. ROS-free.
+"""Objectives of the motion-rate controller, one module each (base, value, dpl), built from model
+files here. ROS-free.
 
 make_objective(model_file, robot, period) turns a loaded tric_learning.model_file.ModelFile into the
 objective that tric_control.motion_rate.MotionRateController minimizes each tick. Every model kind
 the controller can run has its constructor here; the controller node refuses the others.
 
-- "tric": Eq. 8-10, see motion_rate.ValueObjective.
+- "tric": Eq. 8-10, see objectives.value.ValueObjective.
 - "dpl_joint", "dpl_finger": the IK scheme of Sec. 5.3.2,
       C_DPL = |dq|^2 + DPL_WEIGHT |A dq - s pi(y)|^2 (+ C_prior: the controller's constraints)
   with A = I for dpl_joint and A = J_f, the Jacobian (3 F, n) of the fingertips' positions in the
@@ -18,9 +19,9 @@ the controller can run has its constructor here; the controller node refuses the
 import math
 from typing import Any
 
-import numpy as np
-
-from tric_control.motion_rate import Objective, ValueObjective
+from tric_control.objectives.base import Objective
+from tric_control.objectives.dpl import DPL_WEIGHT, DplObjective
+from tric_control.objectives.value import COMPILED, ValueObjective
 from tric_learning import dpl
 from tric_learning.features import FeatureMap
 from tric_learning.model_file import ModelFile, value_function
@@ -28,8 +29,6 @@ from tric_sim.robot_model import RobotModel
 
 #: Model kinds make_objective can build an objective for.
 RUNNABLE_KINDS = ("tric", "dpl_joint", "dpl_finger")
-#: C_DPL's weight on following the policy (Sec. 5.3.2: 10^3), relative to |dq|^2.
-DPL_WEIGHT = 1e3
 #: The controller's default control period (100 Hz), s.
 CONTROL_PERIOD = 0.01
 
@@ -98,37 +97,13 @@ def _dpl_objective(model_file: ModelFile, robot: RobotModel, period: float) -> "
         raise ValueError(f"the {model_file.kind} model cannot be run: {error}") from None
 
 
-class DplObjective:
-    """C_DPL (see the module docstring) without the controller's |dq|^2: DPL_WEIGHT |A dq - s
-    pi(y)|^2, A = I (rows None: the policy predicts joint steps) or the feature Jacobian's rows (the
-    policy predicts those features' steps). Its value is NaN: a policy has no cost to report."""
-
-    def __init__(
-        self, feature_map: FeatureMap, policy: dpl.DplPolicy, step_scale: float, rows=None
-    ):
-        if not step_scale > 0:
-            raise ValueError("step_scale must be positive")
-        self.features, self.policy, self.step_scale, self.rows = (
-            feature_map,
-            policy,
-            step_scale,
-            rows,
-        )
-
-    def __call__(self, q, object_poses) -> Objective:
-        if self.rows is None:
-            target = self.step_scale * self.policy.predict(self.features(q, object_poses))
-            hessian = 2.0 * DPL_WEIGHT * np.eye(len(target))
-            linear = -2.0 * DPL_WEIGHT * target
-        else:
-            y, jacobian = self.features.with_jacobian(q, object_poses)
-            target = self.step_scale * self.policy.predict(y)
-            rows = jacobian[self.rows]
-            hessian = 2.0 * DPL_WEIGHT * rows.T @ rows
-            linear = -2.0 * DPL_WEIGHT * rows.T @ target
-        return Objective(
-            hessian=hessian,
-            linear=linear,
-            value=math.nan,
-            gradient_norm=float(np.linalg.norm(linear)),
-        )
+__all__ = [
+    "COMPILED",
+    "CONTROL_PERIOD",
+    "DPL_WEIGHT",
+    "RUNNABLE_KINDS",
+    "DplObjective",
+    "Objective",
+    "ValueObjective",
+    "make_objective",
+]
