@@ -11,7 +11,8 @@ setup(
         ("share/ament_index/resource_index/packages", ["resource/" + PACKAGE]),
         ("share/" + PACKAGE, ["package.xml"]),
     ],
-    # TRIC's objective compiled (tric_control.objectives.value.ValueObjective uses it where it is built)
+    # TRIC's objective compiled (tric_control.objectives.value.ValueObjective uses it where it is
+    # built)
     ext_modules=[
         Pybind11Extension(
             "tric_control._value_kernel", ["tric_control/value_kernel.cpp"], cxx_std=17
