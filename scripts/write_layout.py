@@ -17,8 +17,9 @@ PACKAGES = ("tric_sim", "tric_learning", "tric_control")
 
 
 def first_sentence(path: pathlib.Path) -> str:
-    """The first sentence of a module's docstring, on one line."""
-    text = " ".join((ast.get_docstring(ast.parse(path.read_text())) or "").split())
+    """The first sentence of a module's docstring (within its first paragraph), on one line."""
+    paragraph = (ast.get_docstring(ast.parse(path.read_text())) or "").split("\n\n")[0]
+    text = " ".join(paragraph.split())
     match = re.match(r"(.+?\.)(\s+[A-Z(`]|\s*$)", text)
     return (match.group(1) if match else text).rstrip(".")
 

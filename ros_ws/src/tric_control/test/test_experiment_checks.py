@@ -151,3 +151,27 @@ def test_exp5_largest_holding_size_and_the_safety_checks():
     table = checks[("exp5", "TRIC: perturbed grasps, no collision with the table")]
     # the box pushes' collisions (the box body, or the table) are not this check's
     assert table.measured == ["0", "0", "1"] and not table.met
+
+
+def test_report_only_writes_the_report_and_a_results_page_elsewhere(tmp_path):
+    out = tmp_path / "run"
+    out.mkdir()
+    (out / "fig8.json").write_text(
+        json.dumps(
+            {
+                "rows": {},
+                "table": "the table",
+                "paper": "no collision",
+                "discussion": "TRIC grasps 5/5/5.",
+                "date": "2026-12-03 10:00",
+                "wall_s": 1.0,
+            }
+        )
+    )
+    page = tmp_path / "docs" / "results.md"
+    page.parent.mkdir()
+    assert cli.main(["--report-only", "--out", str(out), "--results-page", str(page)]) == 0
+    assert "the table" in (out / "REPORT.md").read_text()
+    text = page.read_text()
+    assert "TRIC grasps 5/5/5." in text and "The paper: no collision." in text
+    assert "![fig8](../run/fig8.png)" in text  # the figure linked relative to the page

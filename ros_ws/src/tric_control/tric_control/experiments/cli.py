@@ -1,7 +1,8 @@
 """tric-experiments: the paper's experiments, each one command, through the real nodes.
 
     tric-experiments [NAME ...] [--out DIR] [--situations N] [--jobs N] [--executor processes|ray]
-                     [--address HOST:PORT] [--check | --check-only]
+                     [--address HOST:PORT] [--check | --check-only] [--report-only]
+                     [--results-page FILE]
 
 NAME (default: all, in this order):
   table1    spheres: the teacher and TRIC (K = 30) on the 15 sphere test situations (paper Table 1).
@@ -39,15 +40,19 @@ instance; --address or RAY_ADDRESS: a cluster whose machines have the project's 
 the trainings then run as Ray tasks; models and results come back to DIR.
 Each experiment writes DIR/<name>.json and its PNG(s) and prints its table and a discussion composed
 from its numbers; DIR/REPORT.md is then rewritten from every experiment's JSON found in DIR, each
-table beside the paper's numbers and followed by its discussion. --check then compares every
+table beside the paper's numbers and followed by its discussion, and the results page (default
+DIR/results.md; --results-page FILE: elsewhere, its figures linked relative to it): each
+experiment's discussion, the paper's numbers and its figures. --check then compares every
 experiment's results found in DIR with the design's targets, each for every seed
 (tric_control.experiments.checks), prints them and exits 1 if one is missed; --check-only does
-that without running anything.
+that without running anything; --report-only rewrites the report and the results page from the
+folder's JSON without running anything.
 """
 
 import argparse
 import json
 import os
+import pathlib
 import sys
 import time
 
@@ -108,6 +113,16 @@ def run(argv) -> int:
     parser.add_argument(
         "--check-only", action="store_true", help="--check the folder's results, run nothing"
     )
+    parser.add_argument(
+        "--report-only",
+        action="store_true",
+        help="rewrite the folder's REPORT.md and the results page from its JSON, run nothing",
+    )
+    parser.add_argument(
+        "--results-page",
+        metavar="FILE",
+        help="write the results page here (default: DIR/results.md)",
+    )
     args = parser.parse_args(argv)
     if not 1 <= args.situations <= 300:
         parser.error("--situations must be in [1, 300]")
@@ -124,16 +139,28 @@ def run(argv) -> int:
     except ValueError as error:
         print(f"tric-experiments: {error}", file=sys.stderr)
         return 2
+    page = pathlib.Path(args.results_page) if args.results_page else out / "results.md"
+    if args.report_only:
+        write_pages(out, page)
     if args.check_only:
         return check_folder(out)
+    if args.report_only:
+        return 0
     try:
-        return run_experiments(args, out)
+        return run_experiments(args, out, page)
     except (WriteFailed, ConnectionError) as error:
         print(f"tric-experiments: {error}", file=sys.stderr)
         return 2
 
 
-def run_experiments(args, out) -> int:
+def write_pages(out, page) -> None:
+    """Rewrite out/REPORT.md and the results page from the experiments' JSON in out."""
+    from tric_control.experiments.report import write_report, write_results_page
+
+    print(f"wrote {write_report(out)} and {write_results_page(out, page)}")
+
+
+def run_experiments(args, out, page) -> int:
     """Run the experiments args names into out; the exit status."""
     import matplotlib
 
@@ -141,15 +168,15 @@ def run_experiments(args, out) -> int:
     from tric_control.experiments.runner import Runner
 
     with open_executor(args.executor, num_cpus=args.jobs) as executor:
-        return _run_each(args, out, Runner(out, args.jobs, executor))
+        return _run_each(args, out, page, Runner(out, args.jobs, executor))
 
 
-def _run_each(args, out, runner) -> int:
-    """Run the experiments args names with runner into out; the exit status."""
+def _run_each(args, out, page, runner) -> int:
+    """Run the experiments args names with runner into out, then write the report and the results
+    page; the exit status."""
     import matplotlib.pyplot as plt
 
     from tric_control.evaluation import write_json
-    from tric_control.experiments.report import write_report
 
     for name in args.names or list(EXPERIMENT_MODULES):
         print(f"\n=== {name}: {experiment(name).TITLE}", flush=True)
@@ -172,7 +199,7 @@ def _run_each(args, out, runner) -> int:
         print(f"paper: {result['paper']}")
         print(f"discussion: {result['discussion']}")
         print(f"({name}: {result['wall_s']:.0f} s)", flush=True)
-    print(f"\nwrote {write_report(out)}")
+    write_pages(out, page)
     return check_folder(out) if args.check else 0
 
 
