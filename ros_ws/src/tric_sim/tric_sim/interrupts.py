@@ -41,6 +41,14 @@ def line(prog: str, signum: int, kept: str = "") -> str:
     return f"{prog}: {word}" + (f"; {kept}" if kept else "")
 
 
+def _print_line(prog: str, signum: int, kept: str) -> None:
+    """The tool's line on stderr, on a line of its own: a progress bar (tqdm) draws without a
+    newline, so one ends the bar's line first while a bar is open."""
+    progress = sys.modules.get("tqdm")
+    bars_open = progress is not None and len(getattr(progress.tqdm, "_instances", ())) > 0
+    print(("\n" if bars_open else "") + line(prog, signum, kept), file=sys.stderr, flush=True)
+
+
 def end_at_once(prog: str, signum: int, kept: str = "") -> None:
     """End the process now as signum ends a command: its worker processes ended, the temporary
     files of writes in progress removed, the line printed, exit status 128 + signum."""
@@ -48,7 +56,7 @@ def end_at_once(prog: str, signum: int, kept: str = "") -> None:
         child.terminate()
     remove_temporaries()
     sys.stdout.flush()
-    print(line(prog, signum, kept), file=sys.stderr, flush=True)
+    _print_line(prog, signum, kept)
     os._exit(exit_status(signum))
 
 
@@ -77,7 +85,7 @@ def run_interruptible(prog: str, body, argv, kept: str = "") -> int:
         return body(argv)
     except KeyboardInterrupt as interrupt:
         signum = signal.SIGTERM if isinstance(interrupt, Terminated) else signal.SIGINT
-        print(line(prog, signum, kept), file=sys.stderr)
+        _print_line(prog, signum, kept)
         return exit_status(signum)
     finally:
         signal.signal(signal.SIGTERM, previous)
