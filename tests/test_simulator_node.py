@@ -127,6 +127,13 @@ def test_lockstep_commands_of_another_stamp_are_dropped(ros_context, spin):
     assert simulator.world.time_ns == current + 10_000_000
 
 
+def reset_scene(node, situation_msg):
+    """The simulator's answer to ~/reset_scene with situation_msg, called from node."""
+    return call(
+        node, ResetScene, "/simulator/reset_scene", ResetScene.Request(situation=situation_msg)
+    )
+
+
 def test_reset_scene_service_and_latched_situation(ros_context, spin):
     simulator = make_simulator(ros_context, mode="realtime")
     client = Node("test_client", context=ros_context)
@@ -140,18 +147,13 @@ def test_reset_scene_service_and_latched_situation(ros_context, spin):
     spin(simulator, client)
     wait_for(lambda: received, what="the latched initial situation")
     box = situations.dataset("box_test")[3]
-    response = call(
-        client,
-        ResetScene,
-        "/simulator/reset_scene",
-        ResetScene.Request(situation=messages.situation_to_msg(box)),
-    )
+    response = reset_scene(client, messages.situation_to_msg(box))
     assert response.success, response.message
     assert set(response.objects.names) == {"object", "lid", "lid_edge"}
     wait_for(lambda: received[-1].name == box.name, what="the new situation on /situation")
     bad = messages.situation_to_msg(box)
     bad.task = "juggle"
-    response = call(client, ResetScene, "/simulator/reset_scene", ResetScene.Request(situation=bad))
+    response = reset_scene(client, bad)
     assert not response.success and "unknown task" in response.message
     assert simulator.world.situation == box  # untouched
     in_table = messages.situation_to_msg(box)
@@ -159,9 +161,7 @@ def test_reset_scene_service_and_latched_situation(ros_context, spin):
     q = HOME.copy()
     q[[1, 3]] = 1.9, 0.5  # the shoulder down: the arm 10 cm inside the table
     in_table.initial_joint_positions = q.tolist()
-    response = call(
-        client, ResetScene, "/simulator/reset_scene", ResetScene.Request(situation=in_table)
-    )
+    response = reset_scene(client, in_table)
     assert not response.success
     assert "the robot's arm_5_link reaches 10.4 cm into the table" in response.message
     assert simulator.world.situation == box
@@ -201,12 +201,7 @@ def test_perturb_service_moves_the_target_and_refuses_the_impossible(ros_context
     spin(simulator, commander)
     sphere = situations.dataset("sphere_test")[1]
     # a reset once the commander is there: it hears the episode's first state
-    reset = call(
-        commander,
-        ResetScene,
-        "/simulator/reset_scene",
-        ResetScene.Request(situation=messages.situation_to_msg(sphere)),
-    )
+    reset = reset_scene(commander, messages.situation_to_msg(sphere))
     assert reset.success, reset.message
     wait_for(
         lambda: (

@@ -47,7 +47,6 @@ statistics) is tric_control.episode.EpisodeRunner, the same loop that `tric-eval
 the physics without ROS; this node only feeds it states and publishes what it decides.
 """
 
-import dataclasses
 import math
 import sys
 import threading
@@ -197,9 +196,7 @@ class ControllerNode(Node):
         try:
             # the perturbations are the world's doing, not the controller's: a situation that
             # gained some mid-episode (the simulator's ~/perturb) is the same scene
-            situation = dataclasses.replace(
-                messages.situation_from_msg(msg, self.robot.n_joints), perturbations=()
-            )
+            situation = messages.situation_from_msg(msg, self.robot.n_joints).unperturbed()
             if self.scene is not None and self.scene.situation == situation:
                 return  # the same scene again (e.g. a reset to the same situation): nothing changed
             proximity = Proximity(self.robot, situation)

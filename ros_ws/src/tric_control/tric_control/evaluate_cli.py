@@ -199,32 +199,32 @@ def run(argv) -> int:
         on_record = kept.add if kept is not None else None
         if not todo:
             new = []
-        elif args.offline:
-            with open_executor(executor, num_cpus=args.jobs) as workers:
-                new = evaluate_offline(
-                    todo,
-                    model,
-                    args.max_steps,
-                    args.snapshots,
-                    jobs=args.jobs,
-                    on_record=on_record,
-                    executor=workers,
-                )
         else:
-            view = open_view(args, "tric-eval")
+            view = None if args.offline else open_view(args, "tric-eval")
             with open_executor(executor, num_cpus=args.jobs) as workers:
-                new = evaluate(
-                    todo,
-                    model,
-                    args.max_steps,
-                    args.snapshots,
-                    domain_id=domain_id,
-                    jobs=args.jobs,
-                    view=view,
-                    record=args.record,
-                    on_record=on_record,
-                    executor=workers,
-                )
+                if args.offline:
+                    new = evaluate_offline(
+                        todo,
+                        model,
+                        args.max_steps,
+                        args.snapshots,
+                        jobs=args.jobs,
+                        on_record=on_record,
+                        executor=workers,
+                    )
+                else:
+                    new = evaluate(
+                        todo,
+                        model,
+                        args.max_steps,
+                        args.snapshots,
+                        domain_id=domain_id,
+                        jobs=args.jobs,
+                        view=view,
+                        record=args.record,
+                        on_record=on_record,
+                        executor=workers,
+                    )
         judged = {**done, **{record.situation: record for record in new}}
         records = [judged[situation.name] for situation in situations]
     except (ValueError, ConnectionError) as error:

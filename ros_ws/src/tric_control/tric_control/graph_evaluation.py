@@ -4,7 +4,6 @@ each situation: reset the scene, let the teacher demonstrate it or the controlle
 model for one episode, then judge the final state with the hidden metrics (with the lift test for
 grasps). evaluate() runs several such graphs at once, each in a spawned worker process."""
 
-import dataclasses
 import multiprocessing.util
 import os
 import pathlib
@@ -284,7 +283,7 @@ class Evaluator:
         """Wait until the controller has taken the new scene from /situation (latched,
         asynchronous); the controller takes it without its perturbations, which are the world's."""
         deadline = time.monotonic() + SERVICE_TIMEOUT
-        unperturbed = dataclasses.replace(situation, perturbations=())
+        unperturbed = situation.unperturbed()
         while True:
             scene = self.controller.scene
             if scene is not None and scene.situation == unperturbed:

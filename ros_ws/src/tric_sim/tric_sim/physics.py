@@ -202,16 +202,17 @@ class PhysicsWorld:
         if self.situation is None:
             raise ValueError("no scene: reset the simulator to a situation first")
         perturbations = tuple(perturbations)
+        extended = dataclasses.replace(
+            self.situation, perturbations=self.situation.perturbations + perturbations
+        )
+        checked = check_scene(extended.validate(self.robot.n_joints), self.robot)
         for k, perturbation in enumerate(perturbations):
-            if getattr(perturbation, "start_s", 0.0) < self.elapsed_s:
+            if perturbation.start_s < self.elapsed_s:
                 raise ValueError(
                     f"perturbation {k} starts at {perturbation.start_s:g} s, but the episode is "
                     f"at {self.elapsed_s:g} s already"
                 )
-        extended = dataclasses.replace(
-            self.situation, perturbations=self.situation.perturbations + perturbations
-        )
-        self.situation = check_scene(extended.validate(self.robot.n_joints), self.robot)
+        self.situation = checked
 
     @property
     def elapsed_s(self) -> float:

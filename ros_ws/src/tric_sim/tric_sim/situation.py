@@ -7,7 +7,7 @@ Whether a valid situation can physically be (nothing in the table or the robot) 
 tric_sim.scene_check's; the paper's data sets are tric_sim.situations'.
 """
 
-from dataclasses import MISSING, asdict, dataclass, fields
+from dataclasses import MISSING, asdict, dataclass, fields, replace
 
 import numpy as np
 
@@ -113,6 +113,11 @@ class Situation:
             moved = np.asarray(self.object_position) + target_displacement(self.perturbations)
             _check_position(tuple(moved), f"{where}: the object moved by its perturbations to")
         return self
+
+    def unperturbed(self) -> "Situation":
+        """This situation without its perturbations: the scene as a controller knows it (the
+        perturbations are the world's doing)."""
+        return replace(self, perturbations=())
 
     def to_dict(self) -> dict:
         data = asdict(self)
