@@ -29,8 +29,8 @@ PUSH_DURATION_S = 0.1
 DRIFT_DURATION_S = 3.0
 #: When a perturbation acts by default, s after the reset: a grasp mid-approach (the teacher's
 #: grasps close at about 3 s of 5); a box with the finger under the lip, just before the lid lifts
-#: (measured: the box teacher's lid passes 0.02 rad at 4.2 to 4.3 s of its 8 s demonstrations, on
-#: box_test_00, box_test_05 and box_val_03).
+#: (measured on training and validation boxes: the box teacher's lid passes 0.02 rad at 4.21 to
+#: 4.26 s of its 8 s demonstrations on box_train_00, 03, 07 and box_val_03, 10).
 PERTURB_AT_S = {"grasp": 1.0, "open_box": 4.0}
 #: Draws of a random start before it is refused (each must be collision-free within the limits).
 START_DRAWS = 200
