@@ -5,12 +5,12 @@ The model: trained on the demonstrations of six situations of the sphere grid (S
 from their bags in bags/sphere when they are there, else demonstrated offline here; with the default
 hyper-parameters (K = 30 hidden units) but half the noisy samples (TRAINING), which leaves the size
 of the tick's work unchanged. The episode: EPISODE_TICKS control periods of the grid's centre
-situation (one of those trained on) on a tric_sim.physics.PhysicsWorld, the controller commanding
-the simulated robot from its home towards the sphere (the log says how close the palm came). The
-comparison with pink replays the episode's states: at each, our tick (its reference set to the
-episode's target after it, so that it sees the very same problems) and the two pink steps below, in
-turns (which runs first rotates state by state, so that none always finds the caches the others
-left).
+situation (one of those trained on) on a tric_sim.physics.simulation.PhysicsWorld, the controller
+commanding the simulated robot from its home towards the sphere (the log says how close the palm
+came). The comparison with pink replays the episode's states: at each, our tick (its reference set
+to the episode's target after it, so that it sees the very same problems) and the two pink steps
+below, in turns (which runs first rotates state by state, so that none always finds the caches the
+others left).
 
 controller_tick_p50_ms, controller_tick_p99_ms: wall time of MotionRateController.tick (features,
   Jacobian, f and its gradient, domain rows, collision distances, the limits, QP), ms. Target: p99
@@ -48,13 +48,13 @@ from tric_control.limits import CollisionDamper, DomainDamper, SoftContact, Step
 from tric_control.motion_rate import INFLUENCE, JOINT_MARGIN, MotionRateController, default_limits
 from tric_control.objectives import COMPILED, make_objective
 from tric_learning import model_file
-from tric_learning.bag_dataset import load_dataset
+from tric_learning.bags.loader import load_dataset
 from tric_learning.recording import record_offline
-from tric_learning.training import TrainingConfig, train
-from tric_sim import situations
-from tric_sim.physics import PhysicsWorld
-from tric_sim.proximity import Proximity
-from tric_sim.robot_model import RobotModel
+from tric_learning.training.value import TrainingConfig, train
+from tric_sim.physics.simulation import PhysicsWorld
+from tric_sim.world import situations
+from tric_sim.world.proximity import Proximity
+from tric_sim.world.robot_model import RobotModel
 
 SPHERE_BAGS = pathlib.Path(__file__).resolve().parent.parent / "bags" / "sphere"
 #: The sphere grid situations trained on (indices into situations.sphere_grid()): the grid's middle

@@ -19,13 +19,13 @@ import sys
 import tempfile
 import time
 
-from tric_control.graph_evaluation import Evaluator
+from tric_control.evaluation.graph import Evaluator
 from tric_learning import model_file
-from tric_learning.bag_dataset import load_dataset
-from tric_learning.training import TrainingConfig, train
-from tric_sim import situations
-from tric_sim.dds_domains import private_domain_id
-from tric_sim.robot_model import RobotModel
+from tric_learning.bags.loader import load_dataset
+from tric_learning.training.value import TrainingConfig, train
+from tric_sim.ros.dds_domains import private_domain_id
+from tric_sim.world import situations
+from tric_sim.world.robot_model import RobotModel
 
 BAGS = pathlib.Path(__file__).resolve().parent.parent / "bags" / "sphere"
 EPISODES = 100

@@ -14,8 +14,8 @@ import time
 import numpy as np
 
 from tric_learning.features import FeatureDefinition, FeatureMap
-from tric_sim import scene, situations
-from tric_sim.robot_model import RobotModel
+from tric_sim.world import scene, situations
+from tric_sim.world.robot_model import RobotModel
 
 CONFIGURATIONS = 500
 ROUNDS = 5

@@ -13,7 +13,7 @@ TOOLS = {
     "tric-record": "tric_learning.record_cli",
     "tric-demo": "tric_control.demo_cli",
     "tric-experiments": "tric_control.experiments.cli",
-    "tric-study": "tric_control.study",
+    "tric-study": "tric_control.study.cli",
     "tric-analyze": "tric_learning.analyze_cli",
     "tric-snapshot": "tric_sim.snapshot",
 }

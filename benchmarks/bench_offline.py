@@ -13,12 +13,12 @@ import sys
 import tempfile
 import time
 
-from tric_control.graph_evaluation import evaluate
-from tric_control.offline import evaluate_offline
-from tric_learning.training import TrainingConfig, train_from_bags
-from tric_sim import situations
-from tric_sim.dds_domains import private_domain_id
-from tric_sim.robot_model import RobotModel
+from tric_control.evaluation.graph import evaluate
+from tric_control.evaluation.offline import evaluate_offline
+from tric_learning.training.value import TrainingConfig, train_from_bags
+from tric_sim.ros.dds_domains import private_domain_id
+from tric_sim.world import situations
+from tric_sim.world.robot_model import RobotModel
 
 BAGS = pathlib.Path(__file__).resolve().parent.parent / "bags" / "sphere"
 

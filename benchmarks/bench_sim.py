@@ -3,8 +3,8 @@
 sim_lockstep_rtf: real-time factor of the simulator node in lockstep mode, through ROS: the node
   (spun by a SingleThreadedExecutor, as `ros2 run` does) and a trivial commander, which answers each
   /joint_states with the same positions as its /joint_command, in one process. The commander waits
-  on /joint_states with tric_sim.lockstep.TopicPoller, as the teacher and controller nodes do.
-  Median of three runs of 4 s of wall time each.
+  on /joint_states with tric_sim.ros.topic_poller.TopicPoller, as the teacher and controller nodes
+  do. Median of three runs of 4 s of wall time each.
 sim_lockstep_period_us: the median wall time of one lockstep period (state -> command -> step).
 sim_physics_period_us: one control period of raw stepping (3 physics steps + distance check), no
 ROS.
@@ -21,11 +21,11 @@ from rclpy.node import Node
 from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
 
-from tric_sim import situations
-from tric_sim.lockstep import TopicPoller
-from tric_sim.physics import PhysicsWorld
-from tric_sim.robot_model import RobotModel
+from tric_sim.physics.simulation import PhysicsWorld
+from tric_sim.ros.topic_poller import TopicPoller
 from tric_sim.simulator_node import SimulatorNode
+from tric_sim.world import situations
+from tric_sim.world.robot_model import RobotModel
 
 RUN_S = 4.0
 

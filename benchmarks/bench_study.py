@@ -10,7 +10,7 @@ import sys
 import tempfile
 import time
 
-from tric_control.executors import DEFAULT_EXECUTORS, EXECUTORS
+from tric_control.evaluation.executors import DEFAULT_EXECUTORS, EXECUTORS
 
 #: The study's cells: tric-study's arguments but --out and --executor.
 STUDY = ["--tasks", "sphere", "obstacle", "--seeds", "0", "1", "--jobs", "2"]
@@ -26,7 +26,7 @@ def cells_per_hour(executor: str) -> float:
             [
                 sys.executable,
                 "-m",
-                "tric_control.study",
+                "tric_control.study.cli",
                 *STUDY,
                 "--executor",
                 executor,

@@ -19,7 +19,7 @@ import platform
 import sys
 import time
 
-from tric_sim.output_files import write_text_atomic
+from tric_sim.tools.output_files import write_text_atomic
 
 HERE = pathlib.Path(__file__).resolve().parent
 

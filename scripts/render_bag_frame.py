@@ -20,7 +20,8 @@ from matplotlib.figure import Figure  # noqa: E402
 from mpl_toolkits.mplot3d.art3d import Poly3DCollection  # noqa: E402
 
 from tric_learning import bags  # noqa: E402
-from tric_sim import scene, scene_view  # noqa: E402
+from tric_sim.viz import scene_view  # noqa: E402
+from tric_sim.world import scene  # noqa: E402
 
 SHAPES = {1: "box", 2: "sphere", 3: "cylinder"}  # visualization_msgs/Marker CUBE, SPHERE, CYLINDER
 SEGMENTS = 24

@@ -25,8 +25,8 @@ from rclpy.event_handler import EventHandler, QoSPublisherEventType
 from rclpy.executors import SingleThreadedExecutor
 
 from tric_learning import model_file
-from tric_learning.training import TrainingConfig, train_from_bags
-from tric_sim.robot_model import RobotModel
+from tric_learning.training.value import TrainingConfig, train_from_bags
+from tric_sim.world.robot_model import RobotModel
 
 #: Wall seconds after which a wait counts as a hang. Far more than any of these waits takes on a
 #: loaded machine: it only keeps a broken test from waiting for ever, and times nothing.

@@ -16,14 +16,15 @@ from tric_control.controller_node import ControllerNode
 from tric_learning import model_file
 from tric_learning.features import FeatureDefinition
 from tric_learning.recording import record_offline
-from tric_learning.training import TrainingConfig, train
+from tric_learning.training.value import TrainingConfig, train
 from tric_msgs.action import Execute
 from tric_msgs.msg import ControllerStatus, EpisodeEvent, ObjectPoses
 from tric_msgs.msg import Situation as SituationMsg
 from tric_msgs.srv import LoadModel, ResetScene
-from tric_sim import messages, situations
-from tric_sim.robot_model import HOME, RobotModel
+from tric_sim.ros import messages
 from tric_sim.simulator_node import SimulatorNode
+from tric_sim.world import situations
+from tric_sim.world.robot_model import HOME, RobotModel
 
 #: Test subscriptions keep every message (the checks compare consecutive commands).
 KEEP_ALL = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)

@@ -13,8 +13,8 @@ import pytest
 
 from conftest import REFERENCE_BAGS
 from tric_control import demo, demo_cli
-from tric_learning.training import TrainingConfig
-from tric_sim import situations
+from tric_learning.training.value import TrainingConfig
+from tric_sim.world import situations
 
 BAGS = REFERENCE_BAGS / "sphere"
 PNG = b"\x89PNG\r\n\x1a\n"

@@ -12,7 +12,7 @@ SRC = pathlib.Path(__file__).parents[1] / "ros_ws" / "src"
 
 
 def declared_parameters(node_module: pathlib.Path) -> list:
-    """The names of the parameters a node module declares (tric_sim.parameters.declare)."""
+    """The names of the parameters a node module declares (tric_sim.ros.parameters.declare)."""
     return [
         ast.literal_eval(call.args[1])
         for call in ast.walk(ast.parse(node_module.read_text()))

@@ -9,12 +9,13 @@ import pathlib
 import pytest
 
 from conftest import record_fields
-from tric_control import evaluate_cli, graph_evaluation
-from tric_control.evaluation import EpisodeRecord, report, summarize, table, write_json
-from tric_learning.training import TrainingConfig, train_from_bags
-from tric_sim import situations
-from tric_sim.robot_model import RobotModel
-from tric_sim.situation_files import save_situations
+from tric_control import evaluate_cli
+from tric_control.evaluation import graph as graph_evaluation
+from tric_control.evaluation.records import EpisodeRecord, report, summarize, table, write_json
+from tric_learning.training.value import TrainingConfig, train_from_bags
+from tric_sim.world import situations
+from tric_sim.world.robot_model import RobotModel
+from tric_sim.world.situation_files import save_situations
 
 BAGS = pathlib.Path(__file__).resolve().parent.parent / "bags" / "sphere"
 

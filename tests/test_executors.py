@@ -1,7 +1,7 @@
-"""The executors (tric_control.executors): Ray's actors give the process pool's records bit for bit,
-offline and through the nodes; tric-study on a 2-node Ray cluster on this machine gives a local
-run's results, both nodes working. Ray runs with one CPU a node and an 80 MB object store, and is
-always shut down."""
+"""The executors (tric_control.evaluation.executors): Ray's actors give the process pool's records
+bit for bit, offline and through the nodes; tric-study on a 2-node Ray cluster on this machine gives
+a local run's results, both nodes working. Ray runs with one CPU a node and an 80 MB object store,
+and is always shut down."""
 
 import json
 import math
@@ -14,12 +14,14 @@ from tqdm import tqdm
 
 from conftest import REFERENCE_BAGS as BAGS
 from conftest import record_fields, study_results
-from tric_control import executors, graph_evaluation, study
-from tric_control.evaluation import EpisodeRecord, unjudged_fields
-from tric_control.offline import evaluate_offline
-from tric_learning.training import TrainingConfig, train_from_bags
-from tric_sim import situations
-from tric_sim.robot_model import RobotModel
+from tric_control.evaluation import executors
+from tric_control.evaluation import graph as graph_evaluation
+from tric_control.evaluation.offline import evaluate_offline
+from tric_control.evaluation.records import EpisodeRecord, unjudged_fields
+from tric_control.study import cli as study
+from tric_learning.training.value import TrainingConfig, train_from_bags
+from tric_sim.world import situations
+from tric_sim.world.robot_model import RobotModel
 
 ray = pytest.importorskip("ray")
 

@@ -35,8 +35,8 @@ def test_imports_without_display(package):
 
 
 def test_tools_load_nothing_of_foxglove_without_viz():
-    """The in-process tools offer --viz (tric_sim.view_options) but import foxglove-sdk only when
-    asked."""
+    """The in-process tools offer --viz (tric_sim.viz.view_options) but import foxglove-sdk only
+    when asked."""
     code = (
         "import sys, tric_control.demo_cli, tric_control.evaluate_cli, tric_learning.record_cli; "
         "print(sorted(m for m in sys.modules if m.split('.')[0] in ('foxglove', 'websockets')))"
@@ -88,7 +88,7 @@ BAD_ARGUMENTS = {
     "tric_control.evaluate_cli": (["sphere_test", "--teacher", "--jobs", "0"], "must"),
     "tric_control.demo_cli": (["--jobs", "0"], "--jobs must be at least 1"),
     "tric_control.experiments.cli": (["--jobs", "0"], "--jobs must be in [1, 64]"),
-    "tric_control.study": (["--variant", "v=hand_lead=-0.1"], "hand_lead must be >= 0"),
+    "tric_control.study.cli": (["--variant", "v=hand_lead=-0.1"], "hand_lead must be >= 0"),
     "tric_learning.train_cli": (["some.mcap", "--alpha-g", "-1"], "must"),
     "tric_learning.record_cli": (["sphere_train", "--period", "0"], "must"),
     "tric_learning.analyze_cli": (["m.safetensors", "b.mcap", "--top", "0"], "--top must be"),

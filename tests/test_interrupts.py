@@ -215,7 +215,7 @@ def test_tric_study_on_ray_terminated_leaves_no_ray_process(tmp_path, monkeypatc
     monkeypatch.chdir(pathlib.Path(__file__).resolve().parent.parent)  # bags/
     variant = "tiny=max_iterations=3,noisy_samples=3,grasp_steps=40"
     arguments = ["--variant", variant, "--tasks", "sphere", "--seeds", "0", "1"]
-    study = start("tric_control.study", *arguments, "--out", str(tmp_path), "--jobs", "2")
+    study = start("tric_control.study.cli", *arguments, "--out", str(tmp_path), "--jobs", "2")
     code, rest = signal_after(study, "sphere_val", 1, signal.SIGTERM)
     assert code == 143, rest
     assert "tric-study: terminated; the rows measured so far kept in study.json" in rest

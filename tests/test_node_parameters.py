@@ -10,7 +10,7 @@ from rclpy.parameter import Parameter
 from tric_control import controller_node
 from tric_learning import recorder_node, trainer_node
 from tric_sim import simulator_node, teacher_node
-from tric_sim.parameters import AT_LEAST_ONE, POSITIVE, Range, declare
+from tric_sim.ros.parameters import AT_LEAST_ONE, POSITIVE, Range, declare
 
 
 @pytest.mark.parametrize(

@@ -9,13 +9,14 @@ import pytest
 
 from conftest import REFERENCE_BAGS as BAGS
 from conftest import record_fields
-from tric_control import evaluate_cli, graph_evaluation
-from tric_control.offline import evaluate_offline
-from tric_learning.training import TrainingConfig, train_from_bags
-from tric_sim import situations
-from tric_sim.lockstep import TopicPoller
-from tric_sim.robot_model import RobotModel
-from tric_sim.situation_files import save_situations
+from tric_control import evaluate_cli
+from tric_control.evaluation import graph as graph_evaluation
+from tric_control.evaluation.offline import evaluate_offline
+from tric_learning.training.value import TrainingConfig, train_from_bags
+from tric_sim.ros.topic_poller import TopicPoller
+from tric_sim.world import situations
+from tric_sim.world.robot_model import RobotModel
+from tric_sim.world.situation_files import save_situations
 
 
 @pytest.fixture(scope="module")

@@ -5,11 +5,12 @@ import json
 
 from tric_control import evaluate_cli
 from tric_learning import bags
-from tric_learning.bag_layout import SITUATION_TOPIC
-from tric_sim import messages, situations
-from tric_sim.perturbation_trials import Trial
-from tric_sim.robot_model import RobotModel
-from tric_sim.situation_files import save_situations
+from tric_learning.bags.layout import SITUATION_TOPIC
+from tric_sim.ros import messages
+from tric_sim.world import situations
+from tric_sim.world.perturbation_trials import Trial
+from tric_sim.world.robot_model import RobotModel
+from tric_sim.world.situation_files import save_situations
 
 
 def test_a_recorded_perturbed_episode_replays_to_the_same_outcome(tmp_path):

@@ -23,14 +23,16 @@ from sensor_msgs.msg import JointState
 
 from conftest import FolderChanges, publisher_matches, run_periods, wait_for
 from tric_learning import bags, record_cli
-from tric_learning.bag_dataset import load_dataset
-from tric_learning.bag_layout import SAMPLES_TOPIC
+from tric_learning.bags.layout import SAMPLES_TOPIC
+from tric_learning.bags.loader import load_dataset
 from tric_learning.demonstrations import demonstrate_all
 from tric_learning.recorder_node import RecorderNode
 from tric_msgs.msg import EpisodeEvent, ObjectPoses, TaskMetrics
-from tric_sim import messages, scene, scene_view, situations
-from tric_sim.robot_model import RobotModel
-from tric_sim.situation_files import save_situations
+from tric_sim.ros import messages
+from tric_sim.viz import scene_view
+from tric_sim.world import scene, situations
+from tric_sim.world.robot_model import RobotModel
+from tric_sim.world.situation_files import save_situations
 
 
 @pytest.fixture(scope="module")
@@ -314,7 +316,7 @@ def test_a_disk_that_fills_mid_episode_loses_that_episode_only(
     """A write that fails in the middle of an episode (ENOSPC from the bag writer, standing in
     for a full disk): its bag is discarded (no .part left to fill the disk), the episode named as
     not recorded with the cause, and the next episode recorded as usual."""
-    from tric_learning import bag_recorder
+    from tric_learning.bags import recorder as bag_recorder
 
     written = {"states": 0, "failed": False}
     original = bag_recorder.BagRecorder.joint_state

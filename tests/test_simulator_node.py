@@ -14,9 +14,10 @@ from conftest import call, publisher_matches, run_periods, wait_for
 from tric_msgs.msg import ObjectPoses, Perturbation
 from tric_msgs.msg import Situation as SituationMsg
 from tric_msgs.srv import EvaluateTask, Perturb, RenderScene, ResetScene
-from tric_sim import messages, situations
-from tric_sim.robot_model import HOME
+from tric_sim.ros import messages
 from tric_sim.simulator_node import IN_PROCESS_LOCKSTEP_TIMEOUT_S, SimulatorNode
+from tric_sim.world import situations
+from tric_sim.world.robot_model import HOME
 
 
 class Commander(Node):

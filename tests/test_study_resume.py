@@ -8,7 +8,8 @@ import pytest
 
 from conftest import REFERENCE_BAGS as BAGS
 from conftest import study_results
-from tric_control import study, study_runs
+from tric_control.study import cli as study
+from tric_control.study import runs as study_runs
 
 #: Control ticks per episode here: enough to move and to be judged, short enough for a test.
 TICKS = 40
@@ -83,7 +84,7 @@ def test_an_interrupted_study_does_only_its_missing_cells(tmp_path, monkeypatch,
     digest = study_runs.code_digest
 
     def changed(*modules):
-        return "changed" if "tric_control.offline" in modules else digest(*modules)
+        return "changed" if "tric_control.evaluation.offline" in modules else digest(*modules)
 
     monkeypatch.setattr(study_runs, "code_digest", changed)
     counted["measured"].clear()

@@ -7,9 +7,10 @@ from rclpy.parameter import Parameter
 from conftest import run_action, run_periods, wait_for
 from tric_msgs.action import Demonstrate
 from tric_msgs.msg import EpisodeEvent
-from tric_sim import messages, situations
+from tric_sim.ros import messages
 from tric_sim.simulator_node import SimulatorNode
 from tric_sim.teacher_node import TeacherNode
+from tric_sim.world import situations
 
 
 def start(ros_context, spin):

@@ -18,11 +18,11 @@ from tric_learning.demonstrations import demonstrate_all
 from tric_learning.features import FeatureDefinition
 from tric_learning.model_file import ModelFile, value_function
 from tric_learning.trainer_node import TrainerNode, training_config
-from tric_learning.training import TrainingConfig
+from tric_learning.training.value import TrainingConfig
 from tric_msgs.msg import TrainingProgress
 from tric_msgs.srv import Train
-from tric_sim import situations
-from tric_sim.robot_model import RobotModel
+from tric_sim.world import situations
+from tric_sim.world.robot_model import RobotModel
 
 #: A training of a few seconds: not a useful model, but every stage of a real one.
 TINY = {"hidden_units": 5, "noisy_samples": 10, "max_iterations": 20}

@@ -6,8 +6,8 @@ import numpy as np
 import torch
 
 from conftest import REFERENCE_BAGS
-from tric_learning.training import TrainingConfig, train_from_bags
-from tric_sim.robot_model import RobotModel
+from tric_learning.training.value import TrainingConfig, train_from_bags
+from tric_sim.world.robot_model import RobotModel
 
 
 def test_the_default_training_gives_the_same_model_twice(reference_sphere_training, tmp_path):

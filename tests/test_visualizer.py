@@ -27,14 +27,16 @@ from tric_control import evaluate_cli
 from tric_control.top_features import TOP_FEATURES
 from tric_learning import bags, model_file
 from tric_learning.recording import record_offline
-from tric_learning.training import TrainingConfig, train
+from tric_learning.training.value import TrainingConfig, train
 from tric_msgs.srv import ResetScene
-from tric_sim import messages, scene, scene_view, situations
-from tric_sim.foxglove_view import FoxgloveView
-from tric_sim.robot_model import RobotModel
+from tric_sim.ros import messages
 from tric_sim.simulator_node import SimulatorNode
-from tric_sim.situation_files import save_situations
 from tric_sim.visualizer_node import VisualizerNode
+from tric_sim.viz import scene_view
+from tric_sim.viz.foxglove_view import FoxgloveView
+from tric_sim.world import scene, situations
+from tric_sim.world.robot_model import RobotModel
+from tric_sim.world.situation_files import save_situations
 
 LATCHED = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 SUBPROTOCOL = "foxglove.sdk.v1"
@@ -293,10 +295,12 @@ def test_tric_eval_viz_serves_the_episode_live(model_path, tmp_path, monkeypatch
 
 
 def test_the_layout_in_docs_is_the_generated_one():
-    from tric_sim.foxglove_view import LAYOUT_PATH, foxglove_layout
+    from tric_sim.viz.foxglove_view import LAYOUT_PATH, foxglove_layout
 
     path = pathlib.Path(__file__).resolve().parent.parent / LAYOUT_PATH
-    assert path.read_text() == foxglove_layout(), "regenerate it: python -m tric_sim.foxglove_view"
+    assert path.read_text() == foxglove_layout(), (
+        "regenerate it: python -m tric_sim.viz.foxglove_view"
+    )
     panels = json.dumps(json.loads(path.read_text()))
     for topic in (
         "/scene",

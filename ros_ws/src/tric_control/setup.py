@@ -32,7 +32,7 @@ setup(
             "tric-eval = tric_control.evaluate_cli:main",
             "tric-demo = tric_control.demo_cli:main",
             "tric-experiments = tric_control.experiments.cli:main",
-            "tric-study = tric_control.study:main",
+            "tric-study = tric_control.study.cli:main",
         ]
     },
 )

@@ -1,8 +1,8 @@
-"""Hand-made tric_sim.proximity.Closest results for the limits' tests."""
+"""Hand-made tric_sim.world.proximity.Closest results for the limits' tests."""
 
 import numpy as np
 
-from tric_sim.proximity import Closest
+from tric_sim.world.proximity import Closest
 
 #: The scene bodies of every hand-made Closest (pairs name them by index; -1: within the robot).
 BODY_NAMES = ("table", "object", "lid")

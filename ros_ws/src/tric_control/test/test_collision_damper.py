@@ -11,9 +11,9 @@ from closest_samples import hand_made
 
 from tric_control.limits import UNBOUNDED_BELOW, CollisionDamper, ContactRules, StepState
 from tric_control.motion_rate import DAMPING, SAFETY, SELF_SAFETY
-from tric_sim import scene, situations
-from tric_sim.proximity import Proximity
-from tric_sim.robot_model import RobotModel
+from tric_sim.world import scene, situations
+from tric_sim.world.proximity import Proximity
+from tric_sim.world.robot_model import RobotModel
 
 ROWS = 10
 

@@ -9,7 +9,7 @@ import pinocchio as pin
 from closest_samples import hand_made
 
 from tric_control.limits import ContactRules
-from tric_sim import scene
+from tric_sim.world import scene
 
 GRASP = scene.Contact(depth=0.005, cushion=0.003, cushion_weight=3.0)
 

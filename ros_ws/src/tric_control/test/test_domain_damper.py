@@ -10,7 +10,7 @@ from tric_control.motion_rate import DAMPING, DOMAIN_MARGIN, DOMAIN_ROWS
 from tric_control.objectives import Objective, ValueObjective
 from tric_learning.features import FeatureDefinition, FeatureMap
 from tric_learning.value_function import Scaling, ValueFunction
-from tric_sim.robot_model import RobotModel
+from tric_sim.world.robot_model import RobotModel
 
 SPHERE = {"object": ((0.6, 0.1, 0.3), (0.0, 0.0, 0.0, 1.0))}
 

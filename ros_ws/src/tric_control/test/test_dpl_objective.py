@@ -11,12 +11,12 @@ import pytest
 
 from tric_control.motion_rate import MotionRateController
 from tric_control.objectives import DPL_WEIGHT, DplObjective, make_objective
-from tric_learning import dpl
 from tric_learning.features import FeatureDefinition
 from tric_learning.model_file import ModelFile
+from tric_learning.training import dpl
 from tric_learning.value_function import Scaling
-from tric_sim.proximity import Closest
-from tric_sim.robot_model import HOME, RobotModel
+from tric_sim.world.proximity import Closest
+from tric_sim.world.robot_model import HOME, RobotModel
 
 SPHERE = {"object": (np.array([0.6, 0.0, 0.35]), np.array([0.0, 0.0, 0.0, 1.0]))}
 BOX = {

@@ -6,9 +6,9 @@ import math
 import numpy as np
 import pytest
 
-from tric_control.episode import STALE_PERIODS, EpisodeRunner
+from tric_control.episode_runner import STALE_PERIODS, EpisodeRunner
 from tric_control.motion_rate import Tick
-from tric_sim.robot_model import RobotModel
+from tric_sim.world.robot_model import RobotModel
 
 PERIOD = 0.01
 

@@ -7,9 +7,9 @@ import pathlib
 
 from tqdm import tqdm
 
-from tric_control.evaluation import EpisodeRecord, unjudged_fields
-from tric_control.evaluation_workers import run_in_workers
-from tric_sim import situations
+from tric_control.evaluation.records import EpisodeRecord, unjudged_fields
+from tric_control.evaluation.workers import run_in_workers
+from tric_sim.world import situations
 
 
 class DyingEvaluator:

@@ -7,10 +7,10 @@ import numpy as np
 import pytest
 
 from tric_control.hard_negatives import contrasts, train_with_hard_negatives
-from tric_learning.bag_dataset import bag_paths, load_dataset
-from tric_learning.samples import step_offsets
-from tric_learning.training import TrainingConfig, train
-from tric_sim.robot_model import RobotModel
+from tric_learning.bags.loader import bag_paths, load_dataset
+from tric_learning.training.samples import step_offsets
+from tric_learning.training.value import TrainingConfig, train
+from tric_sim.world.robot_model import RobotModel
 
 BAGS = pathlib.Path(__file__).resolve().parents[4] / "bags" / "sphere"
 

@@ -1,4 +1,4 @@
-"""tric-experiments' kept evaluations (tric_control.kept_evaluations): an evaluation interrupted
+"""tric-experiments' kept evaluations (tric_control.evaluation.kept): an evaluation interrupted
 after some episodes runs only the others when run again and gives the records of an uninterrupted
 run; a complete one is re-used; a change of the model file, the situations, the step budget or the
 code re-uses nothing; repeated situation names (fig9) keep their own episodes."""
@@ -8,9 +8,9 @@ import json
 
 import pytest
 
-from tric_control.evaluation import EpisodeRecord, unjudged_fields
-from tric_control.kept_evaluations import evaluation_key, kept_evaluation
-from tric_sim import situations
+from tric_control.evaluation.kept import evaluation_key, kept_evaluation
+from tric_control.evaluation.records import EpisodeRecord, unjudged_fields
+from tric_sim.world import situations
 
 CODE = "code-digest"
 

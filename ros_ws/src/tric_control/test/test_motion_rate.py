@@ -26,10 +26,10 @@ from tric_control.objectives import Objective, ValueObjective, make_objective
 from tric_learning.features import FeatureDefinition, FeatureMap
 from tric_learning.model_file import ModelFile, value_function_arrays
 from tric_learning.value_function import Scaling, ValueFunction
-from tric_sim import situations
-from tric_sim.proximity import Closest, Proximity
-from tric_sim.robot_model import RobotModel
-from tric_sim.shapes import coal_shape
+from tric_sim.world import situations
+from tric_sim.world.proximity import Closest, Proximity
+from tric_sim.world.robot_model import RobotModel
+from tric_sim.world.shapes import coal_shape
 
 #: "No bound" for the QP's unused inequality rows, as the controller uses it.
 UNBOUNDED = 1e20

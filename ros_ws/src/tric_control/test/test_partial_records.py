@@ -5,8 +5,8 @@ import math
 
 import pytest
 
-from tric_control.evaluation import EpisodeRecord, PartialRecords, unjudged_fields
-from tric_sim import situations
+from tric_control.evaluation.records import EpisodeRecord, PartialRecords, unjudged_fields
+from tric_sim.world import situations
 
 
 def test_partial_records_round_trip_and_refuse_another_run(tmp_path):

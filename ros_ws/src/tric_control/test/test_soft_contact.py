@@ -6,8 +6,8 @@ import numpy as np
 from closest_samples import hand_made
 
 from tric_control.limits import ContactRules, SoftContact, StepState
-from tric_sim import scene
-from tric_sim.proximity import Closest
+from tric_sim.world import scene
+from tric_sim.world.proximity import Closest
 
 CUSHION, WEIGHT = 0.003, 3.0
 

@@ -2,8 +2,10 @@
 
 import pytest
 
-from tric_control import study, study_runs, study_variants
-from tric_sim.scene import TASK_CONTACTS
+from tric_control.study import cli as study
+from tric_control.study import runs as study_runs
+from tric_control.study import variants as study_variants
+from tric_sim.world.scene import TASK_CONTACTS
 
 
 def test_a_variant_is_a_name_and_training_options():
@@ -89,7 +91,7 @@ def test_contact_options_change_the_task_s_contact_rules_only_where_given():
 def test_the_domain_damper_can_be_left_out_for_a_study():
     from tric_control.limits import DomainDamper
     from tric_control.motion_rate import default_limits
-    from tric_sim.robot_model import RobotModel
+    from tric_sim.world.robot_model import RobotModel
 
     assert study_variants.parse_variant("v=domain_damper=false")[1] == {"domain_damper": False}
     robot = RobotModel()

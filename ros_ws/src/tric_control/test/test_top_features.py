@@ -7,7 +7,7 @@ from tric_control.objectives import Objective, ValueObjective
 from tric_control.top_features import TopFeatures
 from tric_learning.features import FeatureDefinition, FeatureMap
 from tric_learning.value_function import Scaling, ValueFunction
-from tric_sim.robot_model import RobotModel
+from tric_sim.world.robot_model import RobotModel
 
 POSES = {"object": (np.array([0.55, 0.05, 0.4]), np.array([0.0, 0.0, 0.0, 1.0]))}
 

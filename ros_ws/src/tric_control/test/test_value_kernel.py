@@ -11,7 +11,7 @@ from tric_control.motion_rate import DOMAIN_ROWS
 from tric_control.objectives import COMPILED, ValueObjective
 from tric_learning.features import FeatureDefinition, FeatureMap
 from tric_learning.value_function import Scaling, ValueFunction
-from tric_sim.robot_model import RobotModel
+from tric_sim.world.robot_model import RobotModel
 
 
 @pytest.fixture(scope="module")

@@ -7,13 +7,13 @@ import time
 
 from rclpy.task import Future
 
-from tric_control.episode import EpisodeRunner
+from tric_control.episode_runner import EpisodeRunner
 from tric_control.top_features import TopFeatures
 from tric_learning.model_file import ModelFile
 from tric_msgs.msg import EpisodeEvent
 from tric_msgs.msg import Situation as SituationMsg
-from tric_sim import messages
-from tric_sim.proximity import Proximity
+from tric_sim.ros import messages
+from tric_sim.world.proximity import Proximity
 
 #: Wall seconds between checks of cancel requests and the state timeout (lockstep waits, realtime
 #: watchdog).
@@ -43,7 +43,7 @@ class Scene:
 
 
 class Episode:
-    """One run of ~/execute: its goal, model, scene and runner (tric_control.episode)."""
+    """One run of ~/execute: its goal, model, scene and runner (tric_control.episode_runner)."""
 
     def __init__(
         self, goal_handle, episode_id: str, model: Loaded, scene: Scene, runner: EpisodeRunner

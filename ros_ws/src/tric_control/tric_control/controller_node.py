@@ -30,8 +30,8 @@ Parameters:
 - mode ("lockstep" | "realtime", default "lockstep"): see below.
 - control_rate_hz (default 100): control ticks per second; the step bound of a tick is the joints'
   velocity limits divided by this rate.
-- max_steps (default: the task's, tric_control.episode.DEFAULT_MAX_STEPS: 800 for grasps, 2000 for
-  boxes): an episode's step budget when the goal gives none.
+- max_steps (default: the task's, tric_control.episode_runner.DEFAULT_MAX_STEPS: 800 for grasps,
+2000 for   boxes): an episode's step budget when the goal gives none.
 - state_timeout_s (default 10): wall seconds without joint states before an episode aborts.
 - use_sim_time: as usual. Realtime mode's timer and staleness test run on the node clock, which must
   be the clock the joint states are stamped with (with the simulator: use_sim_time true).
@@ -43,8 +43,8 @@ holds when it is stale). The loaded model, the scene and the running episode are
 tric_control.controller_episode's.
 
 The episode itself (safe commands, the stale-state hold, convergence and the step budget, the
-statistics) is tric_control.episode.EpisodeRunner, the same loop that `tric-eval --offline` runs on
-the physics without ROS; this node only feeds it states and publishes what it decides.
+statistics) is tric_control.episode_runner.EpisodeRunner, the same loop that `tric-eval --offline`
+runs on the physics without ROS; this node only feeds it states and publishes what it decides.
 """
 
 import math
@@ -56,7 +56,7 @@ from rclpy.node import Node
 from sensor_msgs.msg import JointState
 
 from tric_control.controller_episode import Episode, Loaded, Scene
-from tric_control.episode import DEFAULT_MAX_STEPS, EpisodeRunner
+from tric_control.episode_runner import DEFAULT_MAX_STEPS, EpisodeRunner
 from tric_control.lockstep_loop import LockstepLoop
 from tric_control.motion_rate import MotionRateController
 from tric_control.objectives import make_objective
@@ -67,12 +67,12 @@ from tric_msgs.action import Execute
 from tric_msgs.msg import ControllerStatus, EpisodeEvent
 from tric_msgs.msg import Situation as SituationMsg
 from tric_msgs.srv import LoadModel
-from tric_sim import messages
-from tric_sim.lockstep import command_msg
-from tric_sim.parameters import AT_LEAST_ONE, POSITIVE, Range, declare
-from tric_sim.proximity import Proximity
-from tric_sim.robot_model import RobotModel
-from tric_sim.ros_util import EVENT_QOS, LATCHED_QOS, STATE_QOS, run_node
+from tric_sim.ros import messages
+from tric_sim.ros.graph import EVENT_QOS, LATCHED_QOS, STATE_QOS, run_node
+from tric_sim.ros.parameters import AT_LEAST_ONE, POSITIVE, Range, declare
+from tric_sim.ros.topic_poller import command_msg
+from tric_sim.world.proximity import Proximity
+from tric_sim.world.robot_model import RobotModel
 
 MODES = ("lockstep", "realtime")
 FEEDBACK_EVERY = 10

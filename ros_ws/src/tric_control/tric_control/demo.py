@@ -15,18 +15,18 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from tqdm import tqdm  # noqa: E402
 
-from tric_control.evaluation import report, summarize, write_json  # noqa: E402
+from tric_control.evaluation.graph import evaluate  # noqa: E402
+from tric_control.evaluation.records import report, summarize, write_json  # noqa: E402
 from tric_control.experiments.paper import PAPER_TEACHER, PAPER_TRIC  # noqa: E402
 from tric_control.experiments.targets import MARGIN_TO_TEACHER  # noqa: E402
-from tric_control.graph_evaluation import evaluate  # noqa: E402
 from tric_learning.demonstrations import demonstrate_all  # noqa: E402
-from tric_learning.training import TrainingConfig, train_from_bags  # noqa: E402
-from tric_sim.dds_domains import private_domain_id  # noqa: E402
-from tric_sim.metrics import GOOD_GRASP  # noqa: E402
-from tric_sim.output_files import atomic_path  # noqa: E402
-from tric_sim.robot_model import RobotModel  # noqa: E402
-from tric_sim.situations import dataset  # noqa: E402
-from tric_sim.view_options import open_view  # noqa: E402
+from tric_learning.training.value import TrainingConfig, train_from_bags  # noqa: E402
+from tric_sim.physics.metrics import GOOD_GRASP  # noqa: E402
+from tric_sim.ros.dds_domains import private_domain_id  # noqa: E402
+from tric_sim.tools.output_files import atomic_path  # noqa: E402
+from tric_sim.viz.view_options import open_view  # noqa: E402
+from tric_sim.world.robot_model import RobotModel  # noqa: E402
+from tric_sim.world.situations import dataset  # noqa: E402
 
 
 def record(out: pathlib.Path, domain_id: int, view=None) -> pathlib.Path:

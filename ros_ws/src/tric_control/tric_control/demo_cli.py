@@ -7,7 +7,7 @@
    (simulator in lockstep, teacher, recorder) into DIR/demo/bags, or, with --reuse, take the bags
    in BAGS (default: the reference set bags/sphere).
 2. Train TRIC on them with the defaults (K = 30, M = 60, alpha = 1, 30, 0.001: the paper's but for
-   alpha_g, see tric_learning.training).
+   alpha_g, see tric_learning.training.value).
 3. Evaluate the teacher and the learned controller on the 15 test situations (paper Table 1),
    through the simulator, teacher and controller nodes, judged by the hidden metrics; --jobs
    (default: the number of CPUs) graphs of them at once, each in a process of its own.
@@ -29,10 +29,10 @@ import sys
 
 # Only what the arguments need: --help and argument errors answer before torch, pybullet,
 # pinocchio, rclpy and matplotlib are imported (tric_control.demo, the job, is imported after).
-from tric_learning.hyperparameters import TrainingConfig
-from tric_sim.interrupts import run_interruptible
-from tric_sim.output_files import WriteFailed, check_output_folder
-from tric_sim.view_options import add_view_arguments
+from tric_learning.training.hyperparameters import TrainingConfig
+from tric_sim.tools.interrupts import run_interruptible
+from tric_sim.tools.output_files import WriteFailed, check_output_folder
+from tric_sim.viz.view_options import add_view_arguments
 
 
 def main(argv=None) -> int:

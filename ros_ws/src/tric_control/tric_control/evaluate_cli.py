@@ -23,18 +23,18 @@ RAY_ADDRESS: a Ray cluster whose machines have the project's environment, the mo
 code shipped to them, the records coming back; not with --snapshots, --record or --viz, which write
 on the workers' disks). --offline runs the same
 episodes without nodes: the controller core (or the teacher's) on the physics directly
-(tric_control.offline), several times faster, for sweeps; the table and JSON are the same. --record
-DIR writes one bag per episode (the recorder node: the joint states, poses, samples and outcome, the
-controller's status of every tick, and /tf, /robot_description and /scene_markers for Foxglove to
-replay it in 3D). --viz serves a live Foxglove view of the run (tric_sim.foxglove_view) on
-ws://127.0.0.1:P (default 8765); it shows one graph, so it takes --jobs 1. --record and --viz need
-the nodes (not --offline). --perturb puts each situation through perturbed trials instead
-(tric_sim.perturbation_trials): push:SIZE shoves the arm by SIZE rad, jump:SIZE moves the grasp
-target SIZE m sideways at once, drift:SIZE moves it at SIZE m/s, start:SIZE starts SIZE rad from
-the nominal start; @SECONDS sets when (default 1 s for grasps, 4 s for boxes). Each --perturb
-value gives one episode per situation, named "<situation>_<kind><size>"; the perturbations are in
-the situation the episode runs (and in its bag, with --record). Exits 0 when every episode ran
-(whatever its score), 1 when one could not be run, 2 on bad arguments.
+(tric_control.evaluation.offline), several times faster, for sweeps; the table and JSON are the
+same. --record DIR writes one bag per episode (the recorder node: the joint states, poses, samples
+and outcome, the controller's status of every tick, and /tf, /robot_description and /scene_markers
+for Foxglove to replay it in 3D). --viz serves a live Foxglove view of the run
+(tric_sim.viz.foxglove_view) on ws://127.0.0.1:P (default 8765); it shows one graph, so it takes
+--jobs 1. --record and --viz need the nodes (not --offline). --perturb puts each situation through
+perturbed trials instead (tric_sim.world.perturbation_trials): push:SIZE shoves the arm by SIZE rad,
+jump:SIZE moves the grasp target SIZE m sideways at once, drift:SIZE moves it at SIZE m/s,
+start:SIZE starts SIZE rad from the nominal start; @SECONDS sets when (default 1 s for grasps, 4 s
+for boxes). Each --perturb value gives one episode per situation, named "<situation>_<kind><size>";
+the perturbations are in the situation the episode runs (and in its bag, with --record). Exits 0
+when every episode ran (whatever its score), 1 when one could not be run, 2 on bad arguments.
 """
 
 import argparse
@@ -43,19 +43,19 @@ import sys
 
 # Only what the arguments need: --help and argument errors answer before torch, pybullet,
 # pinocchio and rclpy are imported (main imports the rest once the arguments are checked).
-from tric_control.executors import (
+from tric_control.evaluation.executors import (
     DEFAULT_EXECUTORS,
     add_executor_arguments,
     chosen_executor,
     open_executor,
 )
-from tric_sim.dds_domains import MAX_DOMAIN_ID, private_domain_id
-from tric_sim.interrupts import run_interruptible
-from tric_sim.output_files import check_output_file, check_output_folder
-from tric_sim.perturbation_trials import parse_trial
-from tric_sim.situation_files import load_situations
-from tric_sim.situations import DATASETS, dataset
-from tric_sim.view_options import add_view_arguments, open_view
+from tric_sim.ros.dds_domains import MAX_DOMAIN_ID, private_domain_id
+from tric_sim.tools.interrupts import run_interruptible
+from tric_sim.tools.output_files import check_output_file, check_output_folder
+from tric_sim.viz.view_options import add_view_arguments, open_view
+from tric_sim.world.perturbation_trials import parse_trial
+from tric_sim.world.situation_files import load_situations
+from tric_sim.world.situations import DATASETS, dataset
 
 #: What --json takes per episode at most, bytes (a record is about 600).
 JSON_BYTES_PER_EPISODE = 4096
@@ -163,7 +163,7 @@ def run(argv) -> int:
             load_situations(args.situations_file) if args.situations_file else dataset(args.dataset)
         )
         if args.perturb:
-            from tric_sim.robot_model import RobotModel
+            from tric_sim.world.robot_model import RobotModel
 
             robot = RobotModel()
             situations = [
@@ -185,9 +185,9 @@ def run(argv) -> int:
         if args.snapshots:
             check_output_folder(args.snapshots, "--snapshots folder")
         model = None if args.teacher else args.model
-        from tric_control.evaluation import PartialRecords
-        from tric_control.graph_evaluation import evaluate
-        from tric_control.offline import evaluate_offline
+        from tric_control.evaluation.graph import evaluate
+        from tric_control.evaluation.offline import evaluate_offline
+        from tric_control.evaluation.records import PartialRecords
 
         kept = PartialRecords(args.json, name, situations) if args.json else None
         done = kept.resume() if args.resume else {}
@@ -233,7 +233,7 @@ def run(argv) -> int:
     finally:
         if view is not None:
             view.close()
-    from tric_control.evaluation import report, table, write_json
+    from tric_control.evaluation.records import report, table, write_json
 
     print(
         table(

@@ -13,17 +13,17 @@ demonstrations, the noisy samples and every round's rollout states. Units: rad, 
 
 import numpy as np
 
-from tric_control.episode import EpisodeRunner
+from tric_control.episode_runner import EpisodeRunner
 from tric_control.motion_rate import MotionRateController
 from tric_control.objectives import CONTROL_PERIOD, make_objective
 from tric_learning import model_file
-from tric_learning.dataset import Dataset
 from tric_learning.features import FeatureMap
-from tric_learning.samples import NoisySamples, d_curve, joined, step_offsets
-from tric_learning.training import TrainingConfig, TrainingResult, train
-from tric_sim.physics import PhysicsWorld
-from tric_sim.proximity import Proximity
-from tric_sim.robot_model import RobotModel
+from tric_learning.training.dataset import Dataset
+from tric_learning.training.samples import NoisySamples, d_curve, joined, step_offsets
+from tric_learning.training.value import TrainingConfig, TrainingResult, train
+from tric_sim.physics.simulation import PhysicsWorld
+from tric_sim.world.proximity import Proximity
+from tric_sim.world.robot_model import RobotModel
 
 
 def rollout_states(

@@ -2,14 +2,14 @@
 the state of period t (stamped t) and waits; the controller answers that /joint_states message with
 exactly one /joint_command stamped t; the simulator then simulates one period and publishes the
 state t + period. The control loop runs in a thread of its own that waits on the topics directly
-(tric_sim.lockstep), one episode at a time."""
+(tric_sim.ros.topic_poller), one episode at a time."""
 
 import threading
 import time
 
 from tric_control.controller_episode import POLL_S, Episode
-from tric_sim.lockstep import StateStream, run_in_thread
-from tric_sim.ros_util import STATE_QOS, Canceled
+from tric_sim.ros.graph import STATE_QOS, Canceled
+from tric_sim.ros.topic_poller import StateStream, run_in_thread
 
 
 class LockstepLoop:

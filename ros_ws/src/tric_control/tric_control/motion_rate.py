@@ -14,11 +14,11 @@ and a per-tick step bound (JointLimits), velocity dampers on the COLLISION_ROWS 
 pairs within INFLUENCE (CollisionDamper, with the safety distances below), on the DOMAIN_ROWS
 features nearest the bounds of the model's domain (DomainDamper), and the soft side of the task's
 contacts as a cost (SoftContact). What the hand may press, how deep and from which side is the
-task's (tric_sim.scene.contacts, through the Proximity), handed to the limits when they are built.
-The QP has a fixed size (n variables with bounds, the limits' inequality rows) and is solved by
-daqp's active-set solver, or by proxsuite where its rows conflict (StepQP). Each solve starts cold
-and its solution is rounded: an episode is then the same, bit for bit, in every run, through the
-nodes or offline.
+task's (tric_sim.world.scene.contacts, through the Proximity), handed to the limits when they are
+built. The QP has a fixed size (n variables with bounds, the limits' inequality rows) and is solved
+by daqp's active-set solver, or by proxsuite where its rows conflict (StepQP). Each solve starts
+cold and its solution is rounded: an episode is then the same, bit for bit, in every run, through
+the nodes or offline.
 
 The command is a reference that integrates the steps; it may lead the measured joints by at most
 MAX_LEAD (the arm: a blocked arm does not wind up) or MAX_HAND_LEAD (the hand: fingers held back by
@@ -43,8 +43,8 @@ from tric_control.limits import (
     SoftContact,
     StepState,
 )
-from tric_sim.proximity import Proximity
-from tric_sim.robot_model import RobotModel
+from tric_sim.world.proximity import Proximity
+from tric_sim.world.robot_model import RobotModel
 
 #: Inequality rows of the QP for the closest collision pairs and for the features nearest the
 #: bounds of the model's training range (a count each).
@@ -77,7 +77,7 @@ CONVERGED_MOTION = 0.01
 def default_limits(robot: RobotModel, contacts: dict, domain_damper: bool = True) -> list:
     """The controller's limits: joint limits, collision and domain dampers (domain_damper: False
     leaves the domain damper out, for studies), and the soft side of the task's contacts ({scene
-    body name: tric_sim.scene.Contact})."""
+    body name: tric_sim.world.scene.Contact})."""
     rules = ContactRules(contacts)
     return [
         CollisionDamper(rules, COLLISION_ROWS, SAFETY, SELF_SAFETY, DAMPING),
@@ -201,11 +201,11 @@ class MotionRateController:
     objective(q, object_poses) -> tric_control.objectives.Objective: the quadratic model of the cost
     in dq (without the |dq|^2 term, which this adds), the cost's value and gradient norm, and the
     domain rows.
-    proximity.near(q, object_poses, INFLUENCE) -> tric_sim.proximity.Closest: the collision pairs.
-    contacts: what the hand may press ({scene body name: tric_sim.scene.Contact}), default the
-    proximity's (its situation's task's). limits: the QP's pieces (tric_control.limits.Limit),
-    default default_limits(robot, contacts, domain_damper); the inequality rows are stacked in
-    their order.
+    proximity.near(q, object_poses, INFLUENCE) -> tric_sim.world.proximity.Closest: the collision
+    pairs. contacts: what the hand may press ({scene body name: tric_sim.world.scene.Contact}),
+    default the proximity's (its situation's task's). limits: the QP's pieces
+    (tric_control.limits.Limit), default default_limits(robot, contacts, domain_damper); the
+    inequality rows are stacked in their order.
     max_lead: how far the command may lead the measured joints, rad, one for all or (n,); default
     MAX_LEAD on the arm and MAX_HAND_LEAD on the hand.
     """

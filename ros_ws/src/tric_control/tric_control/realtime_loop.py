@@ -12,8 +12,8 @@ from sensor_msgs.msg import JointState
 
 from tric_control.controller_episode import POLL_S, Episode
 from tric_msgs.msg import ControllerStatus, ObjectPoses
-from tric_sim import messages
-from tric_sim.ros_util import STATE_QOS
+from tric_sim.ros import messages
+from tric_sim.ros.graph import STATE_QOS
 
 
 class RealtimeLoop:

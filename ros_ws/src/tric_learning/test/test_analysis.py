@@ -11,11 +11,11 @@ import pinocchio as pin
 import pytest
 
 from tric_learning import analysis, analyze_cli
-from tric_learning.dataset import Dataset, Demo
 from tric_learning.features import FeatureDefinition
+from tric_learning.training.dataset import Dataset, Demo
 from tric_learning.value_function import Scaling, ValueFunction
-from tric_sim import scene, situations
-from tric_sim.robot_model import PALM, RobotModel
+from tric_sim.world import scene, situations
+from tric_sim.world.robot_model import PALM, RobotModel
 
 
 @pytest.fixture(scope="module")

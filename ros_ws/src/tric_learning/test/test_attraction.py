@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 from tric_learning.analysis import attraction
-from tric_learning.dataset import Dataset, Demo
+from tric_learning.training.dataset import Dataset, Demo
 from tric_learning.value_function import Scaling, ValueFunction
-from tric_sim.robot_model import RobotModel
+from tric_sim.world.robot_model import RobotModel
 
 
 class Identity:

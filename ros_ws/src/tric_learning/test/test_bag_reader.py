@@ -18,10 +18,10 @@ from rosbags.highlevel import AnyReader
 from sensor_msgs.msg import JointState
 
 from tric_learning import bags
-from tric_learning.bag_dataset import bag_paths, load_dataset
-from tric_learning.bag_layout import SAMPLES_TOPIC
+from tric_learning.bags.layout import SAMPLES_TOPIC
+from tric_learning.bags.loader import bag_paths, load_dataset
 from tric_msgs.msg import FeatureSample
-from tric_sim.robot_model import RobotModel
+from tric_sim.world.robot_model import RobotModel
 
 REFERENCE_BAGS = pathlib.Path(__file__).resolve().parents[4] / "bags"
 

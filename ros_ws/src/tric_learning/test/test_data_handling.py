@@ -20,20 +20,23 @@ from hypothesis import strategies as st
 from safetensors import safe_open
 from safetensors.numpy import save_file
 
-from tric_learning import bag_recorder, model_file, samples, train_cli
-from tric_learning.bag_dataset import load_dataset
-from tric_learning.bag_recorder import BagRecorder
+from tric_learning import model_file, train_cli
+from tric_learning.bags import recorder as bag_recorder
 from tric_learning.bags import writer as bag_writer
-from tric_learning.dataset import Dataset
+from tric_learning.bags.loader import load_dataset
+from tric_learning.bags.recorder import BagRecorder
 from tric_learning.features import FeatureDefinition, FeatureMap
 from tric_learning.model_file import ModelFile, value_function, value_function_arrays
-from tric_learning.training import TrainingConfig, train
+from tric_learning.training import samples
+from tric_learning.training.dataset import Dataset
+from tric_learning.training.value import TrainingConfig, train
 from tric_learning.value_function import Scaling, ValueFunction
 from tric_msgs.msg import EpisodeEvent, TaskMetrics
-from tric_sim import messages, situations
-from tric_sim.provenance import code_digest
-from tric_sim.robot_model import RobotModel
-from tric_sim.situation import Obstacle, Situation
+from tric_sim.ros import messages
+from tric_sim.tools.provenance import code_digest
+from tric_sim.world import situations
+from tric_sim.world.robot_model import RobotModel
+from tric_sim.world.situation import Obstacle, Situation
 
 START_NS = 1_000_000_000
 #: An obstacle block around the robot's lower arm: every configuration near home collides with it.
@@ -516,7 +519,8 @@ def test_the_sampling_pool_ends_in_a_process_with_rclpy_signal_handlers():
     work fails and the process ends (with a multiprocessing.Pool, whose workers wait on their
     queue, the exit waited for ever)."""
     script = (
-        "import os, time, rclpy\nfrom tric_learning import samples\nrclpy.init()\nforks = []\n"
+        "import os, time, rclpy\nfrom tric_learning.training import samples\nrclpy.init()\n"
+        "forks = []\n"
         "os.register_at_fork(before=lambda: forks.append(1),\n"
         "                    after_in_child=lambda: time.sleep(3.0 if len(forks) == 2 else 0.0))\n"
         "pool = samples.worker_pool(2)\npool.submit(os._exit, 1)\n"
@@ -586,7 +590,7 @@ def test_a_cached_model_is_reused_only_when_made_as_asked(robot, good_bag, tmp_p
     dataset = load_dataset([good_bag], robot)
     config = TrainingConfig(hidden_units=2, noisy_samples=4, max_iterations=3)
     path = tmp_path / "cached.safetensors"
-    code = code_digest("tric_learning.training")
+    code = code_digest("tric_learning.training.value")
     assert not model_file.made_as(path, "tric", config.to_dict(), dataset.fingerprint, code)
     model_file.from_training(train(dataset, robot, config), dataset).save(path)
     assert model_file.made_as(path, "tric", config.to_dict(), dataset.fingerprint, code)
@@ -607,7 +611,7 @@ def test_tric_record_refuses_a_folder_without_room_for_the_bags_before_any_work(
     import collections
 
     from tric_learning import record_cli
-    from tric_sim import output_files
+    from tric_sim.tools import output_files
 
     usage = collections.namedtuple("usage", "total used free")
     monkeypatch.setattr(output_files.shutil, "disk_usage", lambda _: usage(10**9, 10**9, 10**5))

@@ -1,7 +1,7 @@
-"""The DPL baseline without ROS (tric_learning.dpl): the network fits a hand-made smooth regression,
-refused hyper-parameters, training on recorded sphere demonstrations is deterministic and its model
-file round-trips, and dpl_finger's targets are the fingertips' steps in the box frame. Units: rad,
-m."""
+"""The DPL baseline without ROS (tric_learning.training.dpl): the network fits a hand-made smooth
+regression, refused hyper-parameters, training on recorded sphere demonstrations is deterministic
+and its model file round-trips, and dpl_finger's targets are the fingertips' steps in the box frame.
+Units: rad, m."""
 
 import dataclasses
 
@@ -9,13 +9,13 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from tric_learning import dpl
-from tric_learning.dataset import Dataset, Demo
 from tric_learning.features import FeatureDefinition, FeatureMap
 from tric_learning.model_file import ModelFile
 from tric_learning.recording import record_offline
-from tric_sim import situations
-from tric_sim.robot_model import HOME, RobotModel
+from tric_learning.training import dpl
+from tric_learning.training.dataset import Dataset, Demo
+from tric_sim.world import situations
+from tric_sim.world.robot_model import HOME, RobotModel
 
 
 @pytest.fixture(scope="module")

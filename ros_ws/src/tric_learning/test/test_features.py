@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from tric_learning.features import FeatureDefinition, FeatureMap
-from tric_sim.robot_model import RobotModel
+from tric_sim.world.robot_model import RobotModel
 
 
 @pytest.fixture(scope="module")

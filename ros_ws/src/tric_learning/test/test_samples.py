@@ -1,5 +1,5 @@
-"""The noisy samples of L_n (tric_learning.samples.generate, Eq. 12-15) on two recorded sphere
-demonstrations: at most M per step t >= 1, at least half of M on every one (the grasp's end
+"""The noisy samples of L_n (tric_learning.training.samples.generate, Eq. 12-15) on two recorded
+sphere demonstrations: at most M per step t >= 1, at least half of M on every one (the grasp's end
 included), inside the joint limits and collision-free in the scene of step t - 1 (the hand pressing
 into the sphere by at most the contact tolerance); drawn around q_{t-1} with standard deviation
 sigma, conditioned on the joint limits (checked with the collision check accepting everything, so
@@ -12,12 +12,12 @@ import os
 import numpy as np
 import pytest
 
-from tric_learning import samples
 from tric_learning.features import FeatureMap
 from tric_learning.recording import record_offline
-from tric_sim import situations
-from tric_sim.collision import SceneCollision
-from tric_sim.robot_model import RobotModel
+from tric_learning.training import samples
+from tric_sim.world import situations
+from tric_sim.world.collision import SceneCollision
+from tric_sim.world.robot_model import RobotModel
 
 COUNT, SIGMA, SEED = 30, 0.05, 4
 

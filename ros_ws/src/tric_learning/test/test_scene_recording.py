@@ -11,8 +11,9 @@ from std_msgs.msg import String
 
 from tric_learning import bags
 from tric_learning.scene_recording import TF_DEFINITION, TF_TYPE, tf_message_cdr
-from tric_sim import scene_messages, scene_view, situations
-from tric_sim.robot_model import RobotModel
+from tric_sim.viz import scene_messages, scene_view
+from tric_sim.world import situations
+from tric_sim.world.robot_model import RobotModel
 
 STAMP_NS = 12_345_678_901
 

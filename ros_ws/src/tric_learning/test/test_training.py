@@ -1,5 +1,5 @@
-"""The value function's training without ROS (tric_learning.samples, training): L-BFGS lowering
-the loss, L-BFGS-B's exact zeros, d_curve on a known polyline, refused hyper-parameters,
+"""The value function's training without ROS (tric_learning.training.samples, training): L-BFGS
+lowering the loss, L-BFGS-B's exact zeros, d_curve on a known polyline, refused hyper-parameters,
 determinism from a seed, and a training on grid demonstrations whose value function explains them
 (decreases along them, gradients against their steps: the design's goals). The loss terms
 themselves: test_training_problem.py."""
@@ -12,8 +12,8 @@ import pytest
 
 from tric_learning.analysis import gradient_measures, ranked_features
 from tric_learning.recording import record_offline
-from tric_learning.samples import d_curve
-from tric_learning.training import (
+from tric_learning.training.samples import d_curve
+from tric_learning.training.value import (
     TICKS_PER_DEMO,
     TrainingConfig,
     mean_of_members,
@@ -21,8 +21,8 @@ from tric_learning.training import (
     train,
 )
 from tric_learning.value_function import ValueFunction
-from tric_sim import situations
-from tric_sim.robot_model import RobotModel
+from tric_sim.world import situations
+from tric_sim.world.robot_model import RobotModel
 
 #: Landmarks of the hand whose distance to the object the paper found among the top features.
 HAND = (

@@ -1,4 +1,4 @@
-"""The optimization problem of TRIC's training (tric_learning.training_problem): each loss term on a
+"""The optimization problem of TRIC's training (tric_learning.training.problem): each loss term on a
 hand-made case, the loss's gradient in the weights (gradcheck), and L_n's per-step weights."""
 
 import math
@@ -7,10 +7,10 @@ import numpy as np
 import pytest
 import torch
 
-from tric_learning.dataset import Dataset, Demo
-from tric_learning.samples import NoisySamples
-from tric_learning.training import TrainingConfig
-from tric_learning.training_problem import TrainingProblem
+from tric_learning.training.dataset import Dataset, Demo
+from tric_learning.training.problem import TrainingProblem
+from tric_learning.training.samples import NoisySamples
+from tric_learning.training.value import TrainingConfig
 from tric_learning.value_function import Scaling
 
 

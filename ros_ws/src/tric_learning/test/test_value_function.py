@@ -7,7 +7,7 @@ import pytest
 
 from tric_learning.features import FeatureDefinition, FeatureMap
 from tric_learning.value_function import Scaling, ValueFunction
-from tric_sim.robot_model import HOME, RobotModel
+from tric_sim.world.robot_model import HOME, RobotModel
 
 
 @pytest.fixture(scope="module")

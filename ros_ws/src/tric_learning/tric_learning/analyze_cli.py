@@ -15,8 +15,8 @@ import sys
 
 # Only what the arguments need: --help and argument errors answer before torch, pinocchio and
 # matplotlib are imported (run imports the analyses once the arguments are checked).
-from tric_sim.interrupts import run_interruptible
-from tric_sim.output_files import check_output_folder
+from tric_sim.tools.interrupts import run_interruptible
+from tric_sim.tools.output_files import check_output_folder
 
 PROG = "tric-analyze"
 
@@ -69,9 +69,9 @@ def run(argv) -> int:
             attraction_numbers,
             rollouts_from_demo_ends,
         )
-        from tric_learning.bag_dataset import load_dataset
+        from tric_learning.bags.loader import load_dataset
         from tric_learning.model_file import ModelFile, value_function
-        from tric_sim.robot_model import RobotModel
+        from tric_sim.world.robot_model import RobotModel
 
         rank = DEFAULT_FEATURE_RANK if args.feature_rank is None else args.feature_rank
         robot = RobotModel()

@@ -11,8 +11,8 @@ from tqdm import tqdm
 
 from tric_learning.recorder_node import RecorderNode
 from tric_msgs.action import Demonstrate
-from tric_sim import messages
-from tric_sim.ros_util import InProcessGraph, wait
+from tric_sim.ros import messages
+from tric_sim.ros.graph import InProcessGraph, wait
 from tric_sim.simulator_node import lockstep_simulator
 from tric_sim.teacher_node import TeacherNode
 from tric_sim.visualizer_node import VisualizerNode

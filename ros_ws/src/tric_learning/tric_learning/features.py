@@ -26,7 +26,7 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
-from tric_sim.robot_model import RobotModel
+from tric_sim.world.robot_model import RobotModel
 
 #: Landmarks of each task: (name, source).
 TASK_LANDMARKS = {

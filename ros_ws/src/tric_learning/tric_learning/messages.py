@@ -7,7 +7,7 @@ import numpy as np
 from tric_learning.features import FeatureDefinition
 from tric_msgs.msg import FeatureDefinition as FeatureDefinitionMsg
 from tric_msgs.msg import FeatureSample
-from tric_sim import messages
+from tric_sim.ros import messages
 
 
 def definition_msg(definition: FeatureDefinition) -> FeatureDefinitionMsg:

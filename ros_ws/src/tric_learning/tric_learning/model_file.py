@@ -20,11 +20,11 @@ from safetensors import SafetensorError, safe_open
 from safetensors.numpy import load_file, save_file
 
 from tric_learning.features import FeatureDefinition
-from tric_learning.hyperparameters import KINDS
+from tric_learning.training.hyperparameters import KINDS
 from tric_learning.value_function import Scaling, ValueFunction
-from tric_sim.output_files import atomic_path
-from tric_sim.provenance import code_digest
-from tric_sim.untrusted import load_data, quoted
+from tric_sim.tools.output_files import atomic_path
+from tric_sim.tools.provenance import code_digest
+from tric_sim.tools.untrusted import load_data, quoted
 
 FORMAT = "tric-model"
 VERSION = 1
@@ -125,7 +125,8 @@ class ModelFile:
 def made_as(path, kind: str, hyperparameters: dict, dataset_fingerprint: str, code: str) -> bool:
     """Whether the model file at path exists and was trained as asked: of this kind, with these
     hyper-parameters, on the dataset of this fingerprint, by the training code of this digest
-    (tric_sim.provenance). A cache re-uses a model only then; an unreadable file is not one."""
+    (tric_sim.tools.provenance). A cache re-uses a model only then; an unreadable file is not
+    one."""
     try:
         model = ModelFile.load(path)
     except ValueError:
@@ -190,7 +191,7 @@ def value_function(model_file: ModelFile) -> ValueFunction:
 
 
 def from_training(result, dataset) -> ModelFile:
-    """The ModelFile of a TRIC training result (tric_learning.training.TrainingResult) on
+    """The ModelFile of a TRIC training result (tric_learning.training.value.TrainingResult) on
     dataset."""
     model = result.model
     names = np.array(dataset.definition.feature_names)[model.scaling.kept]
@@ -201,7 +202,7 @@ def from_training(result, dataset) -> ModelFile:
         {
             "hyperparameters": result.config.to_dict(),
             "dataset_fingerprint": dataset.fingerprint,
-            "training_code": code_digest("tric_learning.training"),
+            "training_code": code_digest("tric_learning.training.value"),
             "demos": [demo.name for demo in dataset.demos],
             "losses": result.losses,
             "iterations": result.iterations,

@@ -1,7 +1,8 @@
 """The entry points of tric_learning's nodes (`ros2 run tric_learning NODE`): each ends cleanly on
-SIGINT or SIGTERM from its first instant, its imports included (tric_sim.interrupts.node_main)."""
+SIGINT or SIGTERM from its first instant, its imports included
+(tric_sim.tools.interrupts.node_main)."""
 
-from tric_sim.interrupts import node_main
+from tric_sim.tools.interrupts import node_main
 
 
 def recorder() -> int:

@@ -17,12 +17,12 @@ import time
 
 # Only what the arguments need: --help and argument errors answer before pybullet, pinocchio and
 # rclpy are imported (main imports the nodes once the arguments are checked).
-from tric_sim.dds_domains import MAX_DOMAIN_ID, private_domain_id
-from tric_sim.interrupts import run_interruptible
-from tric_sim.output_files import check_output_folder
-from tric_sim.situation_files import load_situations
-from tric_sim.situations import DATASETS, dataset
-from tric_sim.view_options import add_view_arguments, open_view
+from tric_sim.ros.dds_domains import MAX_DOMAIN_ID, private_domain_id
+from tric_sim.tools.interrupts import run_interruptible
+from tric_sim.tools.output_files import check_output_folder
+from tric_sim.viz.view_options import add_view_arguments, open_view
+from tric_sim.world.situation_files import load_situations
+from tric_sim.world.situations import DATASETS, dataset
 
 #: The room a demonstration's bag takes at most, bytes (the reference bags: 0.5 to 0.6 MB).
 BAG_BYTES_PER_DEMONSTRATION = 10**6

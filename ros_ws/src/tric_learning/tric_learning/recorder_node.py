@@ -1,5 +1,5 @@
 """The recorder node: one MCAP bag per episode, with features and Jacobians
-(tric_learning.bag_recorder).
+(tric_learning.bags.recorder).
 
 Listens to /episode (tric_msgs/EpisodeEvent): on START from a recorded source it opens
 `<output_dir>/<episode_id>.mcap.part`; it then writes every /joint_states and /object_poses of the
@@ -33,15 +33,15 @@ from rclpy.qos import QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState
 
 from tric_learning import bags
-from tric_learning.bag_recorder import BagRecorder
+from tric_learning.bags.recorder import BagRecorder
 from tric_learning.recording import SAMPLE_PERIOD
 from tric_msgs.msg import ControllerStatus, EpisodeEvent, ObjectPoses
-from tric_sim import messages
-from tric_sim.lockstep import TopicPoller
-from tric_sim.output_files import check_output_folder
-from tric_sim.parameters import POSITIVE, declare
-from tric_sim.robot_model import RobotModel
-from tric_sim.ros_util import EVENT_QOS, run_node
+from tric_sim.ros import messages
+from tric_sim.ros.graph import EVENT_QOS, run_node
+from tric_sim.ros.parameters import POSITIVE, declare
+from tric_sim.ros.topic_poller import TopicPoller
+from tric_sim.tools.output_files import check_output_folder
+from tric_sim.world.robot_model import RobotModel
 
 #: The recorded state topics: deep enough to hold a whole 5 s episode at 100 Hz should the
 #: recording thread fall behind.

@@ -1,20 +1,20 @@
 """Recording demonstrations: one sample every period of simulated time, with its features and
 Jacobians, and the offline recorder that demonstrates situations on a PhysicsWorld without ROS.
 
-The recorder node (through tric_learning.bag_recorder) and the offline recorder share
+The recorder node (through tric_learning.bags.recorder) and the offline recorder share
 EpisodeSampler: given the joint states and object poses of an episode as they come, it takes one
 sample per `period` of simulated time (the paper: every 125 ms of a 5 s demonstration, T = 40) with
-y = phi(q) and J = dphi/dq. Bags are written by tric_learning.bag_recorder and read back by
-tric_learning.bag_dataset.
+y = phi(q) and J = dphi/dq. Bags are written by tric_learning.bags.recorder and read back by
+tric_learning.bags.loader.
 """
 
 from dataclasses import dataclass
 
 import numpy as np
 
-from tric_learning.dataset import Dataset, Demo
 from tric_learning.features import FeatureDefinition, FeatureMap
-from tric_sim.robot_model import RobotModel
+from tric_learning.training.dataset import Dataset, Demo
+from tric_sim.world.robot_model import RobotModel
 
 #: Default sampling period of demonstrations, s (the paper's 125 ms).
 SAMPLE_PERIOD = 0.125
@@ -79,8 +79,8 @@ def record_offline(
 ) -> Dataset:
     """Demonstrate each situation with its teacher directly on a PhysicsWorld (no ROS) and record
     it: the same samples the recorder node writes to bags. The situations share one task."""
-    from tric_sim import metrics
-    from tric_sim.physics import PhysicsWorld
+    from tric_sim.physics import metrics
+    from tric_sim.physics.simulation import PhysicsWorld
     from tric_sim.teachers import demonstrate
 
     tasks = {s.task for s in situations}

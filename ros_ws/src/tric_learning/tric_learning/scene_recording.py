@@ -8,8 +8,8 @@
     /tf:                tf2_msgs/TFMessage              every TF_PERIOD of simulated time: the
                                                         moving joints and world -> each object
 
-The frames and primitives are tric_sim.scene_view's, the messages tric_sim.scene_messages'; the live
-visualizer node publishes the same. tf2_msgs is not on PyPI: TFMessage ("geometry_msgs/
+The frames and primitives are tric_sim.viz.scene_view's, the messages tric_sim.viz.scene_messages';
+the live visualizer node publishes the same. tf2_msgs is not on PyPI: TFMessage ("geometry_msgs/
 TransformStamped[] transforms") is written from its definition and its CDR bytes (tf_message_cdr),
 and reads back as the real type everywhere (Foxglove, ros2 bag, rosbags).
 """
@@ -21,7 +21,7 @@ from std_msgs.msg import String
 from visualization_msgs.msg import MarkerArray
 
 from tric_learning import bags
-from tric_sim import scene_messages, scene_view
+from tric_sim.viz import scene_messages, scene_view
 
 TF_TYPE = "tf2_msgs/msg/TFMessage"
 TF_DEFINITION = "geometry_msgs/TransformStamped[] transforms\n"
@@ -35,9 +35,9 @@ _TRANSFORM = struct.Struct("<7d")
 
 def tf_message_cdr(transform_sets, stamp_ns: int) -> bytes:
     """The CDR bytes (little endian, with the encapsulation header, as bags.serialize_cdr makes
-    them) of a tf2_msgs/TFMessage of the transforms (tric_sim.scene_view.Transforms), all stamped
-    stamp_ns. Written field by field: a few times faster than the generic serializer on message
-    objects."""
+    them) of a tf2_msgs/TFMessage of the transforms (tric_sim.viz.scene_view.Transforms), all
+    stamped stamp_ns. Written field by field: a few times faster than the generic serializer on
+    message objects."""
     sec, nanosec = divmod(int(stamp_ns), 1_000_000_000)
     count = sum(len(transforms) for transforms in transform_sets)
     payload = bytearray(_COUNT.pack(count))

@@ -9,8 +9,8 @@ a model file.
 BAGS are MCAP bags written by tric-record or the recorder node, or folders of them. MODEL defaults
 to model.safetensors next to the first bag, and must not exist unless --overwrite; the
 hyper-parameters default to the paper's (Sec. 5.2) but where docs/fidelity.md says.
---kind dpl_joint / dpl_finger trains the DPL baseline instead (tric_learning.dpl, Sec. 5.3.2): it
-takes --hidden-units, --l2, --iterations, --correlation-threshold and --seed; the other
+--kind dpl_joint / dpl_finger trains the DPL baseline instead (tric_learning.training.dpl, Sec.
+5.3.2): it takes --hidden-units, --l2, --iterations, --correlation-threshold and --seed; the other
 hyper-parameters are TRIC's and ignored.
 Bags whose recorded outcome is a failure are refused unless --include-failed; damaged and unfinished
 (.part) bags unless --tolerant, which reads them up to their damage (a folder's .part files are
@@ -29,8 +29,8 @@ from tqdm import tqdm
 
 # Only what the arguments need: --help and argument errors answer before torch, pybullet,
 # pinocchio and rclpy are imported (main imports them once the arguments are checked).
-from tric_learning.hyperparameters import DPL_KINDS, KINDS, DplConfig, TrainingConfig
-from tric_sim.interrupts import run_interruptible
+from tric_learning.training.hyperparameters import DPL_KINDS, KINDS, DplConfig, TrainingConfig
+from tric_sim.tools.interrupts import run_interruptible
 
 PROG = "tric-train"
 
@@ -197,7 +197,7 @@ def parse_arguments(argv):
 
 def summary(run) -> str:
     """The lines printed after training."""
-    from tric_learning.training import SELECTED_FRACTION
+    from tric_learning.training.value import SELECTED_FRACTION
 
     result, model = run.result, run.result.model
     losses = result.losses
@@ -280,11 +280,11 @@ def run(argv) -> int:
     except ValueError as error:
         print(f"{PROG}: {error}", file=sys.stderr)
         return 2
-    from tric_learning.bag_dataset import bag_paths
-    from tric_learning.bag_training import BagTraining, model_output_path
-    from tric_learning.dpl import train_dpl_from_bags
-    from tric_learning.training import train_from_bags
-    from tric_sim.robot_model import RobotModel
+    from tric_learning.bags.loader import bag_paths
+    from tric_learning.training.dpl import train_dpl_from_bags
+    from tric_learning.training.from_bags import BagTraining, model_output_path
+    from tric_learning.training.value import train_from_bags
+    from tric_sim.world.robot_model import RobotModel
 
     # config is the DplConfig or the TrainingConfig that job takes
     job: Callable[..., BagTraining] = (

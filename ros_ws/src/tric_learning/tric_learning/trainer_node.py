@@ -1,7 +1,7 @@
 """The trainer node ("trainer"): trains models from demonstration bags on request.
 
-A thin ROS shell around tric_learning.training.train_from_bags (model kind "tric") and
-tric_learning.dpl.train_dpl_from_bags (the DPL kinds), the jobs tric-train runs too.
+A thin ROS shell around tric_learning.training.value.train_from_bags (model kind "tric") and
+tric_learning.training.dpl.train_dpl_from_bags (the DPL kinds), the jobs tric-train runs too.
 
 Services:
 - ~/train (tric_msgs/srv/Train): bags + hyper-parameters -> model file, final loss terms, kept and
@@ -42,16 +42,16 @@ import time
 from rclpy.callback_groups import ReentrantCallbackGroup
 from rclpy.node import Node
 
-from tric_learning.dpl import DPL_KINDS, DplConfig, train_dpl_from_bags
 from tric_learning.model_file import KINDS
-from tric_learning.training import TrainingConfig, train_from_bags
+from tric_learning.training.dpl import DPL_KINDS, DplConfig, train_dpl_from_bags
+from tric_learning.training.value import TrainingConfig, train_from_bags
 from tric_msgs.msg import TrainingProgress
 from tric_msgs.srv import Train
-from tric_sim import messages
-from tric_sim.lockstep import run_in_thread
-from tric_sim.parameters import NOT_NEGATIVE, declare
-from tric_sim.robot_model import RobotModel
-from tric_sim.ros_util import run_node
+from tric_sim.ros import messages
+from tric_sim.ros.graph import run_node
+from tric_sim.ros.parameters import NOT_NEGATIVE, declare
+from tric_sim.ros.topic_poller import run_in_thread
+from tric_sim.world.robot_model import RobotModel
 
 #: Overall progress spanned by each stage of a training: (start, end) fractions.
 STAGE_SPANS = {

@@ -1,15 +1,15 @@
-"""Collision checking of many configurations (tric_sim.collision.SceneCollision), the training's
-batch check: its mask is the one coal's distances of every pair give, on colliding and free
-configurations, and on an empty batch. Units: m, rad."""
+"""Collision checking of many configurations (tric_sim.world.collision.SceneCollision), the
+training's batch check: its mask is the one coal's distances of every pair give, on colliding and
+free configurations, and on an empty batch. Units: m, rad."""
 
 import coal
 import numpy as np
 import pinocchio as pin
 import pytest
 
-from tric_sim import situations
-from tric_sim.collision import SceneCollision
-from tric_sim.robot_model import RobotModel
+from tric_sim.world import situations
+from tric_sim.world.collision import SceneCollision
+from tric_sim.world.robot_model import RobotModel
 
 
 @pytest.fixture(scope="module")

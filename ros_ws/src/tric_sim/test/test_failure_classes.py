@@ -1,14 +1,17 @@
-"""The failure classes of the hidden metrics (tric_sim.metrics.grasp_failure, box_failure) on
-hand-made states: the robot at home (or with its fingers flexed) and the object put where each class
-holds, the cost terms computed from that state; and evaluate() filling them in on the physics."""
+"""The failure classes of the hidden metrics (tric_sim.physics.metrics.grasp_failure, box_failure)
+on hand-made states: the robot at home (or with its fingers flexed) and the object put where each
+class holds, the cost terms computed from that state; and evaluate() filling them in on the
+physics."""
 
 import numpy as np
 import pinocchio as pin
 import pytest
 
-from tric_sim import messages, metrics, scene, situations
-from tric_sim.physics import PhysicsWorld
-from tric_sim.robot_model import PALM, RobotModel
+from tric_sim.physics import metrics
+from tric_sim.physics.simulation import PhysicsWorld
+from tric_sim.ros import messages
+from tric_sim.world import scene, situations
+from tric_sim.world.robot_model import PALM, RobotModel
 
 RADIUS = 0.04
 

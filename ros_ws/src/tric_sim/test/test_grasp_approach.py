@@ -1,10 +1,10 @@
-"""Where the grasp teacher approaches an object from (tric_sim.grasp_approach): spheres from the
-robot's side and above, and a cylinder pointing at the robot still gets a grasp point."""
+"""Where the grasp teacher approaches an object from (tric_sim.teachers.grasp_approach): spheres
+from the robot's side and above, and a cylinder pointing at the robot still gets a grasp point."""
 
 import numpy as np
 
-from tric_sim import situations as S
-from tric_sim.grasp_approach import approach_direction, cylinder_grasp_point
+from tric_sim.teachers.grasp_approach import approach_direction, cylinder_grasp_point
+from tric_sim.world import situations as S
 
 
 def test_approach_comes_from_the_robots_side_and_above():

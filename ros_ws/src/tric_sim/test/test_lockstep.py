@@ -1,6 +1,7 @@
-"""Waiting on topics from one's own thread (tric_sim.lockstep): StateStream returns the newest joint
-state after a stamp together with its period's object poses, skips old and malformed states, and
-gives up after its timeout; command_msg answers a state's stamp. Units: rad, m; stamps in ns."""
+"""Waiting on topics from one's own thread (tric_sim.ros.topic_poller): StateStream returns the
+newest joint state after a stamp together with its period's object poses, skips old and malformed
+states, and gives up after its timeout; command_msg answers a state's stamp. Units: rad, m; stamps
+in ns."""
 
 import threading
 
@@ -15,9 +16,9 @@ from rclpy.node import Node
 from sensor_msgs.msg import JointState
 
 from tric_msgs.msg import ObjectPoses
-from tric_sim import messages
-from tric_sim.lockstep import StateStream, command_msg
-from tric_sim.ros_util import STATE_QOS
+from tric_sim.ros import messages
+from tric_sim.ros.graph import STATE_QOS
+from tric_sim.ros.topic_poller import StateStream, command_msg
 
 JOINTS = ("a", "b")
 PERIOD_NS = 10_000_000

@@ -7,15 +7,15 @@ import dataclasses
 import numpy as np
 import pytest
 
-from tric_sim import messages
-from tric_sim import situations as S
-from tric_sim.perturbation_trials import Trial, parse_trial
-from tric_sim.perturbations import Perturbation
-from tric_sim.physics import PhysicsWorld
-from tric_sim.robot_model import RobotModel
-from tric_sim.scene_check import check_scene
-from tric_sim.situation import Situation
-from tric_sim.situation_files import load_situations, save_situations
+from tric_sim.physics.simulation import PhysicsWorld
+from tric_sim.ros import messages
+from tric_sim.world import situations as S
+from tric_sim.world.perturbation_trials import Trial, parse_trial
+from tric_sim.world.perturbations import Perturbation
+from tric_sim.world.robot_model import RobotModel
+from tric_sim.world.scene_check import check_scene
+from tric_sim.world.situation import Situation
+from tric_sim.world.situation_files import load_situations, save_situations
 
 
 @pytest.fixture(scope="module")
@@ -73,7 +73,7 @@ def test_a_push_past_a_limit_stops_the_joint_at_its_limit(world, robot):
     shove = dataclasses.replace(sphere, perturbations=(push(robot, joint, room + 0.5),))
     q = run(world, shove, 1.0)
     assert q[joint] == pytest.approx(robot.upper[joint], abs=0.01)
-    assert world.max_overshoot <= 0.01
+    assert world.stops.max_overshoot <= 0.01
 
 
 def test_a_moved_target_moves_the_object_as_specified(world):

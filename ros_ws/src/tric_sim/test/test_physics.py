@@ -5,11 +5,12 @@ import math
 import numpy as np
 import pytest
 
-from tric_sim import metrics, scene
-from tric_sim import situations as S
-from tric_sim.bullet import pb
-from tric_sim.physics import DISTANCE_CUTOFF, PhysicsWorld
-from tric_sim.robot_model import RobotModel
+from tric_sim.physics import metrics
+from tric_sim.physics.bullet import pb
+from tric_sim.physics.simulation import DISTANCE_CUTOFF, PhysicsWorld
+from tric_sim.world import scene
+from tric_sim.world import situations as S
+from tric_sim.world.robot_model import RobotModel
 
 
 @pytest.fixture(scope="module")
@@ -154,7 +155,7 @@ def test_joint_stops_hold_a_joint_pushed_past_its_limit(robot, world):
     world.step()
     position, velocity = world.joint_state()
     assert position[k] <= robot.upper[k] + 0.01 and velocity[k] <= 1e-9
-    assert world.max_overshoot <= 0.01
+    assert world.stops.max_overshoot <= 0.01
 
 
 def test_lid_hinge_stays_at_or_above_its_closed_stop(world):
@@ -171,18 +172,18 @@ def test_lid_hinge_stays_at_or_above_its_closed_stop(world):
         world.step()
         lowest = min(lowest, world.lid_angle())
     assert lowest >= -0.01
-    assert world.max_overshoot <= 0.01
+    assert world.stops.max_overshoot <= 0.01
 
 
 def test_overshoot_is_measured_and_reported_in_the_metrics(robot, world):
     world.reset(S.sphere("s", (0.6, 0.0, 0.35)))
     world.step()
-    assert world.max_overshoot == 0.0 and world.max_overshoot_joint == ""
+    assert world.stops.max_overshoot == 0.0 and world.stops.max_overshoot_joint == ""
     # a joint moved past its limit between two measurements (as a solver slip would) is reported
     k = robot.joint_names.index("arm_4_joint")
-    world._stop_high[k] = world.joint_state()[0][k] - 0.05  # pretend the limit is 0.05 rad below q
+    world.stops.high[k] = world.joint_state()[0][k] - 0.05  # pretend the limit is 0.05 rad below q
     # without the stop, the joint stays there
-    world._enforce_stops = lambda: None
+    world.stops.enforce = lambda box: None
     world.step()
     judged = metrics.evaluate(world, robot)
     assert judged.max_joint_overshoot == pytest.approx(0.05, abs=0.01)

@@ -1,16 +1,16 @@
-"""The controller's collision queries (tric_sim.proximity.Proximity): it finds every pair within
-reach although it sends only some pairs to coal each call (checked against all pairs, computed
-directly, along walks with jumps and moving bodies), and the rows of the pairs within the robot are
-the gradients of their distances. Units: m, rad."""
+"""The controller's collision queries (tric_sim.world.proximity.Proximity): it finds every pair
+within reach although it sends only some pairs to coal each call (checked against all pairs,
+computed directly, along walks with jumps and moving bodies), and the rows of the pairs within the
+robot are the gradients of their distances. Units: m, rad."""
 
 import coal
 import numpy as np
 import pinocchio as pin
 import pytest
 
-from tric_sim import scene, situations
-from tric_sim.proximity import Proximity
-from tric_sim.robot_model import RobotModel
+from tric_sim.world import scene, situations
+from tric_sim.world.proximity import Proximity
+from tric_sim.world.robot_model import RobotModel
 
 INFLUENCE = 0.05
 

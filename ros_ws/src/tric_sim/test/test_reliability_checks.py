@@ -11,18 +11,18 @@ import yaml
 from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 
-from tric_sim import situations as S
-from tric_sim.output_files import (
+from tric_sim.physics.simulation import PhysicsWorld
+from tric_sim.tools.output_files import (
     atomic_path,
     check_output_file,
     check_output_folder,
     write_text_atomic,
 )
-from tric_sim.physics import PhysicsWorld
-from tric_sim.robot_model import HOME, RobotModel
-from tric_sim.scene_check import check_scene
-from tric_sim.situation import WORKSPACE_HIGH, WORKSPACE_LOW, Obstacle, Situation
-from tric_sim.situation_files import load_situations
+from tric_sim.world import situations as S
+from tric_sim.world.robot_model import HOME, RobotModel
+from tric_sim.world.scene_check import check_scene
+from tric_sim.world.situation import WORKSPACE_HIGH, WORKSPACE_LOW, Obstacle, Situation
+from tric_sim.world.situation_files import load_situations
 
 
 @pytest.fixture(scope="module")
@@ -226,7 +226,7 @@ def test_a_write_that_fails_names_the_path_and_keeps_the_file_before(tmp_path, m
     OSError naming the path and the cause, the earlier file intact, no temporary file left."""
     import errno
 
-    from tric_sim import output_files
+    from tric_sim.tools import output_files
 
     target = tmp_path / "result.json"
     target.write_text("the earlier result")
@@ -244,7 +244,7 @@ def test_a_write_that_fails_names_the_path_and_keeps_the_file_before(tmp_path, m
 
 
 def test_output_files_refuse_too_little_free_space_and_keep_temporary_names_short(tmp_path):
-    from tric_sim import output_files
+    from tric_sim.tools import output_files
 
     with pytest.raises(ValueError, match="MB are needed"):
         output_files.check_output_file(tmp_path / "x.json", expected_bytes=10**18)
@@ -257,7 +257,7 @@ def test_output_files_refuse_too_little_free_space_and_keep_temporary_names_shor
 def test_output_folders_and_files_under_a_name_too_long_are_refused_before_work(tmp_path):
     """A folder name over the file system's limit (tric-record --out, a --json path inside it) is
     one ValueError, not an OSError after the work."""
-    from tric_sim import output_files
+    from tric_sim.tools import output_files
 
     long_folder = tmp_path / ("d" * 300)
     with pytest.raises(ValueError, match="is longer than the 255 bytes"):
@@ -274,7 +274,8 @@ def test_tric_snapshot_on_a_disk_that_fills_ends_with_one_line_and_keeps_the_ear
     and no temporary file left."""
     import errno
 
-    from tric_sim import output_files, snapshot
+    from tric_sim import snapshot
+    from tric_sim.tools import output_files
 
     earlier = tmp_path / "sphere_grid_13.png"
     earlier.write_bytes(b"the earlier picture")
@@ -296,7 +297,7 @@ def test_an_output_folder_without_the_room_expected_is_refused(tmp_path, monkeyp
     expected size, and creates nothing."""
     import collections
 
-    from tric_sim import output_files
+    from tric_sim.tools import output_files
 
     usage = collections.namedtuple("usage", "total used free")
     monkeypatch.setattr(output_files.shutil, "disk_usage", lambda _: usage(10**9, 10**9, 0))

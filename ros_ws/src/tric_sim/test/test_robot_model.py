@@ -4,9 +4,9 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from tric_sim import scene, situations
-from tric_sim.physics import PhysicsWorld, pb
-from tric_sim.robot_model import FINGER_BASES, FINGERTIPS, PALM, RobotModel
+from tric_sim.physics.simulation import PhysicsWorld, pb
+from tric_sim.world import scene, situations
+from tric_sim.world.robot_model import FINGER_BASES, FINGERTIPS, PALM, RobotModel
 
 
 @pytest.fixture(scope="module")

@@ -1,12 +1,12 @@
-"""The scene's geometry and rules (tric_sim.scene): the contacts each task allows, as the collision
-models take them."""
+"""The scene's geometry and rules (tric_sim.world.scene): the contacts each task allows, as the
+collision models take them."""
 
 import pytest
 
-from tric_sim import scene, situations
-from tric_sim.collision import CONTACT_TOLERANCE
-from tric_sim.proximity import Proximity
-from tric_sim.robot_model import RobotModel
+from tric_sim.world import scene, situations
+from tric_sim.world.collision import CONTACT_TOLERANCE
+from tric_sim.world.proximity import Proximity
+from tric_sim.world.robot_model import RobotModel
 
 
 @pytest.fixture(scope="module")

@@ -1,6 +1,6 @@
-"""The viewer's scene (tric_sim.scene_view): the robot's primitives and transforms against
+"""The viewer's scene (tric_sim.viz.scene_view): the robot's primitives and transforms against
 Pinocchio's collision model and kinematics, the scene's primitives against the situation's geometry;
-and their messages (tric_sim.scene_messages)."""
+and their messages (tric_sim.viz.scene_messages)."""
 
 import json
 
@@ -10,8 +10,9 @@ import pytest
 from visualization_msgs.msg import Marker
 
 from tric_msgs.msg import ControllerStatus
-from tric_sim import scene, scene_messages, scene_view, situations
-from tric_sim.robot_model import RobotModel
+from tric_sim.viz import scene_messages, scene_view
+from tric_sim.world import scene, situations
+from tric_sim.world.robot_model import RobotModel
 
 
 @pytest.fixture(scope="module")

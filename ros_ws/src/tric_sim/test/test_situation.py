@@ -1,11 +1,11 @@
-"""A situation's validation (tric_sim.situation): every bad field refused with the reason."""
+"""A situation's validation (tric_sim.world.situation): every bad field refused with the reason."""
 
 import dataclasses
 import math
 
 import pytest
 
-from tric_sim import situations as S
+from tric_sim.world import situations as S
 
 
 @pytest.mark.parametrize(

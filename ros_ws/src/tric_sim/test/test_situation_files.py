@@ -1,17 +1,17 @@
-"""Situations files (tric_sim.situation_files): the YAML and JSON round trip, bad files refused with
-the reason, hostile ones (aliases, deep nesting, size, long input, names that cannot name a file)
-refused fast in one short line."""
+"""Situations files (tric_sim.world.situation_files): the YAML and JSON round trip, bad files
+refused with the reason, hostile ones (aliases, deep nesting, size, long input, names that cannot
+name a file) refused fast in one short line."""
 
 import json
 
 import pytest
 import yaml
 
-from tric_sim import situations as S
-from tric_sim import untrusted
-from tric_sim.messages import situation_from_msg, situation_to_msg
-from tric_sim.situation import check_name
-from tric_sim.situation_files import load_situations, save_situations
+from tric_sim.ros.messages import situation_from_msg, situation_to_msg
+from tric_sim.tools import untrusted
+from tric_sim.world import situations as S
+from tric_sim.world.situation import check_name
+from tric_sim.world.situation_files import load_situations, save_situations
 
 
 @pytest.mark.parametrize("suffix", [".yaml", ".json"])

@@ -1,11 +1,11 @@
-"""The paper's data sets and their generators (tric_sim.situations)."""
+"""The paper's data sets and their generators (tric_sim.world.situations)."""
 
 import math
 
 import numpy as np
 import pytest
 
-from tric_sim import situations as S
+from tric_sim.world import situations as S
 
 
 def test_data_set_sizes_and_grid():

@@ -5,10 +5,10 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from tric_sim import situations
-from tric_sim.box_teacher import REACH_STEPS, STEP_DURATION, STEPS, BoxTeacher
-from tric_sim.pose_servo import TABLE_CLEARANCE, PoseServo
-from tric_sim.robot_model import PALM, RobotModel
+from tric_sim.teachers.box import REACH_STEPS, STEP_DURATION, STEPS, BoxTeacher
+from tric_sim.teachers.pose_servo import TABLE_CLEARANCE, PoseServo
+from tric_sim.world import situations
+from tric_sim.world.robot_model import PALM, RobotModel
 
 PERIOD = 0.01
 

@@ -8,13 +8,13 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from tric_sim import metrics
-from tric_sim import situations as S
-from tric_sim.grasp_teacher import GraspTeacher
-from tric_sim.physics import PhysicsWorld
-from tric_sim.robot_model import FINGERTIPS, PALM, RobotModel
-from tric_sim.shapes import object_surface
+from tric_sim.physics import metrics
+from tric_sim.physics.simulation import PhysicsWorld
 from tric_sim.teachers import demonstrate
+from tric_sim.teachers.grasp import GraspTeacher
+from tric_sim.world import situations as S
+from tric_sim.world.robot_model import FINGERTIPS, PALM, RobotModel
+from tric_sim.world.shapes import object_surface
 
 
 @pytest.fixture(scope="module")

@@ -34,13 +34,14 @@ from sensor_msgs.msg import Image, JointState
 from tric_msgs.msg import ObjectPoses
 from tric_msgs.msg import Situation as SituationMsg
 from tric_msgs.srv import EvaluateTask, Perturb, RenderScene, ResetScene
-from tric_sim import messages, metrics
-from tric_sim.lockstep import TopicPoller
-from tric_sim.parameters import POSITIVE, Range, declare
-from tric_sim.physics import PhysicsWorld
-from tric_sim.robot_model import RobotModel
-from tric_sim.ros_util import LATCHED_QOS, STATE_QOS, run_node
-from tric_sim.situations import find_situation
+from tric_sim.physics import metrics
+from tric_sim.physics.simulation import PhysicsWorld
+from tric_sim.ros import messages
+from tric_sim.ros.graph import LATCHED_QOS, STATE_QOS, run_node
+from tric_sim.ros.parameters import POSITIVE, Range, declare
+from tric_sim.ros.topic_poller import TopicPoller
+from tric_sim.world.robot_model import RobotModel
+from tric_sim.world.situations import find_situation
 
 #: lockstep_timeout_s for a simulator whose commanders run in the same process (the in-process
 #: tools): they answer every state, so a late answer means a busy machine, not a missing commander,
@@ -100,7 +101,7 @@ class SimulatorNode(Node):
         self._stop = threading.Event()
         if self.mode == "lockstep":
             # Lockstep's hot path (command in, step, state out) runs in a thread of its own that
-            # waits on /joint_command directly (see tric_sim.lockstep).
+            # waits on /joint_command directly (see tric_sim.ros.topic_poller).
             self._commands = TopicPoller(
                 self.context,
                 "simulator_lockstep",

@@ -14,10 +14,10 @@ import argparse
 import sys
 
 # Only what the arguments need: --help and argument errors answer before pybullet, pinocchio and
-# matplotlib are imported (tric_sim.situation_pictures, the rendering, is imported after).
-from tric_sim.interrupts import run_interruptible
-from tric_sim.output_files import WriteFailed, check_output_folder
-from tric_sim.situations import find_situation
+# matplotlib are imported (tric_sim.viz.situation_pictures, the rendering, is imported after).
+from tric_sim.tools.interrupts import run_interruptible
+from tric_sim.tools.output_files import WriteFailed, check_output_folder
+from tric_sim.world.situations import find_situation
 
 
 def main(argv=None) -> int:
@@ -46,7 +46,7 @@ def run(argv) -> int:
     except ValueError as error:
         print(f"tric-snapshot: {error}", file=sys.stderr)
         return 2
-    from tric_sim.situation_pictures import write_pictures
+    from tric_sim.viz.situation_pictures import write_pictures
 
     try:
         write_pictures(chosen, out, args.size, args.strip)

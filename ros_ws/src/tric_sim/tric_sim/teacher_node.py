@@ -18,12 +18,12 @@ from sensor_msgs.msg import JointState
 from tric_msgs.action import Demonstrate
 from tric_msgs.msg import EpisodeEvent
 from tric_msgs.srv import EvaluateTask, ResetScene
-from tric_sim import messages
-from tric_sim.lockstep import StateStream, command_msg, run_in_thread
-from tric_sim.parameters import POSITIVE, declare
-from tric_sim.robot_model import RobotModel
-from tric_sim.ros_util import EVENT_QOS, STATE_QOS, Canceled, run_node
+from tric_sim.ros import messages
+from tric_sim.ros.graph import EVENT_QOS, STATE_QOS, Canceled, run_node
+from tric_sim.ros.parameters import POSITIVE, declare
+from tric_sim.ros.topic_poller import StateStream, command_msg, run_in_thread
 from tric_sim.teachers import DEFAULT_DURATION, make_teacher
+from tric_sim.world.robot_model import RobotModel
 
 
 class TeacherNode(Node):

@@ -1,6 +1,6 @@
 """The visualizer node ("visualizer"): the robot, the scene and the controller's value, live, for
-RViz, foxglove_bridge and Foxglove. A thin shell around tric_sim.scene_view (what to draw),
-tric_sim.scene_messages (as ROS messages) and tric_sim.foxglove_view (as a Foxglove server).
+RViz, foxglove_bridge and Foxglove. A thin shell around tric_sim.viz.scene_view (what to draw),
+tric_sim.viz.scene_messages (as ROS messages) and tric_sim.viz.foxglove_view (as a Foxglove server).
 
 Subscribes /situation (tric_msgs/Situation, latched), and, keeping only the newest message of each,
 /joint_states, /object_poses and the controller's status (`status_topic`,
@@ -15,7 +15,7 @@ tric_msgs/ControllerStatus). Publishes:
   shows everything (fixed frame "world", RobotModel on /robot_description, MarkerArray on
   /scene_markers).
 - unless `foxglove` is false, a Foxglove WebSocket server on `foxglove_host`:`foxglove_port`
-  (tric_sim.foxglove_view: /scene, /tf, /controller/status). In-process tools pass one server to
+  (tric_sim.viz.foxglove_view: /scene, /tf, /controller/status). In-process tools pass one server to
   the node instead (view=), so that it lives as long as the tool's run.
 
 Parameters: rate_hz (30, in [1, 200]), foxglove (true), foxglove_host ("127.0.0.1": this machine
@@ -34,11 +34,12 @@ from visualization_msgs.msg import MarkerArray
 
 from tric_msgs.msg import ControllerStatus, ObjectPoses
 from tric_msgs.msg import Situation as SituationMsg
-from tric_sim import messages, scene_messages, scene_view
-from tric_sim.lockstep import TopicPoller
-from tric_sim.parameters import Range, declare
-from tric_sim.robot_model import RobotModel
-from tric_sim.ros_util import LATCHED_QOS, run_node
+from tric_sim.ros import messages
+from tric_sim.ros.graph import LATCHED_QOS, run_node
+from tric_sim.ros.parameters import Range, declare
+from tric_sim.ros.topic_poller import TopicPoller
+from tric_sim.viz import scene_messages, scene_view
+from tric_sim.world.robot_model import RobotModel
 
 try:
     from tf2_msgs.msg import TFMessage
@@ -50,8 +51,9 @@ NEWEST_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE)
 
 
 class VisualizerNode(Node):
-    """Publishes the scene for viewers (see the module docstring). view: a tric_sim.foxglove_view
-    .FoxgloveView to use instead of starting one (the caller closes it)."""
+    """Publishes the scene for viewers (see the module docstring). view: a
+    tric_sim.viz.foxglove_view .FoxgloveView to use instead of starting one (the caller closes
+    it)."""
 
     def __init__(self, view=None, **kwargs):
         super().__init__("visualizer", **kwargs)
@@ -82,7 +84,7 @@ class VisualizerNode(Node):
         self._stamp_ns = 0
         self._owned_view = None
         if view is None and serve:
-            from tric_sim.foxglove_view import (
+            from tric_sim.viz.foxglove_view import (
                 FoxgloveView,  # only now: nothing of foxglove when it is off
             )
 

@@ -19,7 +19,7 @@ from tric_control.experiments.targets import (
     SLOW_COSINE_TARGET,
     WEIGHTED_COSINE_TARGET,
 )
-from tric_sim.metrics import GOOD_GRASP
+from tric_sim.physics.metrics import GOOD_GRASP
 
 #: How far a measured joint may go past its limit, rad (docs/design.md section 6).
 OVERSHOOT_LIMIT = 0.01

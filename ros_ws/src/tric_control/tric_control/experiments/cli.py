@@ -35,7 +35,7 @@ step budget and the code of the nodes: a rerun re-uses a complete evaluation and
 episodes an interrupted one had not judged; a changed key re-uses nothing.
 Every evaluation runs --jobs (default: the number of CPUs) graphs of simulator, teacher and
 controller nodes at once, each in a process and DDS domain of its own
-(tric_control.graph_evaluation): spawned processes here, or Ray actors (--executor ray: a local
+(tric_control.evaluation.graph): spawned processes here, or Ray actors (--executor ray: a local
 instance; --address or RAY_ADDRESS: a cluster whose machines have the project's environment), where
 the trainings then run as Ray tasks; models and results come back to DIR.
 Each experiment writes DIR/<name>.json and its PNG(s) and prints its table and a discussion composed
@@ -58,15 +58,15 @@ import time
 
 # Only what the arguments need: --help and argument errors answer before torch, pybullet,
 # pinocchio, rclpy and matplotlib are imported (run_experiments and check_folder import the rest).
-from tric_control.executors import (
+from tric_control.evaluation.executors import (
     DEFAULT_EXECUTORS,
     add_executor_arguments,
     chosen_executor,
     open_executor,
 )
 from tric_control.experiments import EXPERIMENT_MODULES, experiment
-from tric_sim.interrupts import run_interruptible
-from tric_sim.output_files import WriteFailed, atomic_path, check_output_folder
+from tric_sim.tools.interrupts import run_interruptible
+from tric_sim.tools.output_files import WriteFailed, atomic_path, check_output_folder
 
 
 def main(argv=None) -> int:
@@ -176,7 +176,7 @@ def _run_each(args, out, page, runner) -> int:
     page; the exit status."""
     import matplotlib.pyplot as plt
 
-    from tric_control.evaluation import write_json
+    from tric_control.evaluation.records import write_json
 
     for name in args.names or list(EXPERIMENT_MODULES):
         print(f"\n=== {name}: {experiment(name).TITLE}", flush=True)

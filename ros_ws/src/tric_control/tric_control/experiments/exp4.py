@@ -4,7 +4,7 @@ training."""
 from tric_control.experiments.paper import PAPER_REPORTS
 from tric_control.experiments.rows import grasp_result, grasp_rows, spread
 from tric_control.experiments.runner import Runner
-from tric_sim import situations
+from tric_sim.world import situations
 
 #: The experiment's heading in the report and the log.
 TITLE = (

@@ -3,7 +3,7 @@ DPL in joint space and the teacher when the world does not hold still. Each of 1
 is run unperturbed, pushed (three sizes), with its grasp target jumping sideways mid-approach (2, 5
 and 10 cm) or drifting at 2 cm/s, and from random starts (three radii); each of 10 test boxes is
 pushed with the finger under the lip (three sizes). The perturbations are
-tric_sim.perturbation_trials', acted by the simulator node (tric_sim.perturbations)."""
+tric_sim.world.perturbation_trials', acted by the simulator node (tric_sim.world.perturbations)."""
 
 import math
 
@@ -13,11 +13,11 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from tric_control.evaluation import report  # noqa: E402
+from tric_control.evaluation.records import report  # noqa: E402
 from tric_control.experiments.runner import SEEDS, Runner  # noqa: E402
-from tric_sim import situations  # noqa: E402
-from tric_sim.output_files import atomic_path  # noqa: E402
-from tric_sim.perturbation_trials import PERTURB_AT_S, Trial  # noqa: E402
+from tric_sim.tools.output_files import atomic_path  # noqa: E402
+from tric_sim.world import situations  # noqa: E402
+from tric_sim.world.perturbation_trials import PERTURB_AT_S, Trial  # noqa: E402
 
 #: The experiment's heading in the report and the log.
 TITLE = (
@@ -282,7 +282,7 @@ def discussion(rows: dict, trace: dict | None = None) -> str:
 def _trace(runner: Runner) -> dict:
     """f, the arm's joint speed and the hand's distance from its final place through TRACE's push,
     TRIC trained with the first seed, offline (the same controller core as the node's)."""
-    from tric_control.offline import OfflineEvaluator
+    from tric_control.evaluation.offline import OfflineEvaluator
 
     name, trial = TRACE
     situation = trial.apply(situations.find_situation(name), runner.robot)

@@ -2,7 +2,7 @@
 situations wider than their training sets: boxes turned within +-45 degrees with their centre ranges
 widened by half on each side (box_wide), spheres up to 10 cm outside the training grid
 (sphere_wide), cylinders turned up to 45 degrees beyond [0, pi/2] (cylinder_wide). Success against
-the distance from the training range (tric_sim.situations.outside_training_range)."""
+the distance from the training range (tric_sim.world.situations.outside_training_range)."""
 
 import matplotlib
 
@@ -10,10 +10,10 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from tric_control.evaluation import report  # noqa: E402
+from tric_control.evaluation.records import report  # noqa: E402
 from tric_control.experiments.rows import spread  # noqa: E402
 from tric_control.experiments.runner import Runner  # noqa: E402
-from tric_sim import situations  # noqa: E402
+from tric_sim.world import situations  # noqa: E402
 
 #: The experiment's heading in the report and the log.
 TITLE = (

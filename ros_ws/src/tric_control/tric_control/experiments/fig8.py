@@ -16,11 +16,11 @@ from tric_control.experiments.rows import (  # noqa: E402
     mean_difference_is_clear,
 )
 from tric_control.experiments.runner import BAGS, Runner  # noqa: E402
-from tric_learning.bag_dataset import load_dataset  # noqa: E402
-from tric_learning.dataset import Dataset  # noqa: E402
-from tric_learning.training import TrainingConfig  # noqa: E402
-from tric_sim import situations  # noqa: E402
-from tric_sim.metrics import GOOD_GRASP  # noqa: E402
+from tric_learning.bags.loader import load_dataset  # noqa: E402
+from tric_learning.training.dataset import Dataset  # noqa: E402
+from tric_learning.training.value import TrainingConfig  # noqa: E402
+from tric_sim.physics.metrics import GOOD_GRASP  # noqa: E402
+from tric_sim.world import situations  # noqa: E402
 
 #: The experiment's heading in the report and the log.
 TITLE = (

@@ -7,14 +7,14 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from tric_control.evaluation import summarize  # noqa: E402
+from tric_control.evaluation.records import summarize  # noqa: E402
 from tric_control.experiments.paper import PAPER_REPORTS  # noqa: E402
 from tric_control.experiments.rows import (  # noqa: E402
     mean_difference_is_clear,
 )
 from tric_control.experiments.runner import Runner  # noqa: E402
-from tric_sim import situations  # noqa: E402
-from tric_sim.metrics import GOOD_GRASP  # noqa: E402
+from tric_sim.physics.metrics import GOOD_GRASP  # noqa: E402
+from tric_sim.world import situations  # noqa: E402
 
 #: The experiment's heading in the report and the log.
 TITLE = "TRIC and DPL on the training situations, the sphere moved by 0 / 2 / 4 cm noise."

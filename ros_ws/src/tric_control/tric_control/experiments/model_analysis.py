@@ -18,9 +18,9 @@ from tric_control.experiments.targets import (
 )
 from tric_learning import analysis, model_file
 from tric_learning.analysis.attraction import attraction_numbers, rollouts_from_demo_ends
-from tric_learning.bag_dataset import load_dataset
+from tric_learning.bags.loader import load_dataset
 from tric_learning.model_file import ModelFile
-from tric_learning.training import SELECTED_FRACTION
+from tric_learning.training.value import SELECTED_FRACTION
 
 #: The experiment's heading in the report and the log.
 TITLE = (

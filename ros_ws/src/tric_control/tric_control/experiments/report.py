@@ -7,7 +7,7 @@ import pathlib
 
 from tric_control.experiments import EXPERIMENT_MODULES, experiment
 from tric_control.experiments.checks import check_results, check_table
-from tric_sim.output_files import write_text_atomic
+from tric_sim.tools.output_files import write_text_atomic
 
 
 def read_results(out: pathlib.Path) -> dict:

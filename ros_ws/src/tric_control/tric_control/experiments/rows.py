@@ -9,8 +9,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from tric_control.evaluation import report, summarize  # noqa: E402
-from tric_sim.metrics import GOOD_GRASP  # noqa: E402
+from tric_control.evaluation.records import report, summarize  # noqa: E402
+from tric_sim.physics.metrics import GOOD_GRASP  # noqa: E402
 
 
 def grasp_row(records) -> dict:

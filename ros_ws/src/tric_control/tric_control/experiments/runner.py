@@ -1,23 +1,24 @@
 """The experiments' runner: trains (or re-uses) their models under DIR/models and evaluates
 them through the real nodes, each evaluation kept under DIR/episodes, re-used when made as asked
-and continued after an interrupt (tric_control.kept_evaluations); the trainings and episodes run on
-an executor (tric_control.executors: processes here, or Ray)."""
+and continued after an interrupt (tric_control.evaluation.kept); the trainings and episodes run on
+an executor (tric_control.evaluation.executors: processes here, or Ray)."""
 
 import pathlib
 
 import torch
 
-from tric_control.executors import ProcessExecutor
-from tric_control.graph_evaluation import evaluate
-from tric_control.kept_evaluations import kept_evaluation
-from tric_learning import dpl, model_file
-from tric_learning.bag_dataset import load_dataset
-from tric_learning.dataset import Dataset
-from tric_learning.lbfgs import torch_threads
-from tric_learning.training import TrainingConfig, train
-from tric_sim.dds_domains import private_domain_id
-from tric_sim.provenance import code_digest
-from tric_sim.robot_model import RobotModel
+from tric_control.evaluation.executors import ProcessExecutor
+from tric_control.evaluation.graph import evaluate
+from tric_control.evaluation.kept import kept_evaluation
+from tric_learning import model_file
+from tric_learning.bags.loader import load_dataset
+from tric_learning.training import dpl
+from tric_learning.training.dataset import Dataset
+from tric_learning.training.lbfgs import torch_threads
+from tric_learning.training.value import TrainingConfig, train
+from tric_sim.ros.dds_domains import private_domain_id
+from tric_sim.tools.provenance import code_digest
+from tric_sim.world.robot_model import RobotModel
 
 BAGS = pathlib.Path("bags")
 
@@ -69,9 +70,9 @@ class Runner:
         dataset = self.demonstrations(bags)
         if kind == "tric":
             config = TrainingConfig(hidden_units=hidden_units, seed=seed)
-            code = code_digest("tric_learning.training")
+            code = code_digest("tric_learning.training.value")
         else:
-            config, code = dpl.DplConfig(seed=seed), code_digest("tric_learning.dpl")
+            config, code = dpl.DplConfig(seed=seed), code_digest("tric_learning.training.dpl")
         if not model_file.made_as(path, kind, config.to_dict(), dataset.fingerprint, code):
             print(f"training {name} (seed {seed}) on {BAGS / bags}", flush=True)
             self._train(kind, dataset, config).save(path)
@@ -91,7 +92,7 @@ class Runner:
         """The TRIC model file out/models/<name>.safetensors, trained on dataset with config unless
         a model made as asked is there (model_file.made_as)."""
         path = self.out / "models" / f"{name}.safetensors"
-        code = code_digest("tric_learning.training")
+        code = code_digest("tric_learning.training.value")
         if not model_file.made_as(path, "tric", config.to_dict(), dataset.fingerprint, code):
             print(f"training {name} on {len(dataset.demos)} demonstrations", flush=True)
             self._train("tric", dataset, config).save(path)
@@ -123,5 +124,5 @@ class Runner:
                 executor=self.executor,
             )
 
-        code = code_digest("tric_control.graph_evaluation")
+        code = code_digest("tric_control.evaluation.graph")
         return kept_evaluation(self.out / "episodes", chosen, model, max_steps, code, run)

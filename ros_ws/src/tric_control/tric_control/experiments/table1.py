@@ -4,7 +4,7 @@ from tric_control.experiments.paper import PAPER_REPORTS, PAPER_TEACHER, PAPER_T
 from tric_control.experiments.rows import grasp_result, grasp_rows, spread
 from tric_control.experiments.runner import Runner
 from tric_control.experiments.targets import MARGIN_TO_TEACHER
-from tric_sim import situations
+from tric_sim.world import situations
 
 #: The experiment's heading in the report and the log.
 TITLE = (
@@ -53,7 +53,7 @@ def discussion(rows: dict) -> str:
     if tric["cost_mean"] < PAPER_TRIC and teacher["cost_mean"] < PAPER_TEACHER:
         text += (
             " Both our costs are lower than the paper's, but our grasp cost is our own metric "
-            "(tric_sim.metrics, docs/metrics.md), not the paper's (Dragiev et al. 2011), so only "
-            "the gap to the teacher compares."
+            "(tric_sim.physics.metrics, docs/metrics.md), not the paper's (Dragiev et al. 2011), "
+            "so only the gap to the teacher compares."
         )
     return text

@@ -14,11 +14,11 @@ from tric_control.experiments.paper import (  # noqa: E402
     PAPER_REPORTS,
 )
 from tric_control.experiments.runner import BAGS, Runner  # noqa: E402
-from tric_learning import dpl  # noqa: E402
-from tric_learning.bag_dataset import load_dataset  # noqa: E402
+from tric_learning.bags.loader import load_dataset  # noqa: E402
 from tric_learning.demonstrations import demonstrate_all  # noqa: E402
 from tric_learning.model_file import ModelFile  # noqa: E402
-from tric_sim import situations  # noqa: E402
+from tric_learning.training import dpl  # noqa: E402
+from tric_sim.world import situations  # noqa: E402
 
 #: The experiment's heading in the report and the log.
 TITLE = "DPL errors on its training demonstrations and on teacher demonstrations of the test set."

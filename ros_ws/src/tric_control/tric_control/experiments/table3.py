@@ -6,7 +6,7 @@ from tric_control.experiments.paper import PAPER_REPORTS
 from tric_control.experiments.rows import grasp_result, grasp_rows, rest_share, spread
 from tric_control.experiments.runner import Runner
 from tric_control.experiments.targets import CYLINDER_TARGETS, REST_TARGET
-from tric_sim import situations
+from tric_sim.world import situations
 
 #: The experiment's heading in the report and the log.
 TITLE = (

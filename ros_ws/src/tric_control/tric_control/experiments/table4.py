@@ -8,7 +8,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from tric_control.evaluation import report, summarize  # noqa: E402
+from tric_control.evaluation.records import report, summarize  # noqa: E402
 from tric_control.experiments.paper import PAPER_BOXES, PAPER_REPORTS  # noqa: E402
 from tric_control.experiments.rows import (  # noqa: E402
     at_rest,
@@ -18,7 +18,7 @@ from tric_control.experiments.rows import (  # noqa: E402
 )
 from tric_control.experiments.runner import Runner  # noqa: E402
 from tric_control.experiments.targets import BOX_TARGET, REST_TARGET  # noqa: E402
-from tric_sim import situations  # noqa: E402
+from tric_sim.world import situations  # noqa: E402
 
 #: The experiment's heading in the report and the log.
 TITLE = (

@@ -29,7 +29,7 @@ class StepState:
     reference: the command the step starts from (n,), rad.
     max_step: the per-tick step bound of each joint (n,), rad (velocity limit times period).
     objective: the objective's model at q (tric_control.objectives.Objective).
-    closest: the collision pairs near q, closest first (tric_sim.proximity.Closest).
+    closest: the collision pairs near q, closest first (tric_sim.world.proximity.Closest).
     low, high: the step's box bounds (n,) once every limit has tightened them.
     Each is None until the step sets it (a test sets only what the limit it tries reads): typed Any.
     """

@@ -13,9 +13,9 @@ class CollisionDamper(Limit):
     """For the `rows` closest pairs (state.closest), n^T J dq >= -damping * (d - safety): no pair
     closes faster than the fraction damping of its remaining margin per tick. The safety distance
     (m) is `safety` against the scene, `self_safety` between the robot's own links, and -depth for
-    the hand against a body whose contact (the task's tric_sim.scene.Contact, read through rules) it
-    holds at the moment: there the hand may press that deep. A pair is active (named "<robot
-    geometry>/<other>") when its row binds the step."""
+    the hand against a body whose contact (the task's tric_sim.world.scene.Contact, read through
+    rules) it holds at the moment: there the hand may press that deep. A pair is active (named
+    "<robot geometry>/<other>") when its row binds the step."""
 
     def __init__(
         self, rules: ContactRules, rows: int, safety: float, self_safety: float, damping: float

@@ -1,5 +1,6 @@
-"""A task's contacts (tric_sim.scene.Contact by scene body name) applied to collision pairs: which
-pairs of the hand with a body it may press hold their leave at the moment. ROS-free. Units: m."""
+"""A task's contacts (tric_sim.world.scene.Contact by scene body name) applied to collision pairs:
+which pairs of the hand with a body it may press hold their leave at the moment. ROS-free. Units:
+m."""
 
 from typing import cast
 
@@ -8,9 +9,10 @@ import numpy as np
 
 class ContactRules:
     """The contacts {scene body name: Contact} of a task, read per tick against the pairs of a
-    tric_sim.proximity.Closest. A pair holds its body's contact when its robot side is the hand and,
-    for a contact with a side, the hand is on that side of the body: the direction in which the hand
-    moves away from the body has a non-negative component along the side (body frame).
+    tric_sim.world.proximity.Closest. A pair holds its body's contact when its robot side is the
+    hand and, for a contact with a side, the hand is on that side of the body: the direction in
+    which the hand moves away from the body has a non-negative component along the side (body
+    frame).
 
     Limits that share one ContactRules (CollisionDamper, SoftContact) share its answer for a tick.
     Per-body tables (for the bodies of the last Closest seen; entry -1: pairs within the robot,

@@ -9,7 +9,7 @@ from tric_control.limits.contact_rules import ContactRules
 
 class SoftContact(Limit):
     """For each pair of state.closest that holds its body's contact (the task's
-    tric_sim.scene.Contact) and is closer than the contact's cushion c: the cost
+    tric_sim.world.scene.Contact) and is closer than the contact's cushion c: the cost
     w (d + r dq - c)^2 with w = cushion_weight / |r|^2 (r: the distance's row), a spring of
     stiffness cushion_weight in the step's metric that pushes the hand back to the cushion. Contacts
     without a cushion add nothing (rules: tric_control.limits.ContactRules)."""

@@ -22,10 +22,10 @@ from typing import Any
 from tric_control.objectives.base import Objective
 from tric_control.objectives.dpl import DPL_WEIGHT, DplObjective
 from tric_control.objectives.value import COMPILED, ValueObjective
-from tric_learning import dpl
 from tric_learning.features import FeatureMap
 from tric_learning.model_file import ModelFile, value_function
-from tric_sim.robot_model import RobotModel
+from tric_learning.training import dpl
+from tric_sim.world.robot_model import RobotModel
 
 #: Model kinds make_objective can build an objective for.
 RUNNABLE_KINDS = ("tric", "dpl_joint", "dpl_finger")

@@ -6,8 +6,8 @@ import math
 import numpy as np
 
 from tric_control.objectives.base import Objective
-from tric_learning import dpl
 from tric_learning.features import FeatureMap
+from tric_learning.training import dpl
 
 #: C_DPL's weight on following the policy (Sec. 5.3.2: 10^3), relative to |dq|^2.
 DPL_WEIGHT = 1e3

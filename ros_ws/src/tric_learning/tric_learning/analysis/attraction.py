@@ -21,11 +21,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from tric_learning.dataset import Dataset
 from tric_learning.features import FeatureMap
-from tric_learning.samples import truncated_gaussian
+from tric_learning.training.dataset import Dataset
+from tric_learning.training.samples import truncated_gaussian
 from tric_learning.value_function import ValueFunction
-from tric_sim.robot_model import RobotModel
+from tric_sim.world.robot_model import RobotModel
 
 #: The controller's convergence criterion (tric_control.motion_rate: CONVERGED_WINDOW and
 #: CONVERGED_MOTION, which tric_learning may not import; a test keeps them equal).

@@ -10,7 +10,7 @@ from matplotlib.figure import Figure
 
 from tric_learning.analysis.drawing import light_and_mean
 from tric_learning.analysis.measures import CONTROLLER_INFLUENCE
-from tric_sim.output_files import atomic_path
+from tric_sim.tools.output_files import atomic_path
 
 
 def plot_collision_prior(

@@ -10,9 +10,9 @@ from matplotlib.figure import Figure
 
 from tric_learning.analysis.drawing import light_and_mean
 from tric_learning.analysis.measures import score_order
-from tric_learning.training import SELECTED_FRACTION
+from tric_learning.training.value import SELECTED_FRACTION
 from tric_learning.value_function import ValueFunction
-from tric_sim.output_files import atomic_path
+from tric_sim.tools.output_files import atomic_path
 
 #: Features of Fig. 17a also drawn as lines.
 GRADIENT_LINES = 6

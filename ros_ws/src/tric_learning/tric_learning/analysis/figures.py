@@ -55,9 +55,9 @@ from tric_learning.analysis.measures import (
 )
 from tric_learning.analysis.space_figures import plot_kernel_pca, plot_task_spaces
 from tric_learning.analysis.value_figures import plot_cosines, plot_values
-from tric_learning.dataset import Dataset
+from tric_learning.training.dataset import Dataset
 from tric_learning.value_function import ValueFunction
-from tric_sim.robot_model import RobotModel
+from tric_sim.world.robot_model import RobotModel
 
 VALUE_FIGURE = "value_along_demos.png"
 

@@ -6,11 +6,11 @@ import coal
 import numpy as np
 import pinocchio as pin
 
-from tric_learning.dataset import Dataset
-from tric_learning.training import SELECTED_FRACTION
+from tric_learning.training.dataset import Dataset
+from tric_learning.training.value import SELECTED_FRACTION
 from tric_learning.value_function import ValueFunction
-from tric_sim.collision import SceneCollision
-from tric_sim.robot_model import RobotModel
+from tric_sim.world.collision import SceneCollision
+from tric_sim.world.robot_model import RobotModel
 
 #: The step classes of the gradient measures, rad (|q_{t+1} - q_t|), fixed by the design (section 5)
 #: and issue 24 before any change of the training, and independent of any rule the training uses: a
@@ -35,7 +35,8 @@ FIG12_FINGER, FIG12_OBJECT = "fingertip_2", "box"
 CONTROLLER_INFLUENCE = 0.05
 
 
-#: The scene bodies the hand may touch (tric_sim.scene roles): Fig. 14b's distances are to these.
+#: The scene bodies the hand may touch (tric_sim.world.scene roles): Fig. 14b's distances are to
+# these.
 TOUCHED_ROLES = ("target", "lid")
 
 

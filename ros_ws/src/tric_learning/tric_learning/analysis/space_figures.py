@@ -20,8 +20,8 @@ from tric_learning.analysis.measures import (
     kernel_pca,
     relative_spread,
 )
-from tric_learning.dataset import Dataset
-from tric_sim.output_files import atomic_path
+from tric_learning.training.dataset import Dataset
+from tric_sim.tools.output_files import atomic_path
 
 
 def _start_end(axes, path, colour, label):

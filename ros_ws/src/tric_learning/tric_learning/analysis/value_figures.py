@@ -11,7 +11,7 @@ from matplotlib.colors import Normalize
 from matplotlib.figure import Figure
 
 from tric_learning.analysis.measures import mean_over_demos
-from tric_sim.output_files import atomic_path
+from tric_sim.tools.output_files import atomic_path
 
 
 def plot_values(curves: list, names: list, path: pathlib.Path) -> pathlib.Path:

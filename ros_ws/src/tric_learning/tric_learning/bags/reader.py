@@ -25,7 +25,7 @@ from tric_learning.bags.definitions import (
     message_definition,
     ros_type_name,
 )
-from tric_sim.untrusted import load_data, quoted
+from tric_sim.tools.untrusted import load_data, quoted
 
 _MCAP_MAGIC = b"\x89MCAP0\r\n"
 _FOOTER_RECORD_SIZE = 1 + 8 + 20  # opcode, record length, summary start, summary offset start, CRC

@@ -1,0 +1,218 @@
+"""One controller episode, tick by tick, without ROS: measured state in, safe command out. ROS-free.
+
+EpisodeRunner is the loop that every way of running a model shares: the controller node (lockstep or
+realtime, tric_control.controller_node) and the offline evaluation on PhysicsWorld
+(tric_control.evaluation.offline). Each control period it is handed the measured joint positions q
+(n,), rad, and the objects' poses, and returns the command to send:
+
+- a fresh, complete state: one motion-rate step (tric_control.motion_rate), made safe: the target is
+  moved into the joint limits and within one period's velocity bound of the previous command (the
+  controller respects both already; a violation is clipped, counted and reported);
+- a stale state (older than STALE_PERIODS control periods) or missing object poses: a hold, the last
+  measured positions approached within the velocity bound; the controller is not stepped;
+- the episode ends when the controller converges (the robot came to rest) or the step budget is
+  spent.
+
+It also keeps the episode's statistics (values of the objective, closest approach, joint-limit
+margin, tick times). Units: rad, m, s; stamps in ns.
+"""
+
+import math
+import time
+from dataclasses import dataclass, field
+from typing import cast
+
+import numpy as np
+
+from tric_control.motion_rate import MotionRateController, Tick
+from tric_sim.world.robot_model import RobotModel
+
+#: A state older than this many control periods is stale: the runner holds instead of stepping.
+STALE_PERIODS = 3
+#: An episode's step budget when none is given, by task, ticks at 100 Hz: 8 s for a grasp (the
+#: paper's take 5 s), 20 s for a box (its demonstrations last 8 s; docs/decisions/loss-balance.md).
+DEFAULT_MAX_STEPS = {"grasp": 800, "open_box": 2000}
+
+
+@dataclass
+class EpisodeStats:
+    """Running statistics of an episode. Values of the controller's objective (f for TRIC), the
+    smallest collision distance the controller saw (m), the smallest distance of a measured joint to
+    its limit (rad), each tick's computing time (ms), safety clips."""
+
+    steps: int = 0
+    holds: int = 0
+    initial_value: float = math.nan
+    final_value: float = math.nan
+    min_distance: float = math.inf
+    min_joint_margin: float = math.inf
+    tick_ms: list = field(default_factory=list)
+    violations: int = 0
+
+    @property
+    def mean_tick_ms(self) -> float:
+        return float(np.mean(self.tick_ms)) if self.tick_ms else math.nan
+
+    @property
+    def max_tick_ms(self) -> float:
+        return float(np.max(self.tick_ms)) if self.tick_ms else math.nan
+
+
+@dataclass
+class Step:
+    """What the runner decided for one state: the command (n,) to send; the controller's tick (None
+    when holding); why it held ("" when it stepped); the command's distance from the previous one,
+    rad; the tick's computing time, ms; and (outcome, message) when the episode is over, else
+    None."""
+
+    command: np.ndarray
+    tick: Tick | None = None
+    held: str = ""
+    step_norm: float = 0.0
+    tick_ms: float = 0.0
+    outcome: tuple | None = None
+
+
+class EpisodeRunner:
+    """Drives one episode of a motion-rate controller (see the module docstring).
+
+    Args:
+        robot: the kinematic model (joint limits, velocity limits).
+        controller: the controller to step, reset by the runner at the first state.
+        max_steps: the step budget, ticks (>= 1).
+        period: the control period, s.
+        required_objects: names whose poses each tick needs (the model's landmarks).
+        on_violation: called with a description each time a command had to be clipped.
+    """
+
+    def __init__(
+        self,
+        robot: RobotModel,
+        controller: MotionRateController,
+        max_steps: int,
+        period: float,
+        required_objects=(),
+        on_violation=None,
+    ):
+        if max_steps < 1:
+            raise ValueError(f"the step budget must be at least 1 tick, got {max_steps}")
+        if not (math.isfinite(period) and period > 0):
+            raise ValueError(f"the control period must be finite and positive, got {period!r}")
+        self.robot, self.controller, self.max_steps, self.period = (
+            robot,
+            controller,
+            max_steps,
+            period,
+        )
+        self.period_ns = int(round(period * 1e9))
+        self.required_objects = tuple(required_objects)
+        self.on_violation = on_violation or (lambda _: None)
+        self.max_step = robot.velocity_limits * period
+        self.stats = EpisodeStats()
+        # the last command sent (n,), None before the first state
+        self.previous: np.ndarray | None = None
+
+    @property
+    def started(self) -> bool:
+        return self.previous is not None
+
+    def missing(self, object_poses: dict) -> list:
+        """The required objects that object_poses lacks."""
+        return [name for name in self.required_objects if name not in object_poses]
+
+    def step(
+        self, q, object_poses: dict, stamp_ns: int | None = None, now_ns: int | None = None
+    ) -> Step:
+        """The command for the measured state q (n,) stamped stamp_ns, at time now_ns (both None:
+        never stale). Raises ValueError for a q of the wrong size or with NaN/inf, RuntimeError when
+        the controller fails on this input."""
+        q = np.asarray(q, dtype=float)
+        if q.shape != (self.robot.n_joints,) or not np.all(np.isfinite(q)):
+            raise ValueError(
+                f"the measured state must be {self.robot.n_joints} finite joint positions"
+            )
+        if self.previous is None:
+            self.previous = q.copy()
+            self.controller.reset(q)
+        stale = (
+            stamp_ns is not None
+            and now_ns is not None
+            and now_ns - stamp_ns > STALE_PERIODS * self.period_ns
+        )
+        missing = self.missing(object_poses)
+        if stale or missing:
+            return self.hold(
+                q, "stale joint states" if stale else f"no pose of {', '.join(missing)}"
+            )
+        started = time.perf_counter()
+        try:
+            tick = self.controller.tick(q, object_poses)
+        except Exception as error:  # the objective or the QP failed on this input
+            raise RuntimeError(
+                f"control tick {self.stats.steps} failed: {type(error).__name__}: {error}"
+            ) from None
+        tick_ms = (time.perf_counter() - started) * 1e3
+        command = self.safe_command(tick.target)
+        if not np.array_equal(command, tick.target):
+            self.controller.reference = command.copy()  # integrate from what is actually commanded
+        step_norm = float(np.linalg.norm(command - self.previous))
+        self.previous = command
+        stats = self.stats
+        stats.steps += 1
+        if stats.steps == 1:
+            stats.initial_value = float(tick.value)
+        stats.final_value = float(tick.value)
+        stats.min_distance = min(stats.min_distance, float(tick.min_distance))
+        margin = float(min(np.min(q - self.robot.lower), np.min(self.robot.upper - q)))
+        stats.min_joint_margin = min(stats.min_joint_margin, margin)
+        stats.tick_ms.append(tick_ms)
+        outcome = None
+        if tick.converged:
+            outcome = ("converged", f"converged after {stats.steps} steps")
+        elif stats.steps >= self.max_steps:
+            outcome = ("step_budget", f"step budget of {self.max_steps} spent")
+        return Step(
+            command=command, tick=tick, step_norm=step_norm, tick_ms=tick_ms, outcome=outcome
+        )
+
+    def hold(self, q, reason: str) -> Step:
+        """Command the measured positions q (approached within the velocity bound), without stepping
+        the controller."""
+        q = np.asarray(q, dtype=float)
+        if self.previous is None:
+            self.previous = q.copy()
+            self.controller.reset(q)
+        command = self.safe_command(q, count=False)
+        if self.controller.reference is not None:
+            self.controller.reference = command.copy()
+        step_norm = float(np.linalg.norm(command - self.previous))
+        self.previous = command
+        self.stats.holds += 1
+        return Step(command=command, held=reason, step_norm=step_norm)
+
+    def safe_command(self, target, count: bool = True) -> np.ndarray:
+        """target moved into the joint limits and within one tick's velocity bound of the previous
+        command; a non-finite or mis-sized target holds the previous command. Violations are counted
+        and reported (on_violation) if count."""
+        target = np.asarray(target, dtype=float)
+        previous = cast(np.ndarray, self.previous)  # step and hold set it first
+        if target.shape != previous.shape or not np.all(np.isfinite(target)):
+            self._violation("a non-finite or mis-sized target; holding the previous command")
+            return previous.copy()
+        change = target - previous
+        command = np.clip(
+            previous + np.clip(change, -self.max_step, self.max_step),
+            self.robot.lower,
+            self.robot.upper,
+        )
+        if count and np.any(np.abs(change) > self.max_step + 1e-12):
+            self._violation("a target step beyond the velocity bound")
+        if count and np.any((target < self.robot.lower) | (target > self.robot.upper)):
+            self._violation("a target outside the joint limits")
+        return command
+
+    def _violation(self, what: str) -> None:
+        self.stats.violations += 1
+        self.on_violation(
+            f"clipped {what} ({self.stats.violations} safety violations in this episode)"
+        )

@@ -1,0 +1,216 @@
+"""Offline evaluation: the controller core on PhysicsWorld, no nodes. ROS-free.
+
+The same episodes as through the nodes (tric_control.evaluation.graph), without the graph: the scene
+is reset to the situation, the model's controller is run by the same EpisodeRunner as the controller
+node's, each command goes to the physics as the simulator would apply it, and the final state is
+judged by the same hidden metrics (with the lift test for grasps). The teacher runs its core
+(tric_sim.teachers.demonstrate) the same way. Sweeps and method studies use this; the results'
+tables come from the nodes.
+
+An episode through the nodes and offline differ only in the lockstep protocol's timing (the
+simulator steps on its own when a command is late), so the two agree to within the physics'
+run-to-run spread.
+"""
+
+import pathlib
+import time
+
+from tqdm import tqdm
+
+from tric_control.episode_runner import DEFAULT_MAX_STEPS, EpisodeRunner
+from tric_control.evaluation.executors import ProcessExecutor
+from tric_control.evaluation.records import EpisodeRecord, evaluated_task, unjudged_fields
+from tric_control.evaluation.shipped_files import local_path
+from tric_control.motion_rate import MotionRateController
+from tric_control.objectives import CONTROL_PERIOD, make_objective
+from tric_learning.features import FeatureDefinition
+from tric_learning.model_file import ModelFile
+from tric_sim import teachers
+from tric_sim.physics import metrics
+from tric_sim.physics.simulation import PhysicsWorld
+from tric_sim.world.proximity import Proximity
+from tric_sim.world.robot_model import RobotModel
+
+
+class OfflineEvaluator:
+    """A physics world and, unless model is None (the teacher), a loaded model for one task.
+
+    Args:
+        task: "grasp" or "open_box".
+        model: a model file path, or None for the teacher.
+        max_steps: control ticks per episode at most (0: the task's DEFAULT_MAX_STEPS, as the
+            controller node's).
+        period: the control period, s.
+        controller_options: keyword arguments of MotionRateController (e.g. max_lead), for studies.
+    """
+
+    def __init__(
+        self,
+        task: str,
+        model=None,
+        max_steps: int = 0,
+        period: float = CONTROL_PERIOD,
+        controller_options: dict = None,
+    ):
+        self.task, self.model, self.period = task, model, period
+        self.controller_options = dict(controller_options or {})
+        self.max_steps = max_steps or DEFAULT_MAX_STEPS[task]
+        self.robot = RobotModel()
+        self.objective = self.kind = None
+        self.objects = ()
+        if model is not None:
+            model_file = ModelFile.load(model, FeatureDefinition.for_task(task, self.robot))
+            self.objective = make_objective(model_file, self.robot, period)
+            self.kind = model_file.kind
+            self.objects = tuple(
+                source.partition("/")[2]
+                for source in model_file.definition.landmark_sources
+                if source.startswith("object/")
+            )
+        self.world = PhysicsWorld(self.robot, control_rate_hz=1.0 / period)
+
+    @property
+    def agent(self) -> str:
+        return "teacher" if self.model is None else self.kind
+
+    def close(self) -> None:
+        self.world.close()
+
+    def run(self, situation, snapshot: pathlib.Path = None, on_period=None) -> EpisodeRecord:
+        """One episode of the agent on situation, judged by the hidden metrics. on_period(world,
+        step): after each control period a model's controller stepped (step: episode.Step), or
+        the teacher's (step None)."""
+        if situation.task != self.task:
+            raise ValueError(
+                f"situation '{situation.name}' is a '{situation.task}' task, not '{self.task}'"
+            )
+        started = time.monotonic()
+        world, grasp = self.world, situation.task == "grasp"
+        record = unjudged_fields(situation, self.agent)
+        if self.model is None:
+            duration = teachers.DEFAULT_DURATION[situation.task]
+            teachers.demonstrate(
+                world,
+                self.robot,
+                situation,
+                duration,
+                on_period=None if on_period is None else lambda *_: on_period(world, None),
+            )
+            steps, outcome = int(round(duration / world.control_period)), "demonstrated"
+            if snapshot is not None:
+                self._snapshot(snapshot, situation)
+        else:
+            world.reset(situation)
+            controller = MotionRateController(
+                self.robot,
+                Proximity(self.robot, situation),
+                self.objective,
+                self.period,
+                **self.controller_options,
+            )
+            runner = EpisodeRunner(
+                self.robot, controller, self.max_steps, self.period, self.objects
+            )
+            outcome = None
+            try:
+                while outcome is None:
+                    q, _ = world.joint_state()
+                    decided = runner.step(q, world.object_poses())
+                    world.command(decided.command)
+                    world.step()
+                    if on_period is not None:
+                        on_period(world, decided)
+                    outcome = decided.outcome
+            except RuntimeError as error:
+                record["steps"] = runner.stats.steps
+                return EpisodeRecord(
+                    **record,
+                    wall_time_s=time.monotonic() - started,
+                    outcome="failed",
+                    message=str(error),
+                )
+            steps, outcome = runner.stats.steps, outcome[0]
+            record["min_joint_margin"] = runner.stats.min_joint_margin
+            if snapshot is not None:
+                self._snapshot(snapshot, situation)
+        judged = metrics.evaluate(world, self.robot, run_lift_test=grasp)
+        record.update(
+            success=bool(judged.success),
+            min_distance=judged.min_distance,
+            collided=bool(judged.collided),
+            steps=int(steps),
+        )
+        if grasp:
+            record.update(grasp_cost=judged.grasp_cost, lift_passed=bool(judged.lift_passed))
+        else:
+            record["lid_angle"] = judged.lid_angle
+        return EpisodeRecord(
+            **record,
+            wall_time_s=time.monotonic() - started,
+            outcome=outcome,
+            max_joint_overshoot=judged.max_joint_overshoot,
+            failure=judged.failure,
+        )
+
+    def _snapshot(self, folder: pathlib.Path, situation) -> None:
+        from tric_sim.viz.situation_pictures import write_png
+
+        folder.mkdir(parents=True, exist_ok=True)
+        write_png(folder / f"{situation.name}.png", self.world.render(480, 360))
+
+
+def evaluate_offline(
+    situations,
+    model=None,
+    max_steps: int = 0,
+    snapshots=None,
+    progress=True,
+    desc="evaluating offline",
+    jobs: int = 1,
+    controller_options: dict = None,
+    on_record=None,
+    executor=None,
+) -> list:
+    """Run the agent (a model file, or the teacher if None) on every situation offline;
+    [EpisodeRecord] in the situations' order; on_record(record) (if given) as each episode ends.
+    jobs > 1, or a Ray executor: that many workers of executor (tric_control.evaluation.executors;
+    None: spawned processes here), each with its own world. controller_options: see
+    OfflineEvaluator."""
+    task = evaluated_task(situations, jobs)
+    snapshot = pathlib.Path(snapshots) if snapshots else None
+    jobs = min(jobs, len(situations))
+    records = [None] * len(situations)
+    with tqdm(total=len(situations), desc=desc, unit="episode", disable=not progress) as bar:
+        if jobs <= 1 and getattr(executor, "kind", "processes") == "processes":
+            evaluator = OfflineEvaluator(
+                task, model, max_steps, controller_options=controller_options
+            )
+            try:
+                for k, situation in enumerate(situations):
+                    bar.set_postfix_str(situation.name)
+                    records[k] = evaluator.run(situation, snapshot)
+                    bar.update()
+                    if on_record is not None:
+                        on_record(records[k])
+            finally:
+                evaluator.close()
+            return records
+        executor = executor or ProcessExecutor()
+        arguments = (task, executor.ship(model), max_steps, controller_options)
+        return executor.run_episodes(
+            situations,
+            snapshot,
+            jobs,
+            bar,
+            _worker_evaluator,
+            lambda: arguments,
+            "teacher" if model is None else "model",
+            on_record,
+        )
+
+
+def _worker_evaluator(_worker, task, model, max_steps, controller_options) -> OfflineEvaluator:
+    """A worker's OfflineEvaluator (see tric_control.evaluation.executors); every worker alike."""
+    return OfflineEvaluator(
+        task, local_path(model), max_steps, controller_options=controller_options
+    )

@@ -1,0 +1,207 @@
+"""The grasp teacher (GraspTeacher): a phased reactive grasp controller in the spirit of Dragiev et
+al. (2011), the paper's sphere and cylinder teacher. Each phase servos its own task variables
+through differential inverse kinematics on the shared Pinocchio model (tric_sim.teachers.pose_servo:
+a small QP with joint limits, velocity limits and a table-clearance constraint):
+
+1. reach: pre-shape the hand and bring the palm to a pre-grasp pose PREGRASP_DISTANCE before the
+   object, along an approach direction chosen from the object's position
+   (tric_sim.teachers.grasp_approach);
+2. approach: move the palm along that direction to the grasp pose;
+3. close: flex the fingers until each touches the object, then squeeze.
+
+Units: m, rad, s.
+"""
+
+import numpy as np
+import pinocchio as pin
+
+from tric_sim.teachers.grasp_approach import approach_direction, cylinder_grasp_point, frame_from
+from tric_sim.teachers.pose_servo import PoseServo
+from tric_sim.world import scene
+from tric_sim.world.robot_model import (
+    DISTAL_LINKS,
+    DISTAL_RADIUS,
+    FINGERTIPS,
+    PALM,
+    PRESHAPE,
+    RobotModel,
+)
+from tric_sim.world.shapes import object_surface
+from tric_sim.world.situation import Situation
+
+#: Palm-centre distance to the object's surface at the grasp and at the pre-grasp pose, m.
+GRASP_GAP = {"sphere": 0.025, "cylinder": 0.035}
+PREGRASP_DISTANCE = {"sphere": 0.10, "cylinder": 0.14}
+#: Phase tolerances: palm position (m) and orientation (rad) error to leave reach / approach.
+REACH_TOLERANCE = (0.015, 0.08)
+APPROACH_TOLERANCE = (0.004, 0.04)
+#: Finger closing: joint speed (rad/s), contact distance (m), and how far past contact the targets
+#: go to squeeze (rad).
+CLOSING_SPEED = 1.5
+CONTACT_DISTANCE = 0.002
+SQUEEZE = 0.12
+#: The reference may lead the measured arm joints by at most this (rad); when the arm is held back
+#: (contact), the reference is pulled back so the teacher stays reactive.
+MAX_REFERENCE_LEAD = 0.1
+FINGER_JOINTS = (
+    ("finger_1_proximal_joint", "finger_1_distal_joint"),
+    ("finger_2_proximal_joint", "finger_2_distal_joint"),
+    ("finger_3_proximal_joint", "finger_3_distal_joint"),
+)
+PROXIMAL_LINKS = ("finger_1_proximal_link", "finger_2_proximal_link", "finger_3_proximal_link")
+
+
+class GraspTeacher:
+    """The phased grasp teacher for a sphere or cylinder situation (see the module docstring).
+
+    command(elapsed_s, q, poses) is called once per control period with the time since the start,
+    the measured joint positions (n,) and the objects' world poses ({name: (position, xyzw)}); it
+    returns the joint position targets (n,).
+    """
+
+    planning_time_s = 0.0
+
+    def __init__(self, robot: RobotModel, situation: Situation, period: float = 0.01):
+        if situation.task != "grasp":
+            raise ValueError(
+                f"GraspTeacher grasps spheres and cylinders, not task '{situation.task}'"
+            )
+        self.robot, self.situation, self.period = robot, situation, period
+        self.kind = situation.object_kind
+        self.servo = PoseServo(robot, period)
+        self.phase = "reach"
+        self.reference: np.ndarray | None = None
+        self.knuckle = robot.joint_names.index("finger_2_knuckle_joint")
+        self.fingers = [[robot.joint_names.index(j) for j in pair] for pair in FINGER_JOINTS]
+        self.finger_state = ["closing"] * 3
+        self.grasp_pose: pin.SE3 | None = None
+
+    # --- poses ---------------------------------------------------------------------------------
+
+    def _poses(self, object_pose, q: np.ndarray):
+        """Grasp and pre-grasp palm poses for the object at object_pose. The palm's roll about its
+        approach axis is free for a sphere (and two-fold for a cylinder): the teacher takes the one
+        whose inverse-kinematics solution stays nearest the home posture, within the joint
+        limits."""
+        centre = np.asarray(object_pose[0], dtype=float)
+        placement = scene.se3(*object_pose)
+        if self.kind == "cylinder":
+            height, radius = self.situation.object_dimensions
+            axis = placement.rotation[:, 2]
+            centre, n = cylinder_grasp_point(centre, axis, height)
+            # palm y along the axis (fingers 2 and 3 side by side along it): x = y cross z
+            rotations = [np.column_stack([np.cross(y, n), y, n]) for y in (axis, -axis)]
+        else:
+            radius = self.situation.object_dimensions[0]
+            n = approach_direction(centre)
+            base = frame_from(n, np.array([0.0, 0.0, -1.0]))
+            rotations = [base @ pin.utils.rotate("z", a) for a in np.radians(np.arange(0, 360, 30))]
+        position = centre - n * (radius + GRASP_GAP[self.kind])
+        grasp = min(
+            (pin.SE3(rotation, position) for rotation in rotations),
+            key=lambda pose: self._posture_cost(q, pose),
+        )
+        pregrasp = pin.SE3(grasp.rotation, grasp.translation - n * PREGRASP_DISTANCE[self.kind])
+        return grasp, pregrasp
+
+    def _posture_cost(self, q: np.ndarray, pose: pin.SE3) -> float:
+        """Distance from home of the IK solution for pose, plus penalties for an unreached pose or a
+        joint near its limit."""
+        robot, arm = self.robot, self.robot.arm_indices
+        solution = robot.reach(q, PALM, pose, iterations=150)
+        robot.forward(solution)
+        error = np.linalg.norm(pin.log6(robot.frame_placement(PALM).actInv(pose)).vector)
+        margin = np.min(
+            np.minimum(solution[arm] - robot.lower[arm], robot.upper[arm] - solution[arm])
+        )
+        return (
+            float(np.linalg.norm(solution[arm] - robot.home[arm]))
+            + 10.0 * error
+            + 10.0 * max(0.0, 0.2 - margin)
+        )
+
+    # --- control -------------------------------------------------------------------------------
+
+    def command(self, elapsed_s: float, q: np.ndarray, poses: dict) -> np.ndarray:
+        object_pose = poses["object"]
+        q = np.asarray(q, dtype=float)
+        if self.reference is None:
+            self.reference = q.copy()
+            grasp, pregrasp = self._poses(object_pose, q)
+            self.grasp_pose, self.pregrasp_pose = grasp, pregrasp
+        reference = self.reference
+        arm = self.robot.arm_indices
+        lead = reference[arm] - q[arm]
+        reference[arm] = q[arm] + np.clip(lead, -MAX_REFERENCE_LEAD, MAX_REFERENCE_LEAD)
+        if self.phase in ("reach", "approach"):
+            target = self.pregrasp_pose if self.phase == "reach" else self.grasp_pose
+            avoid = None
+            if self.phase == "reach":
+                avoid = (self.kind, self.situation.object_dimensions, scene.se3(*object_pose))
+            reference[arm] += self.servo.step(reference, target, avoid)
+            self._preshape(reference)
+            self.robot.forward(reference)
+            error = self.robot.frame_placement(PALM).actInv(target)
+            position_error = np.linalg.norm(error.translation)
+            angle_error = np.linalg.norm(pin.log3(error.rotation))
+            tolerance = REACH_TOLERANCE if self.phase == "reach" else APPROACH_TOLERANCE
+            if (
+                position_error < tolerance[0]
+                and angle_error < tolerance[1]
+                and self._preshaped(reference)
+            ):
+                self.phase = "approach" if self.phase == "reach" else "close"
+        else:
+            self._close(reference, object_pose)
+        return self.robot.check_configuration(
+            np.clip(reference, self.robot.lower, self.robot.upper)
+        )
+
+    def _preshape(self, reference):
+        knuckle, proximal, distal = PRESHAPE[self.kind]
+        goal = reference.copy()
+        goal[self.knuckle] = knuckle
+        for prox, dist in self.fingers:
+            goal[prox], goal[dist] = proximal, distal
+        hand = self.robot.hand_indices
+        step = self.robot.velocity_limits[hand] * self.period * 0.9
+        reference[hand] += np.clip(goal[hand] - reference[hand], -step, step)
+
+    def _preshaped(self, reference) -> bool:
+        knuckle, proximal, _ = PRESHAPE[self.kind]
+        return abs(reference[self.knuckle] - knuckle) < 1e-3 and all(
+            abs(reference[prox] - proximal) < 1e-3 for prox, _ in self.fingers
+        )
+
+    def _close(self, reference, object_pose):
+        """Flex each finger (proximal and distal together) until its links touch, then squeeze."""
+        placement = scene.se3(*object_pose)
+        dims = self.situation.object_dimensions
+        self.robot.forward(reference)
+        step = CLOSING_SPEED * self.period
+        for k, (prox, dist) in enumerate(self.fingers):
+            if self.finger_state[k] != "closing":
+                continue
+            distal = self._link_distance(
+                DISTAL_LINKS[k], FINGERTIPS[k], placement, dims, DISTAL_RADIUS
+            )
+            proximal = self._link_distance(
+                PROXIMAL_LINKS[k], DISTAL_LINKS[k], placement, dims, 0.016
+            )
+            if distal <= CONTACT_DISTANCE or reference[dist] >= self.robot.upper[dist] - 0.05:
+                reference[prox] = min(reference[prox] + SQUEEZE, self.robot.upper[prox])
+                reference[dist] = min(reference[dist] + SQUEEZE, self.robot.upper[dist])
+                self.finger_state[k] = "squeezing"
+                continue
+            if proximal > CONTACT_DISTANCE:
+                reference[prox] = min(reference[prox] + step, self.robot.upper[prox])
+            reference[dist] = min(reference[dist] + step, self.robot.upper[dist])
+        if all(state == "squeezing" for state in self.finger_state):
+            self.phase = "hold"
+
+    def _link_distance(self, start_frame, end_frame, placement, dims, radius) -> float:
+        start = self.robot.frame_placement(start_frame).translation
+        end = self.robot.frame_placement(end_frame).translation
+        samples = start + np.linspace(0.0, 1.0, 9)[:, None] * (end - start)
+        distance, _ = object_surface(self.kind, dims, placement, samples)
+        return float(distance.min() - radius)
