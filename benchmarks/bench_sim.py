@@ -8,6 +8,9 @@ sim_lockstep_rtf: real-time factor of the simulator node in lockstep mode, throu
 sim_lockstep_period_us: the median wall time of one lockstep period (state -> command -> step).
 sim_physics_period_us: one control period of raw stepping (3 physics steps + distance check), no
 ROS.
+sim_ros_round_trip_us: the floor of a lockstep period's ROS part: one JointState each way between
+  two threads of one process, each waiting with a TopicPoller, nothing else (no physics, no
+  /clock or /object_poses); the median of ROUND_TRIPS.
 """
 
 import statistics
@@ -28,6 +31,7 @@ from tric_sim.world import situations
 from tric_sim.world.robot_model import RobotModel
 
 RUN_S = 4.0
+ROUND_TRIPS = 2000
 
 
 def lockstep_rtf() -> float:
@@ -83,6 +87,43 @@ def physics_period_us() -> float:
     return elapsed / 1000 * 1e6
 
 
+def ros_round_trip_us() -> float:
+    context = Context()
+    rclpy.init(context=context)
+    node = Node("round_trip", context=context)
+    state_pub = node.create_publisher(JointState, "/round_trip_state", 10)
+    command_pub = node.create_publisher(JointState, "/round_trip_command", 10)
+    states = TopicPoller(context, "round_trip_states", {"s": (JointState, "/round_trip_state", 10)})
+    commands = TopicPoller(
+        context, "round_trip_commands", {"c": (JointState, "/round_trip_command", 10)}
+    )
+    names = [f"joint_{k}" for k in range(20)]
+    stop = threading.Event()
+
+    def answer():
+        while not stop.is_set():
+            for state in states.poll(0.05)["s"]:
+                command_pub.publish(JointState(name=state.name, position=state.position))
+
+    thread = threading.Thread(target=answer, daemon=True)
+    thread.start()
+    time.sleep(1.0)  # discovery
+    trips = []
+    for k in range(ROUND_TRIPS):
+        start = time.perf_counter()
+        state_pub.publish(JointState(name=names, position=[float(k)] * len(names)))
+        while not commands.poll(1.0)["c"]:
+            pass
+        trips.append(time.perf_counter() - start)
+    stop.set()
+    thread.join()
+    states.destroy()
+    commands.destroy()
+    node.destroy_node()
+    context.try_shutdown()
+    return statistics.median(trips) * 1e6
+
+
 def run() -> dict:
     rtfs = [lockstep_rtf() for _ in range(3)]
     rtf = statistics.median(rtfs)
@@ -91,4 +132,5 @@ def run() -> dict:
         "sim_lockstep_rtf_runs": [round(r, 1) for r in rtfs],
         "sim_lockstep_period_us": round(10_000 / rtf),
         "sim_physics_period_us": round(physics_period_us()),
+        "sim_ros_round_trip_us": round(ros_round_trip_us()),
     }

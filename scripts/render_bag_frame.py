@@ -5,7 +5,7 @@ step over the episode and the top features' gradients at that instant from /cont
     python scripts/render_bag_frame.py BAG --out PNG [--at FRACTION]
 
 BAG: a bag of `tric-eval --record` (or of the recorder); FRACTION in [0, 1]: the instant, as a share
-of the episode (default 0.5). Made the picture docs/foxglove_frame.png.
+of the episode (default 0.5). Made the picture docs/images/foxglove_frame.png.
 """
 
 import argparse

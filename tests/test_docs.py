@@ -1,5 +1,5 @@
-"""The docs agree with the code: every node's parameters are in its package's README, and the
-architecture page's layout is the tree's."""
+"""The docs agree with the code: every node's parameters are in its package's README, the
+architecture page's layout is the tree's, and every decision page is in the decisions' index."""
 
 import ast
 import pathlib
@@ -36,3 +36,12 @@ def test_the_architecture_page_lists_every_module_as_the_tree_has_it():
         [sys.executable, str(script), "--check"], capture_output=True, text=True, timeout=60
     )
     assert result.returncode == 0, result.stderr
+
+
+def test_every_decision_page_is_in_the_decisions_index():
+    decisions = pathlib.Path(__file__).parents[1] / "docs" / "decisions"
+    index = (decisions / "README.md").read_text()
+    pages = sorted(p.name for p in decisions.glob("*.md") if p.name != "README.md")
+    assert pages, "no decision page found"
+    missing = [page for page in pages if f"]({page})" not in index]
+    assert not missing, f"docs/decisions/README.md lacks {missing}"
