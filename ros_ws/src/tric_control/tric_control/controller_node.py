@@ -11,8 +11,8 @@ Topics:
 - publishes /joint_command (sensor_msgs/JointState: all of the robot's joints, by name, position
   targets in rad), /episode (tric_msgs/EpisodeEvent: START with the situation, END, or ABORT on
   failure or cancel; source = the model kind, e.g. "tric") and ~/status (tric_msgs/ControllerStatus,
-  every tick, with f, the step, the active constraints and the top features
-  (tric_control.top_features); in realtime mode also while idle or holding).
+  every tick while someone subscribes, with f, the step, the active constraints and the top
+  features (tric_control.top_features); in realtime mode also while idle or holding).
 
 Services and actions:
 - ~/load_model (tric_msgs/srv/LoadModel): load a model file. Refused, keeping the current model,
@@ -324,6 +324,17 @@ class ControllerNode(Node):
             return None
         episode.last_ns = stamp_ns
         tick, steps = decided.tick, episode.steps
+        if steps % FEEDBACK_EVERY == 0:
+            episode.goal_handle.publish_feedback(
+                Execute.Feedback(
+                    step=steps,
+                    value=float(tick.value),
+                    step_norm=decided.step_norm,
+                    min_distance=float(tick.min_distance),
+                )
+            )
+        if self.status_pub.get_subscription_count() == 0:
+            return decided.outcome  # a status no one reads costs a quarter of a lockstep tick
         status = ControllerStatus(
             state=ControllerStatus.CONVERGED if tick.converged else ControllerStatus.RUNNING,
             model_path=episode.model.path,
@@ -341,15 +352,6 @@ class ControllerNode(Node):
         )
         status.header.stamp = messages.time_msg(status_ns)
         self.status_pub.publish(status)
-        if steps % FEEDBACK_EVERY == 0:
-            episode.goal_handle.publish_feedback(
-                Execute.Feedback(
-                    step=steps,
-                    value=float(tick.value),
-                    step_norm=decided.step_norm,
-                    min_distance=float(tick.min_distance),
-                )
-            )
         return decided.outcome
 
     # --- status (both modes) --------------------------------------------------------------------

@@ -1,7 +1,8 @@
 """The simulator node: PyBullet physics behind standard ROS topics.
 
 Publishes every control period /joint_states (sensor_msgs/JointState), /object_poses
-(tric_msgs/ObjectPoses) and /clock (rosgraph_msgs/Clock, the simulated time); publishes the current
+(tric_msgs/ObjectPoses) and, while someone subscribes (a node with use_sim_time does), /clock
+(rosgraph_msgs/Clock, the simulated time); publishes the current
 situation on /situation (latched) after every reset; takes position targets on /joint_command
 (sensor_msgs/JointState: names with positions in rad, any subset of the joints; the others hold).
 
@@ -156,8 +157,9 @@ class SimulatorNode(Node):
         so the other two are out by then."""
         stamp_ns = self.world.time_ns
         stamp = messages.time_msg(stamp_ns)
-        self._clock_msg.clock = stamp
-        self.clock_pub.publish(self._clock_msg)
+        if self.clock_pub.get_subscription_count():  # lockstep graphs run without use_sim_time
+            self._clock_msg.clock = stamp
+            self.clock_pub.publish(self._clock_msg)
         self.poses_pub.publish(messages.object_poses_msg(self.world.object_poses(), stamp_ns))
         positions, velocities = self.world.joint_state()
         msg = self._state_msg
