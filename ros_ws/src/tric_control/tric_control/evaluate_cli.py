@@ -190,10 +190,10 @@ def run(argv) -> int:
         from tric_control.evaluation.records import PartialRecords
 
         kept = PartialRecords(args.json, name, situations) if args.json else None
-        done = kept.resume() if args.resume else {}
+        done = kept.resume() if kept is not None and args.resume else {}
         if kept is not None and not args.resume:
             kept.remove()
-        if done:
+        if kept is not None and done:
             print(f"tric-eval: {len(done)} episodes kept in {kept.path}", file=sys.stderr)
         todo = [situation for situation in situations if situation.name not in done]
         on_record = kept.add if kept is not None else None
@@ -242,7 +242,7 @@ def run(argv) -> int:
             + (" (offline)" if args.offline else ""),
         )
     )
-    if args.json:
+    if kept is not None:
         try:
             print(f"wrote {write_json(args.json, {'agent': name, **report(records)})}")
         except OSError as error:

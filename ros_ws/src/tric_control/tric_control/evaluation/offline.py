@@ -50,13 +50,14 @@ class OfflineEvaluator:
         model=None,
         max_steps: int = 0,
         period: float = CONTROL_PERIOD,
-        controller_options: dict = None,
+        controller_options: dict | None = None,
     ):
         self.task, self.model, self.period = task, model, period
         self.controller_options = dict(controller_options or {})
         self.max_steps = max_steps or DEFAULT_MAX_STEPS[task]
         self.robot = RobotModel()
-        self.objective = self.kind = None
+        self.objective = None
+        self.kind: str = "teacher"
         self.objects = ()
         if model is not None:
             model_file = ModelFile.load(model, FeatureDefinition.for_task(task, self.robot))
@@ -71,12 +72,12 @@ class OfflineEvaluator:
 
     @property
     def agent(self) -> str:
-        return "teacher" if self.model is None else self.kind
+        return self.kind
 
     def close(self) -> None:
         self.world.close()
 
-    def run(self, situation, snapshot: pathlib.Path = None, on_period=None) -> EpisodeRecord:
+    def run(self, situation, snapshot: pathlib.Path | None = None, on_period=None) -> EpisodeRecord:
         """One episode of the agent on situation, judged by the hidden metrics. on_period(world,
         step): after each control period a model's controller stepped (step: episode.Step), or
         the teacher's (step None)."""
@@ -111,16 +112,16 @@ class OfflineEvaluator:
             runner = EpisodeRunner(
                 self.robot, controller, self.max_steps, self.period, self.objects
             )
-            outcome = None
+            ended = None  # (outcome, message) once the runner ends the episode
             try:
-                while outcome is None:
+                while ended is None:
                     q, _ = world.joint_state()
                     decided = runner.step(q, world.object_poses())
                     world.command(decided.command)
                     world.step()
                     if on_period is not None:
                         on_period(world, decided)
-                    outcome = decided.outcome
+                    ended = decided.outcome
             except RuntimeError as error:
                 record["steps"] = runner.stats.steps
                 return EpisodeRecord(
@@ -129,7 +130,7 @@ class OfflineEvaluator:
                     outcome="failed",
                     message=str(error),
                 )
-            steps, outcome = runner.stats.steps, outcome[0]
+            steps, outcome = runner.stats.steps, ended[0]
             record["min_joint_margin"] = runner.stats.min_joint_margin
             if snapshot is not None:
                 self._snapshot(snapshot, situation)
@@ -167,7 +168,7 @@ def evaluate_offline(
     progress=True,
     desc="evaluating offline",
     jobs: int = 1,
-    controller_options: dict = None,
+    controller_options: dict | None = None,
     on_record=None,
     executor=None,
 ) -> list:
@@ -179,7 +180,7 @@ def evaluate_offline(
     task = evaluated_task(situations, jobs)
     snapshot = pathlib.Path(snapshots) if snapshots else None
     jobs = min(jobs, len(situations))
-    records = [None] * len(situations)
+    records: list[EpisodeRecord | None] = [None] * len(situations)
     with tqdm(total=len(situations), desc=desc, unit="episode", disable=not progress) as bar:
         if jobs <= 1 and getattr(executor, "kind", "processes") == "processes":
             evaluator = OfflineEvaluator(

@@ -13,7 +13,7 @@ from tric_control.evaluation.records import EpisodeRecord, unjudged_fields
 WORKER_INDEX_TIMEOUT_S = 60.0
 #: A worker process's evaluator, or the error that building it raised (re-raised by each of its
 #: runs).
-_worker = {}
+_worker: dict = {}
 
 
 def run_in_workers(
@@ -30,13 +30,13 @@ def run_in_workers(
     that says so (of the other records' agent, or of agent when none ended). Any other error
     cancels the episodes not started and is raised."""
     spawn = multiprocessing.get_context("spawn")
-    records = [None] * len(situations)
+    records: list[EpisodeRecord | None] = [None] * len(situations)
     pending = list(range(len(situations)))
     ended = _ended(bar, on_record)
     pending = _run_pool(
         spawn, situations, pending, records, snapshot, jobs, ended, make_evaluator, make_args()
     )
-    lost = []
+    lost: list[int] = []
     for k in pending:
         lost += _run_pool(
             spawn, situations, [k], records, snapshot, 1, ended, make_evaluator, make_args()

@@ -6,6 +6,7 @@ pushed with the finger under the lip (three sizes). The perturbations are
 tric_sim.world.perturbation_trials', acted by the simulator node (tric_sim.world.perturbations)."""
 
 import math
+from typing import Any
 
 import matplotlib
 
@@ -40,7 +41,8 @@ BOX_FAMILIES = {"box push": [Trial("push", size) for size in (0.1, 0.2, 0.4)]}
 #: Success in at least this many of COUNT counts as holding up.
 HOLDS = 8
 UNITS = {"push": "rad", "jump": "m", "drift": "m/s", "start": "rad", "box push": "rad"}
-AGENTS = {
+#: Runner.model's arguments of each agent, by task.
+AGENTS: dict[str, dict[str, dict[str, Any]]] = {
     "grasp": {
         "TRIC": dict(name="sphere_k30", bags="sphere"),
         "DPL joint space": dict(name="sphere_dpl_joint", bags="sphere", kind="dpl_joint"),

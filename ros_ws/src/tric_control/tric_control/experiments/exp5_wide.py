@@ -4,6 +4,8 @@ widened by half on each side (box_wide), spheres up to 10 cm outside the trainin
 (sphere_wide), cylinders turned up to 45 degrees beyond [0, pi/2] (cylinder_wide). Success against
 the distance from the training range (tric_sim.world.situations.outside_training_range)."""
 
+from typing import Any
+
 import matplotlib
 
 matplotlib.use("Agg")
@@ -23,7 +25,7 @@ TITLE = (
 )
 
 #: Each wide set's agents (Runner.model's arguments; None: the teacher).
-SETS = {
+SETS: dict[str, dict[str, dict[str, Any] | None]] = {
     "box_wide": {
         "teacher": None,
         "TRIC": dict(name="box_k30", bags="box"),

@@ -50,7 +50,7 @@ class Runner:
         self.executor = executor or ProcessExecutor()
         self.robot = RobotModel()
         self.domain_id = private_domain_id()
-        self._datasets = {}
+        self._datasets: dict[str, Dataset] = {}
         (out / "models").mkdir(parents=True, exist_ok=True)
 
     def demonstrations(self, bags: str) -> Dataset:
@@ -68,6 +68,7 @@ class Runner:
         and the initial weights, or DPL's initial weights."""
         path = self.out / "models" / f"{name}_s{seed}.safetensors"
         dataset = self.demonstrations(bags)
+        config: TrainingConfig | dpl.DplConfig
         if kind == "tric":
             config = TrainingConfig(hidden_units=hidden_units, seed=seed)
             code = code_digest("tric_learning.training.value")

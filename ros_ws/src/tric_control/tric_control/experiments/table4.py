@@ -2,6 +2,8 @@
 and TRIC on the validation boxes and its own training boxes (the design's targets are for all
 three sets; the test boxes are only reported)."""
 
+from typing import Any
+
 import matplotlib
 
 matplotlib.use("Agg")
@@ -35,7 +37,7 @@ TRAINING_TARGET = 9
 def run(runner: Runner) -> dict:
     """The experiment's rows, table, figure(s), the paper's numbers and the discussion."""
     tests = situations.dataset("box_test")
-    agents = {
+    agents: dict[str, dict[str, Any]] = {
         "TRIC": dict(name="box_k30", bags="box"),
         "DPL joint space": dict(name="box_dpl_joint", bags="box", kind="dpl_joint"),
         "DPL finger space": dict(name="box_dpl_finger", bags="box", kind="dpl_finger"),

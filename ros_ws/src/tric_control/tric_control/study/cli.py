@@ -79,7 +79,7 @@ def format_row(row: dict) -> str:
 def seed_summary(rows: list) -> str:
     """Per variant and task: each measure's seeds and their mean, min and max."""
     lines = []
-    groups = {}
+    groups: dict[tuple, list] = {}
     for row in rows:
         groups.setdefault((row["variant"], row["task"]), []).append(row)
     for (variant, task), group in groups.items():

@@ -193,8 +193,9 @@ class Study:
         self.robot = RobotModel()
         self.path = out / "study.json"
         self.results = json.loads(self.path.read_text()) if self.path.is_file() else {}
-        self.failed, self.cleared = {}, set()
-        self._bags_digests = {}
+        self.failed: dict[str, str] = {}
+        self.cleared: set[str] = set()
+        self._bags_digests: dict[str, str] = {}
         (out / "models").mkdir(parents=True, exist_ok=True)
 
     def model_config(self, cell: Cell) -> dict:
@@ -304,7 +305,7 @@ class Study:
 
     def _measure(self, cell: Cell, path: pathlib.Path, record: dict) -> dict:
         """The cell's row: its model measured offline on the task's sets; saved."""
-        row = {
+        row: dict = {
             "variant": cell.variant,
             "task": cell.task,
             "seed": cell.seed,
