@@ -22,12 +22,11 @@ def run_in_workers(
     """evaluator.run(situation, snapshot) for every situation, in jobs spawned worker processes
     whose evaluators are make_evaluator(worker, *make_args()) (make_evaluator: a module-level
     function, so that it is picklable; worker: the process's index in [0, jobs) within its pool;
-    make_args() is called for each pool); [EpisodeRecord] in the situations' order. bar (a tqdm
-    bar) is advanced, and on_record(record) called (if given), as each episode ends. A worker that
-    dies (a segfault, the
-    OOM killer) breaks its pool: the episodes it took down are then run again, each alone in a
-    pool of one worker, so that one whose worker dies again loses only itself: a failed record
-    that says so (of the other records' agent, or of agent when none ended). Any other error
+    make_args() is called for each pool); [EpisodeRecord] in the situations' order. bar (a tqdm bar)
+    is advanced, and on_record(record) called (if given), as each episode ends. A worker that dies
+    (a segfault, the OOM killer) breaks its pool: the episodes it took down are then run again, each
+    alone in a pool of one worker, so that one whose worker dies again loses only itself: a failed
+    record that says so (of the other records' agent, or of agent when none ended). Any other error
     cancels the episodes not started and is raised."""
     spawn = multiprocessing.get_context("spawn")
     records: list[EpisodeRecord | None] = [None] * len(situations)

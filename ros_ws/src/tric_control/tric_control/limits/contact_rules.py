@@ -1,6 +1,6 @@
-"""A task's contacts (tric_sim.world.scene.Contact by scene body name) applied to collision pairs:
-which pairs of the hand with a body it may press hold their leave at the moment. ROS-free. Units:
-m."""
+"""A task's contacts (tric_sim.world.scene.Contact by scene body name) applied to collision
+pairs: which pairs of the hand with a body it may press hold their leave at the moment. ROS-free.
+Units: m."""
 
 from typing import cast
 

@@ -35,8 +35,8 @@ FIG12_FINGER, FIG12_OBJECT = "fingertip_2", "box"
 CONTROLLER_INFLUENCE = 0.05
 
 
-#: The scene bodies the hand may touch (tric_sim.world.scene roles): Fig. 14b's distances are to
-# these.
+#: The scene bodies the hand may touch (tric_sim.world.scene roles): Fig. 14b's distances are
+#: to these.
 TOUCHED_ROLES = ("target", "lid")
 
 
