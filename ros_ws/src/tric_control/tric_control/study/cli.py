@@ -16,7 +16,7 @@ draws the noisy samples and the initial weights) and measured:
 - on its own demonstrations (tric-analyze's numbers): the share of the moving steps along which f
   falls, L_g's mean cosine over them, and the selected features;
 - offline (tric_control.evaluation.offline: the controller core on the physics, no nodes) on the
-task's   training and validation situations: sphere -> sphere_val; cylinder -> cylinder_train,
+  task's training and validation situations: sphere -> sphere_val; cylinder -> cylinder_train,
   cylinder_val; cylinder_b (the second draw of the cylinder demonstrations, bags/cylinder_b) ->
   cylinder_b_train, cylinder_val; cylinder_strat and cylinder_strat_b (both draws stratified over
   the angles) likewise; box -> box_train, box_val; obstacle -> obstacle_val (with the sphere

@@ -16,11 +16,7 @@ from typing import cast
 import numpy as np
 
 from tric_sim.physics.bullet import pb, quiet_stdout
-from tric_sim.physics.bullet_scene import (
-    LATERAL_FRICTION,
-    SPINNING_FRICTION,
-    create_body,
-)
+from tric_sim.physics.bullet_scene import LATERAL_FRICTION, SPINNING_FRICTION, create_body
 from tric_sim.physics.joint_stops import JointStops
 from tric_sim.world import scene
 from tric_sim.world.robot_model import RobotModel
@@ -252,12 +248,13 @@ class PhysicsWorld:
             velocityGains=self._velocity_gains,
             physicsClientId=self.client,
         )
+        box = self._box()
         for _ in range(self.substeps):
             pb.stepSimulation(physicsClientId=self.client)
-            self.stops.enforce(self._box())
+            self.stops.enforce(box)
         self.periods += 1
         self.min_distance = min(self.min_distance, self.closest_distance())
-        self.stops.measure(self._box())
+        self.stops.measure(box)
 
     def _perturb(self) -> np.ndarray:
         """Act the perturbations falling in the coming period: move the fixture by the target

@@ -4,7 +4,7 @@ frames, and the controller's value, step, constraints and features. ROS-free.
 Imported only when a view is asked for (the visualizer node, or a tool's --viz), so that nothing of
 foxglove-sdk is loaded otherwise. Channels (Foxglove's subprotocol "foxglove.sdk.v1"):
 - /scene (foxglove.SceneUpdate, protobuf): the primitives of tric_sim.viz.scene_view as entities,
-each   frame-locked to its frame; re-sent to every new subscriber;
+  each frame-locked to its frame; re-sent to every new subscriber;
 - /tf (foxglove.FrameTransforms, protobuf): the frames' transforms;
 - /controller/status (JSON, the fields of tric_msgs/ControllerStatus, see
   tric_sim.viz.scene_messages.status_fields): f, the step, the active constraints, the top features.

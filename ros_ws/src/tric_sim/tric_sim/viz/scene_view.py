@@ -13,9 +13,9 @@ Frames (one tree, rooted at "world"):
 Primitives:
 - group "robot": one per <collision> element of the URDF (the geometry the collision model and
   PyBullet use), in its link's frame, coloured as the link's visual material;
-- group "scene": the bodies of tric_sim.world.scene.scene_bodies, the geometry the simulator builds:
-the   table in "world", every other body in the frame of its name (the lid's plate offset from its
-hinge   frame by scene.lid_geometry_offset).
+- group "scene": the bodies of tric_sim.world.scene.scene_bodies, the geometry the simulator
+  builds: the table in "world", every other body in the frame of its name (the lid's plate offset
+  from its hinge frame by scene.lid_geometry_offset).
 A primitive's size is its full extent along its own axes: box (x, y, z), sphere (d, d, d), cylinder
 (d, d, height) with the axis along z: the scale convention of visualization_msgs/Marker and of
 Foxglove's primitives. Units: m, rad; quaternions xyzw.
