@@ -9,7 +9,7 @@ import time
 #: The command-line tools (their modules).
 TOOLS = {
     "tric-eval": "tric_control.evaluate_cli",
-    "tric-train": "tric_learning.train_cli",
+    "tric-train": "tric_control.train_cli",
     "tric-record": "tric_learning.record_cli",
     "tric-demo": "tric_control.demo_cli",
     "tric-experiments": "tric_control.experiments.cli",

@@ -89,7 +89,7 @@ BAD_ARGUMENTS = {
     "tric_control.demo_cli": (["--jobs", "0"], "--jobs must be at least 1"),
     "tric_control.experiments.cli": (["--jobs", "0"], "--jobs must be in [1, 64]"),
     "tric_control.study.cli": (["--variant", "v=hand_lead=-0.1"], "hand_lead must be >= 0"),
-    "tric_learning.train_cli": (["some.mcap", "--alpha-g", "-1"], "must"),
+    "tric_control.train_cli": (["some.mcap", "--alpha-g", "-1"], "must"),
     "tric_learning.record_cli": (["sphere_train", "--period", "0"], "must"),
     "tric_learning.analyze_cli": (["m.safetensors", "b.mcap", "--top", "0"], "--top must be"),
     "tric_sim.snapshot": (["sphere_grid_13", "--strip", "1"], "--strip takes 2 to 12 frames"),

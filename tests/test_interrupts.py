@@ -47,7 +47,7 @@ NODES = {
     "teacher": ("tric_sim", [], "ready to demonstrate"),
     "visualizer": ("tric_sim", ["-p", "foxglove_port:=0"], "Foxglove server on ws://127.0.0.1:"),
     "recorder": ("tric_learning", ["-p", "output_dir:={tmp}"], "recording episodes of"),
-    "trainer": ("tric_learning", [], "ready to train"),
+    "trainer": ("tric_control", [], "ready to train"),
     "controller": ("tric_control", [], "controller for 'grasp'"),
 }
 

@@ -7,8 +7,8 @@ import pytest
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 
-from tric_control import controller_node
-from tric_learning import recorder_node, trainer_node
+from tric_control import controller_node, trainer_node
+from tric_learning import recorder_node
 from tric_sim import simulator_node, teacher_node
 from tric_sim.ros.parameters import AT_LEAST_ONE, POSITIVE, Range, declare
 

@@ -13,11 +13,12 @@ from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 
 from conftest import HANG_S, call, wait_for, wait_future
-from tric_learning import analysis, analyze_cli, train_cli, trainer_node
+from tric_control import train_cli, trainer_node
+from tric_control.trainer_node import TrainerNode, training_config
+from tric_learning import analysis, analyze_cli
 from tric_learning.demonstrations import demonstrate_all
 from tric_learning.features import FeatureDefinition
 from tric_learning.model_file import ModelFile, value_function
-from tric_learning.trainer_node import TrainerNode, training_config
 from tric_learning.training.value import TrainingConfig
 from tric_msgs.msg import TrainingProgress
 from tric_msgs.srv import Train

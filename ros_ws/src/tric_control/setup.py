@@ -29,6 +29,8 @@ setup(
     entry_points={
         "console_scripts": [
             "controller = tric_control.nodes:controller",
+            "trainer = tric_control.nodes:trainer",
+            "tric-train = tric_control.train_cli:main",
             "tric-eval = tric_control.evaluate_cli:main",
             "tric-demo = tric_control.demo_cli:main",
             "tric-experiments = tric_control.experiments.cli:main",

@@ -15,15 +15,12 @@ setup(
     maintainer="TRIC maintainers",
     maintainer_email="maintainers@tric-ros.org",
     description="TRIC learning: task-space features and their Jacobians, MCAP datasets and the "
-    "recorder node, the value function, its losses and training, the trainer node, "
-    "the DPL baseline.",
+    "recorder node, the value function, its losses and training, the DPL baseline.",
     license="Apache-2.0",
     entry_points={
         "console_scripts": [
             "recorder = tric_learning.nodes:recorder",
             "tric-record = tric_learning.record_cli:main",
-            "trainer = tric_learning.nodes:trainer",
-            "tric-train = tric_learning.train_cli:main",
             "tric-analyze = tric_learning.analyze_cli:main",
         ]
     },

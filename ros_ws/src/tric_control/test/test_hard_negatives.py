@@ -6,7 +6,7 @@ import pathlib
 import numpy as np
 import pytest
 
-from tric_control.hard_negatives import contrasts, train_with_hard_negatives
+from tric_control.study.hard_negatives import contrasts, train_with_hard_negatives
 from tric_learning.bags.loader import bag_paths, load_dataset
 from tric_learning.training.samples import step_offsets
 from tric_learning.training.value import TrainingConfig, train

@@ -36,11 +36,11 @@ Parameters:
 - use_sim_time: as usual. Realtime mode's timer and staleness test run on the node clock, which must
   be the clock the joint states are stamped with (with the simulator: use_sim_time true).
 
-Modes: "lockstep" (tric_control.lockstep_loop: each joint state of the simulator in lockstep
+Modes: "lockstep" (tric_control.loops.lockstep: each joint state of the simulator in lockstep
 answered with exactly one command, stamped as the state) and "realtime"
-(tric_control.realtime_loop: a timer on the node clock commands from the latest joint state, and
+(tric_control.loops.realtime: a timer on the node clock commands from the latest joint state, and
 holds when it is stale). The loaded model, the scene and the running episode are
-tric_control.controller_episode's.
+tric_control.loops.episode's.
 
 The episode itself (safe commands, the stale-state hold, convergence and the step budget, the
 statistics) is tric_control.episode_runner.EpisodeRunner, the same loop that `tric-eval --offline`
@@ -55,12 +55,12 @@ from rclpy.action import ActionServer, CancelResponse, GoalResponse
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
 
-from tric_control.controller_episode import Episode, Loaded, Scene
 from tric_control.episode_runner import DEFAULT_MAX_STEPS, EpisodeRunner
-from tric_control.lockstep_loop import LockstepLoop
+from tric_control.loops.episode import Episode, Loaded, Scene
+from tric_control.loops.lockstep import LockstepLoop
+from tric_control.loops.realtime import RealtimeLoop
 from tric_control.motion_rate import MotionRateController
 from tric_control.objectives import make_objective
-from tric_control.realtime_loop import RealtimeLoop
 from tric_learning.features import TASK_LANDMARKS, FeatureDefinition
 from tric_learning.model_file import ModelFile
 from tric_msgs.action import Execute

@@ -7,3 +7,7 @@ from tric_sim.tools.interrupts import node_main
 
 def controller() -> int:
     return node_main("controller", "tric_control.controller_node")
+
+
+def trainer() -> int:
+    return node_main("trainer", "tric_control.trainer_node")

@@ -1,6 +1,6 @@
 """Nothing used or dropped in silence: failed demonstrations, unfinished recordings, a demonstration
 recorded twice, a bag recorded by other feature code and a demonstration without collision-free
-noisy samples are named; tric-train fails before training on a bad output path; model files of
+noisy samples are named; model files of
 another format version, with a definition off its fingerprint or with non-finite arrays are
 refused, and a cached model is re-used only when made as asked; damaged bags and random model files
 (fuzzed with hypothesis) give a clear error or a correct result, never a traceback."""
@@ -15,30 +15,26 @@ import tempfile
 
 import numpy as np
 import pytest
+from demo_bags import sphere, write_demo_bag
 from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 from safetensors import safe_open
 from safetensors.numpy import save_file
 
-from tric_learning import model_file, train_cli
+from tric_learning import model_file
 from tric_learning.bags import recorder as bag_recorder
 from tric_learning.bags import writer as bag_writer
 from tric_learning.bags.loader import load_dataset
-from tric_learning.bags.recorder import BagRecorder
 from tric_learning.features import FeatureDefinition, FeatureMap
 from tric_learning.model_file import ModelFile, value_function, value_function_arrays
 from tric_learning.training import samples
 from tric_learning.training.dataset import Dataset
 from tric_learning.training.value import TrainingConfig, train
 from tric_learning.value_function import Scaling, ValueFunction
-from tric_msgs.msg import EpisodeEvent, TaskMetrics
-from tric_sim.ros import messages
 from tric_sim.tools.provenance import code_digest
-from tric_sim.world import situations
 from tric_sim.world.robot_model import RobotModel
 from tric_sim.world.situation import Obstacle, Situation
 
-START_NS = 1_000_000_000
 #: An obstacle block around the robot's lower arm: every configuration near home collides with it.
 BLOCKING_OBSTACLE = Obstacle("box", (0.3, 0.3, 0.3), (0.0, 0.0, 0.4))
 
@@ -46,63 +42,6 @@ BLOCKING_OBSTACLE = Obstacle("box", (0.3, 0.3, 0.3), (0.0, 0.0, 0.4))
 @pytest.fixture(scope="module")
 def robot():
     return RobotModel()
-
-
-def write_demo_bag(
-    path: pathlib.Path, robot: RobotModel, situation, outcome="success", episode_id=None
-):
-    """A short TRIC demonstration bag (5 samples of a moving arm) written by the recorder's
-    BagRecorder. outcome: "success", "failure", None (closed without an outcome) or "unfinished"
-    (left as a .part file, as by a killed recorder)."""
-    episode_id = episode_id or situation.name
-    start = EpisodeEvent(
-        event=EpisodeEvent.START,
-        episode_id=episode_id,
-        source="teacher",
-        situation=messages.situation_to_msg(situation),
-    )
-    start.header.stamp = messages.time_msg(START_NS)
-    recorder = BagRecorder(path, robot, situation, episode_id, "teacher", start, period=0.02)
-    poses = {"object": (situation.object_position, situation.object_orientation)}
-    q = robot.home.copy()
-    stamp = START_NS
-    # a state every 10 ms, a sample every 20 ms: the last state ends the episode
-    for k in range(11):
-        stamp = START_NS + k * 10_000_000
-        q[:3] += 0.01
-        recorder.object_poses(messages.object_poses_msg(poses, stamp))
-        recorder.joint_state(
-            messages.joint_state_msg(robot.joint_names, q, np.zeros(len(q)), stamp)
-        )
-    end = EpisodeEvent(event=EpisodeEvent.END, episode_id=episode_id, source="teacher")
-    end.header.stamp = messages.time_msg(stamp)
-    recorder.end(end)
-    if outcome == "unfinished":
-        recorder.writer._file.close()
-        return recorder.writer.part_path
-    report = None
-    if outcome is not None:
-        success = outcome == "success"
-        report = EpisodeEvent(
-            event=EpisodeEvent.OUTCOME,
-            episode_id=episode_id,
-            source="teacher",
-            metrics=TaskMetrics(
-                task="grasp",
-                grasp_cost=0.05 if success else 0.6,
-                lift_tested=True,
-                lift_passed=success,
-                lid_angle=math.nan,
-                success=success,
-                min_distance=0.02,
-            ),
-        )
-        report.header.stamp = messages.time_msg(stamp)
-    return recorder.finish(report)
-
-
-def sphere(name, x=0.6):
-    return situations.sphere(name, (x, 0.1, 0.3))
 
 
 @pytest.fixture(scope="module")
@@ -184,59 +123,6 @@ def test_a_demonstration_without_collision_free_samples_is_named_with_its_bag(
         ValueError, match=f"demo 'blocked' \\(bag {bag}\\): none of its noisy samples"
     ):
         samples.generate(dataset, robot, 5, 0.05, 0)
-    status = train_cli.main(
-        [str(bag), "--out", str(tmp_path / "m.safetensors"), "--noisy-samples", "5", "--quiet"]
-    )
-    assert status == 2
-    assert capsys.readouterr().err.startswith(
-        f"tric-train: demo 'blocked' (bag {bag}): none of its noisy samples"
-    )
-    assert not (tmp_path / "m.safetensors").exists()
-
-
-def test_tric_train_checks_its_output_before_training(robot, good_bag, tmp_path, capsys):
-    (tmp_path / "folder.safetensors").mkdir()
-    (tmp_path / "earlier.safetensors").write_bytes(b"an earlier model")
-    for out, reason in (
-        ("/proc/x.safetensors", "/proc refuses new files"),
-        (str(tmp_path / "folder.safetensors"), "is a folder"),
-        (str(tmp_path / "earlier.safetensors"), "exists; give --overwrite to replace it"),
-        (str(tmp_path / ("m" * 250 + ".safetensors")), "bytes the file system takes"),
-    ):
-        assert train_cli.main([str(good_bag), "--out", out, "--quiet"]) == 2
-        error = capsys.readouterr().err
-        assert error.startswith(f"tric-train: the model path {out[:150]}") and reason in error
-        assert error.count("\n") == 1
-    assert (tmp_path / "earlier.safetensors").read_bytes() == b"an earlier model"
-
-
-def test_tric_train_names_what_it_includes_with_include_failed_and_tolerant(
-    robot, tmp_path, capsys
-):
-    bags = tmp_path / "bags"
-    for name, outcome in (("ok_1", "success"), ("ok_2", "success"), ("failed", "failure")):
-        write_demo_bag(bags / f"{name}.mcap", robot, sphere(name, 0.55 + 0.05 * len(name)), outcome)
-    part = write_demo_bag(bags / "killed.mcap", robot, sphere("killed"), "unfinished")
-    tiny = ["--hidden-units", "2", "--noisy-samples", "5", "--iterations", "3", "--quiet"]
-    assert train_cli.main([str(bags), "--out", str(tmp_path / "a.safetensors")] + tiny) == 2
-    assert "failed.mcap (failed: grasp cost 0.6)" in capsys.readouterr().err
-    assert (
-        train_cli.main(
-            [str(bags), "--out", str(tmp_path / "b.safetensors"), "--include-failed", "--tolerant"]
-            + tiny
-        )
-        == 0
-    )
-    error = capsys.readouterr().err
-    assert f"tric-train: reading {part} up to its end or damage" in error
-    assert f"tric-train: included {bags / 'failed.mcap'} (failed: grasp cost 0.6)" in error
-    assert ModelFile.load(tmp_path / "b.safetensors").info["demos"] == [
-        "failed",
-        "killed",
-        "ok_1",
-        "ok_2",
-    ]
-    assert not (tmp_path / "a.safetensors").exists()
 
 
 def test_a_folder_is_not_called_a_missing_model_file(tmp_path):

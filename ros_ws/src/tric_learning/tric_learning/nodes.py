@@ -7,7 +7,3 @@ from tric_sim.tools.interrupts import node_main
 
 def recorder() -> int:
     return node_main("recorder", "tric_learning.recorder_node")
-
-
-def trainer() -> int:
-    return node_main("trainer", "tric_learning.trainer_node")

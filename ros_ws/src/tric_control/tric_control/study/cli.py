@@ -8,8 +8,8 @@ A variant is a name and TrainingConfig fields to change from the defaults, e.g.
 and controller settings: hand_lead (rad: how far the command may lead the measured hand joints,
 motion_rate.MAX_HAND_LEAD by default), grasp_steps and box_steps (the episodes' step budgets), and
 hard_negative_rounds (rounds of training again on the controller's own rollouts in the training
-situations: tric_control.hard_negatives). Variants that differ only in controller settings share
-their models.
+situations: tric_control.study.hard_negatives). Variants that differ only in controller settings
+share their models.
 For each variant, seed and task, a model is trained on the reference bags of the task (the seed
 draws the noisy samples and the initial weights) and measured:
 

@@ -23,8 +23,8 @@ import numpy as np
 from tric_control.episode_runner import DEFAULT_MAX_STEPS
 from tric_control.evaluation.offline import evaluate_offline
 from tric_control.evaluation.records import task_done, write_json
-from tric_control.hard_negatives import train_with_hard_negatives
 from tric_control.motion_rate import MAX_LEAD
+from tric_control.study.hard_negatives import train_with_hard_negatives
 from tric_control.study.variants import (
     CONTROLLER_OPTIONS,
     MODEL_MEASURES,
@@ -206,7 +206,7 @@ class Study:
         if bags not in self._bags_digests:
             self._bags_digests[bags] = bags_digest(bags)
         rounds = cell.changes.get("hard_negative_rounds", 0)
-        training = "tric_control.hard_negatives" if rounds else "tric_learning.training.value"
+        training = "tric_control.study.hard_negatives" if rounds else "tric_learning.training.value"
         return {
             **training_part(cell.changes),
             "seed": cell.seed,

@@ -60,7 +60,7 @@ CONTROLLER_OPTIONS = {
     "domain_damper": bool,
 }
 #: Training procedures beyond TrainingConfig: rounds of hard negatives
-#: (tric_control.hard_negatives).
+#: (tric_control.study.hard_negatives).
 PROCEDURE_OPTIONS = {"hard_negative_rounds": int}
 
 

@@ -7,7 +7,7 @@ state t + period. The control loop runs in a thread of its own that waits on the
 import threading
 import time
 
-from tric_control.controller_episode import POLL_S, Episode
+from tric_control.loops.episode import POLL_S, Episode
 from tric_sim.ros.graph import STATE_QOS, Canceled
 from tric_sim.ros.topic_poller import StateStream, run_in_thread
 

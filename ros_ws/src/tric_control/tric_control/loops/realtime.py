@@ -10,7 +10,7 @@ import time
 from rclpy.clock import Clock, ClockType
 from sensor_msgs.msg import JointState
 
-from tric_control.controller_episode import POLL_S, Episode
+from tric_control.loops.episode import POLL_S, Episode
 from tric_msgs.msg import ControllerStatus, ObjectPoses
 from tric_sim.ros import messages
 from tric_sim.ros.graph import STATE_QOS

@@ -1,0 +1,1 @@
+"""The controller node's loops: an episode's bookkeeping, and its lockstep and realtime loops."""
