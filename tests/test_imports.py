@@ -137,13 +137,14 @@ def project_modules() -> dict:
 
 
 def import_graph() -> dict:
-    """{module: the project's modules it imports anywhere in its source (inside functions too)}."""
+    """{module: the project's modules it imports anywhere in its source (inside functions and under
+    `if TYPE_CHECKING:` too: either only hides a circle)}."""
     modules = project_modules()
     graph = {}
     for name, path in modules.items():
         package = name if path.name == "__init__.py" else name.rpartition(".")[0]
         imported = set()
-        for node in _runtime_nodes(ast.parse(path.read_text())):
+        for node in ast.walk(ast.parse(path.read_text())):
             if isinstance(node, ast.Import):
                 imported.update(alias.name for alias in node.names)
             elif isinstance(node, ast.ImportFrom):
@@ -157,23 +158,9 @@ def import_graph() -> dict:
     return graph
 
 
-def _runtime_nodes(tree):
-    """The nodes of tree, but those under `if TYPE_CHECKING:` (imports for annotations only)."""
-    todo = [tree]
-    while todo:
-        node = todo.pop()
-        yield node
-        for child in ast.iter_child_nodes(node):
-            test = getattr(child, "test", None) if isinstance(child, ast.If) else None
-            if test is not None and "TYPE_CHECKING" in ast.unparse(test):
-                todo.extend(child.orelse)
-            else:
-                todo.append(child)
-
-
 def test_no_module_imports_itself_through_others():
-    """No import circle between the project's modules, counting imports inside functions (which
-    only hide a circle)."""
+    """No import circle between the project's modules, counting imports inside functions and those
+    for annotations only (either only hides a circle)."""
     graph = import_graph()
     state, path, circles = {}, [], []
 

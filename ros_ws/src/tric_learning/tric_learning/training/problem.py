@@ -9,7 +9,6 @@ out, none by default; a step of length zero has no direction and adds nothing); 
 divided by the number S of demonstration steps (see tric_learning.training.value).
 """
 
-from typing import TYPE_CHECKING
 
 import numpy as np
 import scipy.optimize
@@ -17,11 +16,9 @@ import torch
 
 from tric_learning.training import samples
 from tric_learning.training.dataset import Dataset
+from tric_learning.training.hyperparameters import TrainingConfig
 from tric_learning.training.lbfgs import deterministic_torch, minimize_lbfgs
 from tric_learning.value_function import Scaling
-
-if TYPE_CHECKING:
-    from tric_learning.training.value import TrainingConfig
 
 
 class TrainingProblem:
