@@ -60,6 +60,33 @@ def test_loss_terms_on_a_hand_made_case():
     assert loss_w == pytest.approx(6.0, rel=1e-6)
 
 
+@pytest.mark.parametrize("weighting", ["length", "none"])
+def test_l_g_weighs_each_step_by_its_length_over_the_mean(weighting):
+    """The hand-made case with steps of unequal length: 0.1 rad along q_0, then 0.3 rad along q_1.
+    The directions, hence the cosines, are those of the case above; weighted by length (the
+    default, docs/decisions/paper-fidelity.md) the cosines count 0.1 / 0.2 and 0.3 / 0.2 times,
+    unweighted (Eq. 11) once each."""
+    q = np.array([[0.0, 0.0], [0.1, 0.0], [0.1, 0.3], [0.1, 0.3]])
+    y = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [1.0, 1.0]])
+    jacobians = np.array([np.eye(2), [[0.0, -1.0], [1.0, 0.0]], np.eye(2), np.eye(2)])
+    demo = Demo("unequal", None, q, y, jacobians, [{}] * 4, np.arange(4))
+    noisy = NoisySamples(
+        step=np.array([1]), y=np.array([[0.0, 0.5]]), weight=np.ones(1), kept_per_step=np.ones(4)
+    )
+    scaling = Scaling(kept=np.array([0, 1]), low=np.zeros(2), high=np.array([2.0, 1.0]), size=2)
+    config = TrainingConfig(hidden_units=1, lg_weighting=weighting)
+    problem = TrainingProblem(Dataset(None, [demo]), noisy, scaling, config)
+    loss_g = float(problem.terms(torch.tensor([1.0, 0.0, 2.0, 1.0, -2.0]))[1])
+    sigmoid = lambda x: 1.0 / (1.0 + math.exp(-x))  # noqa: E731
+    dfdy0 = (2 * 0.25 + 1) / 2
+    dfdy0_next = (2 * sigmoid(0.5) * (1 - sigmoid(0.5)) + 1) / 2
+    cos_0 = dfdy0 / math.hypot(dfdy0, 2.0)
+    cos_1 = -dfdy0_next / math.hypot(dfdy0_next, 2.0)
+    weights = (0.5, 1.5) if weighting == "length" else (1.0, 1.0)
+    assert loss_g == pytest.approx(weights[0] * cos_0 + weights[1] * cos_1, rel=1e-5)
+    assert abs((0.5 * cos_0 + 1.5 * cos_1) - (cos_0 + cos_1)) > 0.1  # the weighting shows
+
+
 def random_problem(config: TrainingConfig, seed: int = 5) -> TrainingProblem:
     """The loss of a made-up dataset: one demo of 6 steps in 4 features and 3 joints, every step
     moving (0.1 rad per joint), random recorded Jacobians, and 3 noisy samples at each step t >=

@@ -97,3 +97,26 @@ def test_an_ensemble_refuses_other_scalings_and_bad_weights():
         ValueFunction.ensemble([first, first], [1.0, np.nan])
     with pytest.raises(ValueError, match="at least one member"):
         ValueFunction.ensemble([], [])
+
+
+@pytest.mark.parametrize("hidden_units", [0, 3])
+def test_a_value_function_on_a_wider_scaling_is_the_same_f_less_a_constant(hidden_units):
+    rng = np.random.default_rng(5)
+    first = Scaling(np.array([0, 2, 5]), rng.uniform(-1, 0, 3), rng.uniform(0.5, 2, 3), 8)
+    second = Scaling(np.array([2, 3]), rng.uniform(-2, -1, 2), rng.uniform(1, 3, 2), 8)
+    union = Scaling.union([first, second])
+    assert union.kept.tolist() == [0, 2, 3, 5]
+    assert union.low[1] == min(first.low[1], second.low[0])
+    assert union.high[1] == max(first.high[1], second.high[0])
+    model = random_value_function(rng, first, hidden_units)
+    model.b1 = rng.normal(0, 1, hidden_units)
+    moved = model.on_scaling(union)
+    ys = rng.uniform(-1, 2, (20, 8))
+    differences = moved.value(ys) - model.value(ys)
+    np.testing.assert_allclose(differences, differences[0], atol=1e-12)
+    for y in ys[:3]:
+        np.testing.assert_allclose(moved.gradient(y)[1], model.gradient(y)[1], atol=1e-12)
+    with pytest.raises(ValueError, match="must keep every feature"):
+        model.on_scaling(second)
+    with pytest.raises(ValueError, match="at least one scaling"):
+        Scaling.union([])

@@ -57,6 +57,22 @@ class Scaling:
         """du/dy of the kept features, (s,)."""
         return 1.0 / (self.high - self.low)
 
+    @classmethod
+    def union(cls, scalings) -> "Scaling":
+        """The smallest Scaling that spans every one of scalings (of d features alike): the
+        features any of them keeps, each over the widest range any of them gives it. ValueError for
+        none, or scalings of other feature counts."""
+        scalings = list(scalings)
+        if not scalings or len({scaling.size for scaling in scalings}) != 1:
+            raise ValueError("a union needs at least one scaling, all of the same feature count")
+        kept = np.unique(np.concatenate([scaling.kept for scaling in scalings]))
+        low, high = np.full(len(kept), np.inf), np.full(len(kept), -np.inf)
+        for scaling in scalings:
+            where = np.searchsorted(kept, scaling.kept)
+            low[where] = np.minimum(low[where], scaling.low)
+            high[where] = np.maximum(high[where], scaling.high)
+        return cls(kept, low, high, scalings[0].size)
+
 
 @dataclass
 class ValueFunction:
@@ -99,6 +115,27 @@ class ValueFunction:
         z = sigmoid(self.w1 @ u + self.b1)
         value += float(z @ self.w2)
         return value, self.w3 + self.w1.T @ (self.w2 * z * (1.0 - z))
+
+    def on_scaling(self, target: Scaling) -> "ValueFunction":
+        """The same f, less a constant, on target, a Scaling that keeps every feature this one
+        keeps (Scaling.union): each kept u_k = a_k u + c_k of target's u, so W1 and W3 take the
+        factors a, the hidden biases take W1 c, and the constant W3 . c is dropped (f's gradient
+        and its differences, all that the controller and its delta use, are unchanged).
+        ValueError if target lacks one of the features."""
+        where = np.searchsorted(target.kept, self.scaling.kept)
+        inside = where < len(target.kept)
+        if target.size != self.scaling.size or not (
+            np.all(inside) and np.array_equal(target.kept[where], self.scaling.kept)
+        ):
+            raise ValueError("the target scaling must keep every feature of the value function's")
+        span = self.scaling.high - self.scaling.low
+        factor = (target.high[where] - target.low[where]) / span
+        shift = (target.low[where] - self.scaling.low) / span
+        w1 = np.zeros((self.hidden_units, len(target.kept)))
+        w1[:, where] = self.w1 * factor
+        w3 = np.zeros(len(target.kept))
+        w3[where] = self.w3 * factor
+        return ValueFunction(target, w1, self.w2.copy(), w3, self.b1 + self.w1 @ shift)
 
     @classmethod
     def ensemble(cls, members: list, weights) -> "ValueFunction":

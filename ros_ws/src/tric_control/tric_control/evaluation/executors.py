@@ -7,8 +7,10 @@ Two kinds of work go through an executor:
 - episodes: run_episodes(situations, snapshot, jobs, bar, make_evaluator, make_args, agent,
   on_record) -> [EpisodeRecord] in the situations' order, each worker holding one evaluator
   make_evaluator(worker, *make_args()) (worker: its index in [0, jobs) within its pool);
-- calls: run_calls(function, calls, jobs) yields (index, result or the Exception it raised) as
-  each function(*calls[index]) ends (trainings).
+- calls: run_calls(function, calls, jobs, shared) yields (index, result or the Exception it
+  raised) as each function(*shared, *calls[index]) ends, at most jobs at once (trainings, the
+  candidates of a model's selection); shared: arguments every call takes (a dataset), sent to the
+  workers once.
 Files a worker reads (model files) go through ship(path) -> what the worker opens with
 shipped_files.local_path(); results come back to the caller, who writes them.
 """
@@ -108,11 +110,17 @@ class ProcessExecutor:
         return run_in_workers(*args, **kwargs)
 
     @staticmethod
-    def run_calls(function, calls: list, _jobs: int):
-        """Yield (index, function(*calls[index]) or the Exception it raised) as each call ends, one
-        after the other in this process."""
-        for k, call in enumerate(calls):
-            try:
-                yield k, function(*call)
-            except Exception as error:
-                yield k, error
+    def run_calls(function, calls: list, jobs: int, shared: tuple = ()):
+        """Yield (index, function(*shared, *calls[index]) or the Exception it raised) as each call
+        ends: one after the other in this process when jobs or the calls are 1, else in up to jobs
+        spawned worker processes (function: module-level), each given shared once."""
+        if jobs <= 1 or len(calls) <= 1:
+            for k, call in enumerate(calls):
+                try:
+                    yield k, function(*shared, *call)
+                except Exception as error:
+                    yield k, error
+            return
+        from tric_control.evaluation.workers import calls_in_workers
+
+        yield from calls_in_workers(function, calls, jobs, shared)

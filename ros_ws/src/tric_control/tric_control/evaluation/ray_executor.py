@@ -214,18 +214,20 @@ class RayExecutor:
             for actor in actors:
                 ray.kill(actor)
 
-    def run_calls(self, function, calls: list, jobs: int):
-        """Yield (index, function(*calls[index]) or the Exception it raised) as each call ends, the
-        calls run as Ray tasks (one CPU each, at most jobs at once; function: module-level)."""
+    def run_calls(self, function, calls: list, jobs: int, shared: tuple = ()):
+        """Yield (index, function(*shared, *calls[index]) or the Exception it raised) as each call
+        ends, the calls run as Ray tasks (one CPU each, at most jobs at once; function:
+        module-level); shared goes to the object store once."""
         self._start()
         remote = _call_on_node.options(num_cpus=1, max_retries=0, scheduling_strategy="SPREAD")
+        references = [ray.put(value) for value in shared]
         todo = collections.deque(enumerate(calls))
         running: dict[Any, int] = {}
         try:
             while todo or running:
                 while todo and len(running) < max(jobs, 1):
                     k, call = todo.popleft()
-                    running[remote.remote(function, call)] = k
+                    running[remote.remote(function, call, *references)] = k
                 [done], _ = ray.wait(list(running), num_returns=1)
                 k = running.pop(done)
                 try:
@@ -243,9 +245,10 @@ class RayExecutor:
 
 
 @ray.remote
-def _call_on_node(function, call):
-    """(function(*call), the id of the node it ran on)."""
-    return function(*call), ray.get_runtime_context().get_node_id()
+def _call_on_node(function, call, *shared):
+    """(function(*shared, *call), the id of the node it ran on); Ray hands shared (object
+    references) over as their values."""
+    return function(*shared, *call), ray.get_runtime_context().get_node_id()
 
 
 @ray.remote

@@ -1,8 +1,9 @@
 """Evaluation episodes shared out over spawned worker processes (tric-eval --jobs, through the nodes
 or offline): each worker builds its own evaluator once, with make_evaluator, and runs one episode
-at a time on it. Workers are spawned, never forked: a forked process may hold rclpy's threads. This
-is the process executor of tric_control.evaluation.executors; tric_control.evaluation.ray_executor
-runs the same contract on Ray actors."""
+at a time on it; and calls (trainings) shared out likewise (calls_in_workers). Workers are spawned,
+never forked: a forked process may hold rclpy's threads. This is the process executor of
+tric_control.evaluation.executors; tric_control.evaluation.ray_executor runs the same contract on
+Ray actors and tasks."""
 
 import concurrent.futures
 import multiprocessing
@@ -103,3 +104,36 @@ def _run_in_worker(situation, snapshot):
     if "error" in _worker:
         raise _worker["error"]
     return _worker["evaluator"].run(situation, snapshot)
+
+
+def calls_in_workers(function, calls: list, jobs: int, shared: tuple):
+    """Yield (index, function(*shared, *calls[index]) or the Exception it raised) as each call
+    ends, in up to jobs spawned worker processes, each given shared once (function: module-level).
+    A worker that dies fails the calls it took down, each with an error that says so."""
+    spawn = multiprocessing.get_context("spawn")
+    with concurrent.futures.ProcessPoolExecutor(
+        min(jobs, len(calls)), mp_context=spawn, initializer=_keep_shared, initargs=(shared,)
+    ) as pool:
+        futures = {
+            pool.submit(_call_with_shared, function, call): k for k, call in enumerate(calls)
+        }
+        try:
+            for future in concurrent.futures.as_completed(futures):
+                try:
+                    yield futures[future], future.result()
+                except concurrent.futures.process.BrokenProcessPool:
+                    yield futures[future], RuntimeError("its worker process died")
+                except Exception as error:
+                    yield futures[future], error
+        except BaseException:
+            pool.shutdown(wait=True, cancel_futures=True)
+            raise
+
+
+def _keep_shared(shared: tuple) -> None:
+    """Worker initializer of calls_in_workers: keep the calls' shared arguments."""
+    _worker["shared"] = shared
+
+
+def _call_with_shared(function, call):
+    return function(*_worker["shared"], *call)

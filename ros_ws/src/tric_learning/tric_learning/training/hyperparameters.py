@@ -55,9 +55,6 @@ class TrainingConfig:
     #: L_n's weights eps divided by their sum at each step (each step's L_n a weighted mean over its
     #: noisy samples) instead of summed as in Eq. 16.
     per_step_weights: bool = False
-    #: Value functions trained each on noisy samples and initial weights of its own and averaged
-    #: into f (train(); an ensemble of K * members hidden units), a count.
-    members: int = 1
     #: "lbfgs": PyTorch's L-BFGS on the whole loss, |w|_1 included (not smooth at 0); "lbfgsb":
     #: SciPy's L-BFGS-B on w = w+ - w-, w+, w- >= 0, where |w|_1 = sum(w+ + w-) is linear (exact L1,
     #: sparse); "bfgs": SciPy's BFGS in float64 on the whole loss (the paper's optimizer).
@@ -91,7 +88,6 @@ class TrainingConfig:
             ),
             (self.alpha_n + self.alpha_g > 0, "alpha_n and alpha_g cannot both be 0"),
             (1 <= self.max_iterations <= 100000, "max_iterations must be in [1, 100000]"),
-            (1 <= self.members <= 20, "members must be in [1, 20]"),
             (0 < self.correlation_threshold <= 1, "correlation_threshold must be in (0, 1]"),
             (0 <= self.seed < 2**32, "seed must be in [0, 2^32)"),
             (self.optimizer in OPTIMIZERS, f"optimizer must be one of {', '.join(OPTIMIZERS)}"),

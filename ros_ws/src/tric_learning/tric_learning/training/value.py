@@ -29,7 +29,7 @@ that the trainer node and tric-train share: bags -> dataset -> train() -> model 
 
 import time
 import warnings
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -51,9 +51,6 @@ TICKS_PER_DEMO = 500
 #: gradient: the value term dominates the step-size term there (Proposition 1), and steps shrink
 #: smoothly where the gradient vanishes.
 RHO_GAIN = 100.0
-#: The step between the seeds of an ensemble's members (member_seed), far beyond the small seeds a
-#: study draws.
-MEMBER_SEED_STRIDE = 1_000_003
 
 
 @dataclass
@@ -87,61 +84,34 @@ def train(
     """Train f on dataset. progress(stage, fraction, losses) is called during sampling and after
     each optimizer evaluation (losses: dict of the current terms, or None). extra_samples: more
     contrasts for L_n beside the noisy ones (e.g. states a learned controller visited: hard
-    negatives), each with the demonstration step it is contrasted with and its weight.
-
-    With config.members > 1 each member draws its own noisy samples and initial weights (seeds
-    member_seed(config.seed, m)) and is trained alone; the scaling is fitted once on the
-    demonstrations and every member's samples, and f is the members' mean of f_k / fall_k, fall_k
-    the mean fall of f_k from a demonstration's start to its end (ValueFunction.ensemble). The
-    losses are the members' means, the iterations their sum."""
+    negatives), each with the demonstration step it is contrasted with and its weight. The
+    scaling spans everything the model is trained on: the demonstrations and the noisy samples."""
     config = TrainingConfig() if config is None else config
     config.validate()
     dataset.check()
     report = progress or (lambda *_: None)
-    members = config.members
-    seeds = [member_seed(config.seed, m) for m in range(members)]
     start = time.perf_counter()
-    noisy_sets = []
-    for m, seed in enumerate(seeds):
-        noisy = samples.generate(
-            dataset,
-            robot,
-            config.noisy_samples,
-            config.sigma,
-            seed,
-            lambda done, total, m=m: report("sampling", (m + done / total) / members, None),
-            contact_tolerance=config.sample_contact_tolerance,
-            scene_step=config.sample_scene_step,
-        )
-        if extra_samples is not None:
-            noisy = samples.joined(noisy, extra_samples)
-        noisy_sets.append(noisy)
+    noisy = samples.generate(
+        dataset,
+        robot,
+        config.noisy_samples,
+        config.sigma,
+        config.seed,
+        lambda done, total: report("sampling", done / total, None),
+        contact_tolerance=config.sample_contact_tolerance,
+        scene_step=config.sample_scene_step,
+    )
+    if extra_samples is not None:
+        noisy = samples.joined(noisy, extra_samples)
     sampling_time = time.perf_counter() - start
     start = time.perf_counter()
-    # the scaling spans everything the model is trained on: the demonstrations and the noisy samples
-    all_y = np.concatenate([demo.y for demo in dataset.demos] + [noisy.y for noisy in noisy_sets])
+    all_y = np.concatenate([demo.y for demo in dataset.demos] + [noisy.y])
     scaling = Scaling.fit(all_y, config.correlation_threshold)
-    functions, member_losses, iterations = [], [], 0
-    for m, (seed, noisy) in enumerate(zip(seeds, noisy_sets)):
-        problem = TrainingProblem(dataset, noisy, scaling, replace(config, seed=seed))
-        weights, losses, member_iterations = problem.solve(
-            lambda stage, fraction, losses, m=m: report(stage, (m + fraction) / members, losses)
-        )
-        functions.append(ValueFunction(scaling, *weights))
-        member_losses.append(losses)
-        iterations += member_iterations
-    model = functions[0] if members == 1 else mean_of_members(functions, dataset)
-    losses = {key: float(np.mean([m[key] for m in member_losses])) for key in member_losses[0]}
+    weights, losses, iterations = TrainingProblem(dataset, noisy, scaling, config).solve(report)
+    model = ValueFunction(scaling, *weights)
     optimization_time = time.perf_counter() - start
-    starts = np.array([model.value(demo.y[0]) for demo in dataset.demos])
-    ends = np.array([model.value(demo.y[-1]) for demo in dataset.demos])
-    norms = [
-        np.linalg.norm(model.gradient(y)[1] @ jacobian)
-        for demo in dataset.demos
-        for y, jacobian in zip(demo.y, demo.jacobians)
-    ]
-    scores = model.scores()
-    kept_per_step = np.mean([noisy.kept_per_step for noisy in noisy_sets], axis=0)
+    kept_per_step = noisy.kept_per_step
+    delta, rho = controller_gains(model, dataset)
     return TrainingResult(
         model=model,
         config=config,
@@ -149,25 +119,42 @@ def train(
         iterations=iterations,
         sampling_time_s=sampling_time,
         optimization_time_s=optimization_time,
-        delta=float(np.mean(starts - ends) / TICKS_PER_DEMO),
-        rho=float(RHO_GAIN / max(np.median(norms), 1e-9) ** 2),
-        selected_features=int(np.sum(scores > SELECTED_FRACTION * scores.max()))
-        if scores.max() > 0
-        else 0,
+        delta=delta,
+        rho=rho,
+        selected_features=selected_count(model),
         mean_samples_per_step=float(kept_per_step[_later_steps(dataset)].mean()),
     )
 
 
-def member_seed(seed: int, member: int) -> int:
-    """The seed of an ensemble's member (0, 1, ...): member 0 keeps the ensemble's seed, so a
-    one-member ensemble is the plain training of that seed."""
-    return (seed + member * MEMBER_SEED_STRIDE) % 2**32
+def controller_gains(model: ValueFunction, dataset: Dataset) -> tuple:
+    """(delta, rho) of the controller for model: delta the demonstrations' mean fall of f over
+    TICKS_PER_DEMO (Sec. 5.2.3), rho RHO_GAIN over the squared median of |grad_q (f o phi)| along
+    them."""
+    starts = np.array([model.value(demo.y[0]) for demo in dataset.demos])
+    ends = np.array([model.value(demo.y[-1]) for demo in dataset.demos])
+    norms = [
+        np.linalg.norm(model.gradient(y)[1] @ jacobian)
+        for demo in dataset.demos
+        for y, jacobian in zip(demo.y, demo.jacobians)
+    ]
+    return (
+        float(np.mean(starts - ends) / TICKS_PER_DEMO),
+        float(RHO_GAIN / max(np.median(norms), 1e-9) ** 2),
+    )
+
+
+def selected_count(model: ValueFunction) -> int:
+    """How many features carry weight: a score s(y) above SELECTED_FRACTION of the largest."""
+    scores = model.scores()
+    return int(np.sum(scores > SELECTED_FRACTION * scores.max())) if scores.max() > 0 else 0
 
 
 def mean_of_members(functions: list, dataset: Dataset) -> ValueFunction:
-    """The mean of f_k / fall_k over the members whose f falls along the demonstrations (fall_k:
-    the mean of f_k(start) - f_k(end) over the demos); a member whose f does not fall is left out
-    with a RuntimeWarning naming it, and ValueError if none falls."""
+    """The mean of f_k / fall_k over the members (value functions on one Scaling) whose f falls
+    along the demonstrations (fall_k: the mean of f_k(start) - f_k(end) over the demos), so that
+    the ensemble falls by 1 on average: the ensembles of a model's selection
+    (tric_control.selection.choice). A member whose f does not fall is left out with a
+    RuntimeWarning naming it, and ValueError if none falls."""
     falls = np.array(
         [
             np.mean([f.value(demo.y[0]) - f.value(demo.y[-1]) for demo in dataset.demos])

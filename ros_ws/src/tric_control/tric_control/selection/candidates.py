@@ -1,0 +1,70 @@
+"""One candidate: a TRIC training with its own seed, then its rollouts from every demonstration's
+start (tric_control.selection.rollouts). A module-level call (candidate()), so that an executor
+(tric_control.evaluation.executors) runs candidates side by side in its workers: each computes
+with CANDIDATE_THREADS of PyTorch, so a candidate is the same model whether it trained alone or
+beside others. ROS-free."""
+
+import pathlib
+import tempfile
+import time
+from dataclasses import dataclass
+
+from tric_control.evaluation.offline import OfflineEvaluator
+from tric_control.selection.rollouts import roll_out
+from tric_control.selection.settings import CANDIDATE_THREADS
+from tric_learning import model_file
+from tric_learning.training.dataset import Dataset
+from tric_learning.training.lbfgs import torch_threads
+from tric_learning.training.value import TrainingConfig, train
+from tric_sim.world.robot_model import RobotModel
+
+
+@dataclass
+class Candidate:
+    """A trained candidate: its seed, its model file's bytes, its training record (losses,
+    iterations, selected features), its rollouts ([Rollout] in the dataset's order) and the wall
+    seconds its training and its rollouts took."""
+
+    seed: int
+    model: bytes
+    record: dict
+    rollouts: list
+    train_s: float
+    rollout_s: float
+
+
+def candidate(
+    dataset: Dataset,
+    config: TrainingConfig,
+    max_steps: int = 0,
+    controller_options: dict | None = None,
+) -> Candidate:
+    """Train TRIC on dataset with config (its seed the candidate's) and roll the model out from
+    every demonstration's start situation, max_steps ticks at most (0: the task's default), the
+    controller built with controller_options (OfflineEvaluator's)."""
+    robot = RobotModel()
+    started = time.perf_counter()
+    with torch_threads(CANDIDATE_THREADS):
+        result = train(dataset, robot, config)
+    train_s = time.perf_counter() - started
+    started = time.perf_counter()
+    with tempfile.TemporaryDirectory(prefix="tric-candidate-") as folder:
+        path = model_file.from_training(result, dataset).save(
+            pathlib.Path(folder) / f"candidate_s{config.seed}.safetensors"
+        )
+        content = path.read_bytes()
+        evaluator = OfflineEvaluator(
+            dataset.definition.task, str(path), max_steps, controller_options=controller_options
+        )
+        try:
+            rollouts = roll_out(evaluator, dataset)
+        finally:
+            evaluator.close()
+    record = {
+        "losses": result.losses,
+        "iterations": result.iterations,
+        "selected_features": result.selected_features,
+        "delta": result.delta,
+        "rho": result.rho,
+    }
+    return Candidate(config.seed, content, record, rollouts, train_s, time.perf_counter() - started)

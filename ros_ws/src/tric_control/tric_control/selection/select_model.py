@@ -1,0 +1,112 @@
+"""A training that chooses its model (what tric-train, the trainer node, tric-demo and
+tric-experiments run): S candidates trained side by side on an executor
+(tric_control.evaluation.executors), each rolled out from every demonstration's start, ranked,
+the best kept (tric_control.selection.choice); and the same from bags to a model file. ROS-free."""
+
+import pathlib
+import time
+from dataclasses import dataclass, replace
+
+from tric_control.evaluation.executors import ProcessExecutor
+from tric_control.selection.candidates import candidate
+from tric_control.selection.choice import Choice, choose
+from tric_control.selection.settings import SelectionConfig
+from tric_learning.bags.loader import bag_paths, load_dataset
+from tric_learning.training.dataset import Dataset
+from tric_learning.training.from_bags import model_output_path
+from tric_learning.training.value import TrainingConfig
+from tric_sim.world.robot_model import RobotModel
+
+
+@dataclass
+class Selection:
+    """A finished selection: the choice (its model file, chosen seeds, provenance), the dataset,
+    the candidates, the model file's path (None until written) and the wall seconds it took."""
+
+    choice: Choice
+    dataset: Dataset
+    candidates: list
+    wall_s: float
+    path: pathlib.Path | None = None
+
+
+def candidate_seeds(config: TrainingConfig, selection: SelectionConfig) -> list:
+    """The candidates' seeds: G, G + 1, ..., G + S - 1 (G: config.seed), within [0, 2^32)."""
+    return [(config.seed + k) % 2**32 for k in range(selection.candidates)]
+
+
+def select_model(
+    dataset: Dataset,
+    config: TrainingConfig,
+    selection: SelectionConfig,
+    executor=None,
+    jobs: int = 1,
+    progress=None,
+    max_steps: int = 0,
+    controller_options: dict | None = None,
+) -> Selection:
+    """Train selection.candidates candidates on dataset with config (their seeds
+    candidate_seeds), at most jobs at once on executor (None: processes here), roll each out from
+    every demonstration's start (max_steps ticks at most, 0: the task's default;
+    controller_options: OfflineEvaluator's) and choose. progress(done, total, candidate) after
+    each candidate (candidate None before the first). RuntimeError naming every candidate that
+    failed, when too few are left to choose from."""
+    config.validate()
+    selection.validate()
+    dataset.check()
+    executor = executor or ProcessExecutor()
+    report = progress or (lambda *_: None)
+    seeds = candidate_seeds(config, selection)
+    calls = [(replace(config, seed=seed), max_steps, controller_options) for seed in seeds]
+    started = time.monotonic()
+    report(0, len(calls), None)
+    trained, failures = [], []
+    for k, result in executor.run_calls(candidate, calls, jobs, (dataset,)):
+        if isinstance(result, Exception):
+            failures.append(f"seed {seeds[k]}: {type(result).__name__}: {result}")
+        else:
+            trained.append(result)
+        report(len(trained) + len(failures), len(calls), result)
+    if len(trained) < selection.members:
+        raise RuntimeError(
+            f"{len(failures)} of {len(calls)} candidates failed ({'; '.join(failures)}); "
+            f"{len(trained)} left, {selection.members} needed"
+        )
+    trained.sort(key=lambda c: c.seed)
+    choice = choose(trained, dataset, config, selection)
+    if failures:
+        choice.provenance["failed"] = failures
+    return Selection(choice, dataset, trained, time.monotonic() - started)
+
+
+def select_from_bags(
+    paths,
+    output_path,
+    config: TrainingConfig,
+    selection: SelectionConfig,
+    robot: RobotModel,
+    executor=None,
+    jobs: int = 1,
+    progress=None,
+    *,
+    include_failed: bool = False,
+    tolerant: bool = False,
+    notice=None,
+    overwrite: bool = True,
+) -> Selection:
+    """Load the demonstrations in the bags at paths (files or folders, see
+    tric_learning.bags.loader.load_dataset for include_failed, tolerant and notice), choose a model
+    on them (select_model) and write it to output_path (tric_learning.training.from_bags
+    .model_output_path, checked before any work: ValueError and nothing written for a bad bag,
+    value or path)."""
+    config.validate()
+    selection.validate()
+    files = bag_paths(paths, tolerant, notice)
+    path = model_output_path(output_path, files[0], inputs=files, overwrite=overwrite)
+    dataset = load_dataset(
+        files, robot, include_failed=include_failed, tolerant=tolerant, notice=notice
+    )
+    chosen = select_model(dataset, config, selection, executor, jobs, progress)
+    chosen.choice.model.save(path)
+    chosen.path = path
+    return chosen
