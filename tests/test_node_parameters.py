@@ -93,6 +93,16 @@ from tric_sim.ros.parameters import AT_LEAST_ONE, POSITIVE, Range, declare
             "trainer: parameter progress_period_s must be at least 0, got -0.5",
         ),
         (
+            trainer_node,
+            "executor:=slurm",
+            "trainer: parameter executor must be one of 'processes', 'ray', got 'slurm'",
+        ),
+        (
+            trainer_node,
+            "jobs:=65",
+            "trainer: parameter jobs must be in [0, 64], got 65",
+        ),
+        (
             controller_node,
             "max_steps:=2.5",
             "controller: parameter max_steps must be an integer, got 2.5",

@@ -25,6 +25,8 @@ def good_bag(robot, tmp_path_factory):
 
 
 def test_tric_train_names_a_demonstration_without_collision_free_samples(robot, tmp_path, capsys):
+    """Every candidate fails on it alike, in its own worker process: the demonstration's fault is
+    the one line, not the candidates'."""
     blocked = Situation(
         name="blocked",
         task="grasp",
@@ -37,6 +39,7 @@ def test_tric_train_names_a_demonstration_without_collision_free_samples(robot, 
     load_dataset([bag], robot)
     status = train_cli.main(
         [str(bag), "--out", str(tmp_path / "m.safetensors"), "--noisy-samples", "5", "--quiet"]
+        + ["--candidates", "2", "--executor", "processes", "--jobs", "2"]
     )
     assert status == 2
     assert capsys.readouterr().err.startswith(
@@ -69,6 +72,7 @@ def test_tric_train_names_what_it_includes_with_include_failed_and_tolerant(
         write_demo_bag(bags / f"{name}.mcap", robot, sphere(name, 0.55 + 0.05 * len(name)), outcome)
     part = write_demo_bag(bags / "killed.mcap", robot, sphere("killed"), "unfinished")
     tiny = ["--hidden-units", "2", "--noisy-samples", "5", "--iterations", "3", "--quiet"]
+    tiny += ["--candidates", "1", "--executor", "processes"]
     assert train_cli.main([str(bags), "--out", str(tmp_path / "a.safetensors")] + tiny) == 2
     assert "failed.mcap (failed: grasp cost 0.6)" in capsys.readouterr().err
     assert (

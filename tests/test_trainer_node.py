@@ -10,11 +10,13 @@ import threading
 import numpy as np
 import pytest
 from rclpy.node import Node
+from rclpy.parameter import Parameter
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 
 from conftest import HANG_S, call, wait_for, wait_future
 from tric_control import train_cli, trainer_node
-from tric_control.trainer_node import TrainerNode, training_config
+from tric_control.selection.settings import SelectionConfig
+from tric_control.trainer_node import TrainerNode, selection_config, training_config
 from tric_learning import analysis, analyze_cli
 from tric_learning.demonstrations import demonstrate_all
 from tric_learning.features import FeatureDefinition
@@ -25,8 +27,10 @@ from tric_msgs.srv import Train
 from tric_sim.world import situations
 from tric_sim.world.robot_model import RobotModel
 
-#: A training of a few seconds: not a useful model, but every stage of a real one.
+#: A training of a few seconds: not a useful model, but every stage of a real one, with two
+#: candidates to choose from.
 TINY = {"hidden_units": 5, "noisy_samples": 10, "max_iterations": 20}
+CANDIDATES = 2
 KEEP_ALL = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
 
 
@@ -58,6 +62,12 @@ def cli_run(bag_dir, tmp_path_factory):
                 "20",
                 "--seed",
                 "3",
+                "--candidates",
+                str(CANDIDATES),
+                "--executor",
+                "processes",
+                "--jobs",
+                "2",
                 "--quiet",
             ]
         )
@@ -66,7 +76,18 @@ def cli_run(bag_dir, tmp_path_factory):
 
 def train_request(bags, output, **overrides) -> Train.Request:
     return Train.Request(
-        bag_paths=[str(path) for path in bags], output_path=str(output), **dict(TINY, **overrides)
+        bag_paths=[str(path) for path in bags],
+        output_path=str(output),
+        **{**TINY, "candidates": CANDIDATES, **overrides},
+    )
+
+
+def trainer(context) -> TrainerNode:
+    """A trainer node whose candidates train on spawned processes here (Ray is tested in
+    tests/test_executors.py)."""
+    return TrainerNode(
+        context=context,
+        parameter_overrides=[Parameter("executor", value="processes"), Parameter("jobs", value=2)],
     )
 
 
@@ -84,10 +105,12 @@ class ProgressListener(Node):
 def test_request_defaults_are_the_training_defaults():
     assert training_config(Train.Request()) == TrainingConfig()
     assert training_config(Train.Request(hidden_units=0)).hidden_units == 0
+    assert selection_config(Train.Request()) == SelectionConfig()
+    assert selection_config(Train.Request(candidates=3, members=2)) == SelectionConfig(3, 2)
 
 
 class HeldJob:
-    """Stands in for trainer_node.train_from_bags: a training that starts only when the test
+    """Stands in for trainer_node.select_from_bags: a training that starts only when the test
     releases it (`release`), after saying it has begun (`entered`); then the real job runs. It holds
     the node's training slot for as long as the test needs, so a second request meets a running
     training."""
@@ -104,9 +127,9 @@ class HeldJob:
 def test_train_round_trip_with_progress_and_a_busy_answer(
     ros_context, spin, bag_dir, tmp_path, monkeypatch
 ):
-    held = HeldJob(trainer_node.train_from_bags)
-    monkeypatch.setattr(trainer_node, "train_from_bags", held)
-    listener = spin(TrainerNode(context=ros_context), ProgressListener(ros_context))[1]
+    held = HeldJob(trainer_node.select_from_bags)
+    monkeypatch.setattr(trainer_node, "select_from_bags", held)
+    listener = spin(trainer(ros_context), ProgressListener(ros_context))[1]
     client = listener.create_client(Train, "/trainer/train")
     assert client.wait_for_service(timeout_sec=HANG_S)
     out = tmp_path / "models" / "tiny.safetensors"
@@ -141,30 +164,36 @@ def test_train_round_trip_with_progress_and_a_busy_answer(
     )
     assert -1.0 <= response.loss_g < 0 < response.loss_n and response.loss_w > 0
     assert 0 < response.sampling_time_s and 0 < response.optimization_time_s
-    assert response.train_time_s == pytest.approx(
-        response.sampling_time_s + response.optimization_time_s
-    )
+    assert response.train_time_s > response.sampling_time_s + response.optimization_time_s
+    # every candidate, best first, and the one kept
+    selection = loaded.info["selection"]
+    assert sorted(response.candidate_seeds) == [0, 1] and len(response.candidate_scores) == 2
+    assert list(response.chosen_seeds) == [response.candidate_seeds[0]] == selection["chosen"]
+    assert list(response.candidate_scores) == sorted(response.candidate_scores)
+    assert f"chose seed {response.chosen_seeds[0]} of 2 candidates" in response.message
 
     wait_for(lambda: listener.messages[-1].stage == "done", what="the 'done' progress message")
     stages = [m.stage for m in listener.messages]
     assert [s for k, s in enumerate(stages) if k == 0 or s != stages[k - 1]] == [
         "loading",
-        "sampling",
-        "optimizing",
+        "candidates",
         "saving",
         "done",
     ]
     fractions = [m.fraction for m in listener.messages]
     assert fractions == sorted(fractions) and fractions[-1] == 1.0
-    optimizing = [m for m in listener.messages if m.stage == "optimizing"]
-    assert all(m.max_iterations == 20 and 0 <= m.iteration <= 20 for m in optimizing)
-    assert all(np.isfinite([m.loss_total, m.loss_n, m.loss_g, m.loss_w]).all() for m in optimizing)
+    candidates = [m for m in listener.messages if m.stage == "candidates"]
+    assert [m.iteration for m in candidates] == [0, 1, 2]
+    assert all(m.max_iterations == CANDIDATES for m in candidates)
+    assert all(
+        np.isfinite([m.loss_total, m.loss_n, m.loss_g, m.loss_w]).all() for m in candidates[1:]
+    )
     assert math.isnan(listener.messages[0].loss_total)
     assert listener.messages[-1].loss_total == response.loss_total
 
 
 def test_bad_requests_are_refused_and_write_nothing(ros_context, spin, bag_dir, tmp_path):
-    listener = spin(TrainerNode(context=ros_context), ProgressListener(ros_context))[1]
+    listener = spin(trainer(ros_context), ProgressListener(ros_context))[1]
     inputs = tmp_path / "inputs"
     (inputs / "empty").mkdir(parents=True)
     (inputs / "empty.safetensors").mkdir()
@@ -191,7 +220,12 @@ def test_bad_requests_are_refused_and_write_nothing(ros_context, spin, bag_dir, 
             "alpha_n, alpha_g and alpha_w must be finite and >= 0",
         ),
         (train_request([bag_dir], out, max_iterations=0), "max_iterations must be in [1, 100000]"),
-        (train_request([bag_dir], out, members=0), "members must be in [1, 20]"),
+        (train_request([bag_dir], out, members=0), "members must be in [1, candidates (2)]"),
+        (train_request([bag_dir], out, candidates=0), "candidates must be in [1, 64]"),
+        (
+            train_request([bag_dir], out, selection_score="luck"),
+            "the selection score must be one of landmarks",
+        ),
         (
             train_request([bag_dir], out, correlation_threshold=1.5),
             "correlation_threshold must be in (0, 1]",
@@ -229,7 +263,7 @@ def test_bad_requests_are_refused_and_write_nothing(ros_context, spin, bag_dir, 
 
 
 def test_a_client_that_goes_away_leaves_the_service_usable(ros_context, spin, bag_dir, tmp_path):
-    listener = spin(TrainerNode(context=ros_context), ProgressListener(ros_context))[1]
+    listener = spin(trainer(ros_context), ProgressListener(ros_context))[1]
     leaving = Node("test_leaving_client", context=ros_context)
     client = leaving.create_client(Train, "/trainer/train")
     assert client.wait_for_service(timeout_sec=HANG_S)
@@ -257,7 +291,7 @@ def test_a_client_that_goes_away_leaves_the_service_usable(ros_context, spin, ba
 
 
 def test_dpl_kinds_are_routed_to_dpl_training(ros_context, spin, bag_dir, tmp_path):
-    listener = spin(TrainerNode(context=ros_context), ProgressListener(ros_context))[1]
+    listener = spin(trainer(ros_context), ProgressListener(ros_context))[1]
     out = tmp_path / "dpl.safetensors"
     request = Train.Request(
         bag_paths=[str(bag_dir)], output_path=str(out), model_kind="dpl_joint", max_iterations=20
@@ -286,8 +320,9 @@ def test_tric_train_writes_a_loadable_model(cli_run):
         f"model      {model}",
         "kept",
         "selected",
-        "sampling",
-        "optimization",
+        "chosen     the best of 2 candidates by the score 'landmarks'",
+        "seed 3 ",
+        "seed 4 ",
         "delta",
         "rho",
     ):
@@ -305,7 +340,8 @@ def test_tric_train_writes_a_loadable_model(cli_run):
     [
         (["{tmp}/missing.mcap"], "tric-train: {tmp}/missing.mcap does not exist"),
         (["{bags}", "--sigma", "0"], "tric-train: sigma must be in (0, 1] rad"),
-        (["{bags}", "--members", "21"], "tric-train: members must be in [1, 20]"),
+        (["{bags}", "--members", "21"], "tric-train: members must be in [1, candidates (5)]"),
+        (["{bags}", "--candidates", "0"], "tric-train: candidates must be in [1, 64]"),
         (
             ["{bags}", "--out", "{tmp}/model.json"],
             "tric-train: the model path {tmp}/model.json must end in .safetensors",

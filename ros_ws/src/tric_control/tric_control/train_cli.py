@@ -1,34 +1,47 @@
 """tric-train: train a TRIC value function (or a DPL baseline policy) from demonstration bags into
-a model file.
+a model file, choosing the model among candidates.
 
-    tric-train BAGS... [--kind {tric,dpl_joint,dpl_finger}] [--out MODEL] [--hidden-units K]
-               [--noisy-samples M] [--sigma RAD] [--alpha-n A] [--alpha-g A] [--alpha-w A] [--l2 W]
-               [--iterations N] [--correlation-threshold C] [--seed S] [--include-failed]
-               [--tolerant] [--overwrite]
+    tric-train BAGS... [--kind {tric,dpl_joint,dpl_finger}] [--out MODEL] [--candidates S]
+               [--members N] [--score NAME] [--hidden-units K] [--noisy-samples M] [--sigma RAD]
+               [--alpha-n A] [--alpha-g A] [--alpha-w A] [--l2 W] [--iterations N]
+               [--correlation-threshold C] [--seed G] [--jobs J] [--executor processes|ray]
+               [--address HOST:PORT] [--include-failed] [--tolerant] [--overwrite]
 
 BAGS are MCAP bags written by tric-record or the recorder node, or folders of them. MODEL defaults
 to model.safetensors next to the first bag, and must not exist unless --overwrite; the
 hyper-parameters default to the paper's (Sec. 5.2) but where docs/fidelity.md says.
+TRIC trains S candidates with the seeds G, G + 1, ..., G + S - 1 side by side (J at once, on Ray
+by default: a local instance, or a cluster at --address), rolls each out from every
+demonstration's start situation, ranks them by how closely those rollouts ended where the
+demonstrations ended (--score, by default from the demonstrations alone), and keeps the best, or
+the best N averaged into one f (tric_control.selection; the defaults:
+docs/decisions/model-selection.md). The model file records every candidate.
 --kind dpl_joint / dpl_finger trains the DPL baseline instead (tric_learning.training.dpl, Sec.
-5.3.2): it takes --hidden-units, --l2, --iterations, --correlation-threshold and --seed; the other
-hyper-parameters are TRIC's and ignored.
+5.3.2), one model: it takes --hidden-units, --l2, --iterations, --correlation-threshold and
+--seed; the other options are TRIC's and ignored.
 Bags whose recorded outcome is a failure are refused unless --include-failed; damaged and unfinished
 (.part) bags unless --tolerant, which reads them up to their damage (a folder's .part files are
 skipped without it). Every bag skipped, read tolerantly or included despite its outcome is named.
-Shows the progress of loading, sampling and optimization (with the loss terms), then a summary.
+Shows the progress of the candidates (DPL: of loading and optimization), then a summary.
 Exit status 0 on success, 2 when a bag, value or path is refused (one line on stderr, nothing
 written), 130 when interrupted.
 """
 
 import argparse
-import functools
+import os
 import sys
-from collections.abc import Callable
 
 from tqdm import tqdm
 
 # Only what the arguments need: --help and argument errors answer before torch, pybullet,
 # pinocchio and rclpy are imported (main imports them once the arguments are checked).
+from tric_control.evaluation.executors import (
+    DEFAULT_EXECUTORS,
+    add_executor_arguments,
+    chosen_executor,
+    open_executor,
+)
+from tric_control.selection.settings import SCORES, SelectionConfig
 from tric_learning.training.hyperparameters import DPL_KINDS, KINDS, DplConfig, TrainingConfig
 from tric_sim.tools.interrupts import run_interruptible
 
@@ -36,16 +49,11 @@ PROG = "tric-train"
 
 
 class StageBars:
-    """progress(stage, fraction, losses) for train_from_bags as one tqdm bar per stage: bags loaded,
-    demos sampled, optimizer iterations (with the current loss terms), of every ensemble member
-    (members) one after the other."""
+    """progress(stage, fraction, losses) for a DPL training (train_dpl_from_bags) as one tqdm bar
+    per stage: bags loaded, optimizer iterations (with the current loss)."""
 
-    def __init__(self, bags: int, max_iterations: int, enabled: bool = True, members: int = 1):
-        self.totals = {
-            "loading": (bags, "bag"),
-            "sampling": (bags * members, "demo"),
-            "optimizing": (max_iterations * members, "it"),
-        }
+    def __init__(self, bags: int, max_iterations: int, enabled: bool = True):
+        self.totals = {"loading": (bags, "bag"), "optimizing": (max_iterations, "it")}
         self.enabled = enabled
         self.stage: str | None = None
         self.bar: tqdm | None = None
@@ -68,14 +76,41 @@ class StageBars:
         total = self.totals[stage][0]
         done = round(fraction * total)
         self.bar.update(min(done, total) - self.bar.n)
-        if stage == "optimizing" and "n" not in losses:  # DPL: one objective
+        if stage == "optimizing":
             self.bar.set_postfix_str(f"L {losses['total']:.4f}", refresh=False)
-        elif stage == "optimizing":
+
+    def close(self):
+        if self.bar is not None:
+            self.bar.close()
+            self.bar = None
+
+
+class CandidateBar:
+    """progress(stage, done, total, candidate) for select_from_bags: one tqdm bar over the
+    candidates, each one's times shown as it ends."""
+
+    def __init__(self, enabled: bool = True):
+        self.enabled = enabled
+        self.bar: tqdm | None = None
+
+    def __call__(self, stage: str, done: int, total: int, candidate):
+        if stage != "candidates":
+            return
+        if self.bar is None:
+            self.bar = tqdm(
+                total=total,
+                desc="candidates",
+                unit="model",
+                disable=not self.enabled,
+                file=sys.stderr,
+            )
+        if candidate is not None and not isinstance(candidate, Exception):
             self.bar.set_postfix_str(
-                f"L {losses['total']:.4f}  L_n {losses['n']:.4f}  L_g {losses['g']:.4f}  "
-                f"|w|_1 {losses['w']:.1f}",
+                f"seed {candidate.seed}: trained {candidate.train_s:.0f} s, "
+                f"{len(candidate.rollouts)} rollouts {candidate.rollout_s:.0f} s",
                 refresh=False,
             )
+        self.bar.update(done - self.bar.n)
 
     def close(self):
         if self.bar is not None:
@@ -84,7 +119,7 @@ class StageBars:
 
 
 def parse_arguments(argv):
-    defaults, dpl_defaults = TrainingConfig(), DplConfig()
+    defaults, dpl_defaults, selection = TrainingConfig(), DplConfig(), SelectionConfig()
     parser = argparse.ArgumentParser(prog=PROG, description=__doc__.split("\n\n")[0])
     parser.add_argument("bags", nargs="+", metavar="BAGS", help="MCAP bags, or folders of them")
     parser.add_argument(
@@ -165,19 +200,43 @@ def parse_arguments(argv):
     )
     parser.add_argument(
         "--seed",
-        metavar="S",
+        metavar="G",
         type=int,
         default=defaults.seed,
-        help="seed of the noisy samples and initial weights (default %(default)s)",
+        help="TRIC: the first candidate's seed G (a seed draws the noisy samples and initial "
+        "weights); DPL: the seed of the initial weights (default %(default)s)",
+    )
+    parser.add_argument(
+        "--candidates",
+        metavar="S",
+        type=int,
+        default=selection.candidates,
+        help="TRIC: models trained with the seeds G .. G + S - 1 to choose from (default "
+        "%(default)s)",
     )
     parser.add_argument(
         "--members",
         metavar="N",
         type=int,
-        default=defaults.members,
-        help="TRIC: value functions trained on noisy samples and initial weights of their own and "
-        "averaged into f (default %(default)s)",
+        default=selection.members,
+        help="TRIC: the best N candidates kept, averaged into one f (default %(default)s)",
     )
+    parser.add_argument(
+        "--score",
+        choices=SCORES,
+        default=selection.score,
+        help="TRIC: what ranks the candidates: their rollouts from the demonstrations' starts "
+        "against the demonstrations (landmarks, features, joints, value) or, reading the task's "
+        "hidden metrics, judge and successes (default %(default)s)",
+    )
+    parser.add_argument(
+        "--jobs",
+        metavar="J",
+        type=int,
+        default=os.cpu_count() or 1,
+        help="TRIC: candidates trained at once (default: the number of CPUs)",
+    )
+    add_executor_arguments(parser, DEFAULT_EXECUTORS["tric-train"])
     parser.add_argument(
         "--include-failed",
         action="store_true",
@@ -195,30 +254,47 @@ def parse_arguments(argv):
     return parser.parse_args(argv)
 
 
-def summary(run) -> str:
-    """The lines printed after training."""
-    from tric_learning.training.value import SELECTED_FRACTION
+def chosen_text(selection: dict) -> str:
+    """'the best' or 'the best N' of a selection's settings."""
+    return "the best" if selection["members"] == 1 else f"the best {selection['members']}"
 
-    result, model = run.result, run.result.model
-    losses = result.losses
+
+def summary(run) -> str:
+    """The lines printed after a TRIC training: the chosen model, then every candidate."""
+    model_file = run.choice.model
+    info, provenance = model_file.info, run.choice.provenance
+    losses = info["losses"]
+    config = info["hyperparameters"]
     steps = sum(demo.length for demo in run.dataset.demos)
-    return "\n".join(
-        [
-            f"model      {run.path}",
-            f"data       {len(run.dataset.demos)} demonstrations, {steps} steps, "
-            f"{result.mean_samples_per_step:.1f} noisy samples per step",
-            f"losses     total {losses['total']:.4f} = {result.config.alpha_n:g} L_n "
-            f"{losses['n']:.4f} + {result.config.alpha_g:g} L_g {losses['g']:.4f} + "
-            f"{result.config.alpha_w:g} |w|_1 {losses['w']:.2f} (L_n, L_g per demonstration step)",
-            f"features   {model.scaling.size} -> {len(model.scaling.kept)} kept -> "
-            f"{result.selected_features} selected (score above {SELECTED_FRACTION:.0%} of the "
-            "largest)",
-            f"time       sampling {result.sampling_time_s:.2f} s, optimization "
-            f"{result.optimization_time_s:.2f} s ({result.iterations} iterations), total "
-            f"{result.train_time_s:.2f} s",
-            f"controller delta {result.delta:.4g}, rho {result.rho:.4g}",
-        ]
-    )
+    selection = provenance["config"]
+    lines = [
+        f"model      {run.path}",
+        f"data       {len(run.dataset.demos)} demonstrations, {steps} steps, "
+        f"{info['mean_samples_per_step']:.1f} noisy samples per step",
+        f"chosen     {chosen_text(selection)} "
+        f"of {selection['candidates']} candidates by the score '{selection['score']}': seed "
+        f"{', '.join(str(seed) for seed in provenance['chosen'])}",
+        f"losses     total {losses['total']:.4f} = {config['alpha_n']:g} L_n {losses['n']:.4f} + "
+        f"{config['alpha_g']:g} L_g {losses['g']:.4f} + {config['alpha_w']:g} |w|_1 "
+        f"{losses['w']:.2f} (L_n, L_g per demonstration step; an ensemble's: its members' mean)",
+        f"features   {model_file.definition.size} -> {len(info['kept_features'])} kept -> "
+        f"{info['selected_features']} selected",
+        f"controller delta {info['delta']:.4g}, rho {info['rho']:.4g}",
+        f"time       {run.wall_s:.1f} s in all",
+        "candidates (the hidden metrics' successes on the rollouts: a reference, not the score's "
+        "input unless the score is judge or successes)",
+    ]
+    for row in provenance["candidates"]:
+        successes = sum(bool(r["success"]) for r in row["rollouts"])
+        score = "failed" if row["score"] is None else f"{row['score']:.4g}"
+        lines.append(
+            f"  {'*' if row['chosen'] else ' '} seed {row['seed']:<6d} score {score:>9s}  "
+            f"trained {row['train_s']:5.1f} s  rollouts {row['rollout_s']:5.1f} s  "
+            f"successes {successes}/{len(row['rollouts'])}"
+        )
+    for failure in provenance.get("failed", []):
+        lines.append(f"  failed {failure}")
+    return "\n".join(lines)
 
 
 def dpl_summary(run) -> str:
@@ -248,76 +324,97 @@ def main(argv=None) -> int:
 def run(argv) -> int:
     args = parse_arguments(argv)
     config: DplConfig | TrainingConfig
-    if args.kind in DPL_KINDS:
-        dpl_defaults = DplConfig()
-        config = DplConfig(
-            hidden_units=dpl_defaults.hidden_units
-            if args.hidden_units is None
-            else args.hidden_units,
-            l2=args.l2,
-            correlation_threshold=args.correlation_threshold,
-            seed=args.seed,
-            max_iterations=dpl_defaults.max_iterations
-            if args.iterations is None
-            else args.iterations,
-        )
-    else:
-        defaults = TrainingConfig()
-        config = TrainingConfig(
-            hidden_units=defaults.hidden_units if args.hidden_units is None else args.hidden_units,
-            noisy_samples=args.noisy_samples,
-            sigma=args.sigma,
-            alpha_n=args.alpha_n,
-            alpha_g=args.alpha_g,
-            alpha_w=args.alpha_w,
-            max_iterations=defaults.max_iterations if args.iterations is None else args.iterations,
-            correlation_threshold=args.correlation_threshold,
-            seed=args.seed,
-            members=args.members,
-        )
+    selection = SelectionConfig(args.candidates, args.members, args.score)
     try:
-        config.validate()
+        if args.kind in DPL_KINDS:
+            dpl_defaults = DplConfig()
+            config = DplConfig(
+                hidden_units=dpl_defaults.hidden_units
+                if args.hidden_units is None
+                else args.hidden_units,
+                l2=args.l2,
+                correlation_threshold=args.correlation_threshold,
+                seed=args.seed,
+                max_iterations=dpl_defaults.max_iterations
+                if args.iterations is None
+                else args.iterations,
+            ).validate()
+        else:
+            defaults = TrainingConfig()
+            config = TrainingConfig(
+                hidden_units=defaults.hidden_units
+                if args.hidden_units is None
+                else args.hidden_units,
+                noisy_samples=args.noisy_samples,
+                sigma=args.sigma,
+                alpha_n=args.alpha_n,
+                alpha_g=args.alpha_g,
+                alpha_w=args.alpha_w,
+                max_iterations=defaults.max_iterations
+                if args.iterations is None
+                else args.iterations,
+                correlation_threshold=args.correlation_threshold,
+                seed=args.seed,
+            ).validate()
+            selection.validate()
+        if not 1 <= args.jobs <= 64:
+            raise ValueError("--jobs must be in [1, 64]")
+        choice = chosen_executor(args)
     except ValueError as error:
         print(f"{PROG}: {error}", file=sys.stderr)
         return 2
     from tric_learning.bags.loader import bag_paths
-    from tric_learning.training.dpl import train_dpl_from_bags
-    from tric_learning.training.from_bags import BagTraining, model_output_path
-    from tric_learning.training.value import train_from_bags
+    from tric_learning.training.from_bags import model_output_path
     from tric_sim.world.robot_model import RobotModel
 
-    # config is the DplConfig or the TrainingConfig that job takes
-    job: Callable[..., BagTraining] = (
-        functools.partial(train_dpl_from_bags, kind=args.kind)
-        if args.kind in DPL_KINDS
-        else train_from_bags
-    )
+    notice = lambda text: tqdm.write(f"{PROG}: {text}", file=sys.stderr)  # noqa: E731
     try:
         files = bag_paths(args.bags, args.tolerant, notice=lambda _: None)
         model_output_path(args.out, files[0], inputs=files, overwrite=args.overwrite)
-        bars = StageBars(
-            len(files),
-            config.max_iterations,
-            enabled=not args.quiet,
-            members=getattr(config, "members", 1),
-        )
+        if isinstance(config, DplConfig):
+            from tric_learning.training.dpl import train_dpl_from_bags
+
+            bars = StageBars(len(files), config.max_iterations, enabled=not args.quiet)
+            try:
+                trained = train_dpl_from_bags(
+                    args.bags,
+                    args.out,
+                    config,
+                    RobotModel(),
+                    bars,
+                    kind=args.kind,
+                    include_failed=args.include_failed,
+                    tolerant=args.tolerant,
+                    notice=notice,
+                )
+            finally:
+                bars.close()
+            print(dpl_summary(trained))
+            return 0
+        from tric_control.selection.select_model import select_from_bags
+
+        bar = CandidateBar(enabled=not args.quiet)
         try:
-            run = job(
-                args.bags,
-                args.out,
-                config,
-                RobotModel(),
-                bars,
-                include_failed=args.include_failed,
-                tolerant=args.tolerant,
-                notice=lambda text: tqdm.write(f"{PROG}: {text}", file=sys.stderr),
-            )
+            with open_executor(choice, num_cpus=args.jobs) as executor:
+                chosen = select_from_bags(
+                    args.bags,
+                    args.out,
+                    config,
+                    selection,
+                    RobotModel(),
+                    executor,
+                    args.jobs,
+                    bar,
+                    include_failed=args.include_failed,
+                    tolerant=args.tolerant,
+                    notice=notice,
+                )
         finally:
-            bars.close()
-    except (ValueError, OSError) as error:
+            bar.close()
+    except (ValueError, OSError, RuntimeError, ConnectionError) as error:
         print(f"{PROG}: {error}", file=sys.stderr)
         return 2
-    print(dpl_summary(run) if args.kind in DPL_KINDS else summary(run))
+    print(summary(chosen))
     return 0
 
 

@@ -22,8 +22,15 @@ import os
 EXECUTORS = ("processes", "ray")
 #: Each tool's executor when none is named and no Ray address is given
 #: (docs/decisions/executors.md): Ray where a run holds many trainings and evaluations, for which
-#: it keeps its workers; spawned processes for tric-eval's one evaluation, which they start sooner.
-DEFAULT_EXECUTORS = {"tric-eval": "processes", "tric-study": "ray", "tric-experiments": "ray"}
+#: it keeps its workers, and for a training's candidates (the trainer node's too); spawned
+#: processes for tric-eval's one evaluation, which they start sooner.
+DEFAULT_EXECUTORS = {
+    "tric-eval": "processes",
+    "tric-train": "ray",
+    "trainer": "ray",
+    "tric-study": "ray",
+    "tric-experiments": "ray",
+}
 
 
 def add_executor_arguments(parser, default: str) -> None:

@@ -8,6 +8,7 @@ cluster's machines need the project's environment (make setup: the libraries and
 messages). ROS-free."""
 
 import collections
+import os
 import pathlib
 import shutil
 import signal
@@ -66,6 +67,9 @@ class RayExecutor:
                 "object_store_memory": LOCAL_OBJECT_STORE_BYTES,
                 "include_dashboard": False,
             }
+            # Ray's own default for a local instance (a token, made once), asked for by name: Ray
+            # then does not print a line about it on every start
+            os.environ.setdefault("RAY_AUTH_MODE", "token")
         self._handlers = {signum: signal.getsignal(signum) for signum in ENDING_SIGNALS}
         ray.init(
             address=self.address or "local",

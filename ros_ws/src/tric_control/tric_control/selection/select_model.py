@@ -60,13 +60,16 @@ def select_model(
     calls = [(replace(config, seed=seed), max_steps, controller_options) for seed in seeds]
     started = time.monotonic()
     report(0, len(calls), None)
-    trained, failures = [], []
+    trained, failures, errors = [], [], []
     for k, result in executor.run_calls(candidate, calls, jobs, (dataset,)):
         if isinstance(result, Exception):
+            errors.append(result)
             failures.append(f"seed {seeds[k]}: {type(result).__name__}: {result}")
         else:
             trained.append(result)
         report(len(trained) + len(failures), len(calls), result)
+    if not trained and errors and all(isinstance(e, ValueError) for e in errors):
+        raise errors[0]  # the data's fault, alike for every candidate (a demonstration it refuses)
     if len(trained) < selection.members:
         raise RuntimeError(
             f"{len(failures)} of {len(calls)} candidates failed ({'; '.join(failures)}); "
@@ -98,15 +101,32 @@ def select_from_bags(
     tric_learning.bags.loader.load_dataset for include_failed, tolerant and notice), choose a model
     on them (select_model) and write it to output_path (tric_learning.training.from_bags
     .model_output_path, checked before any work: ValueError and nothing written for a bad bag,
-    value or path)."""
+    value or path). progress(stage, done, total, candidate): stage "loading" (bags read of
+    total), "candidates" (as select_model's progress), then "saving" (0 of 1, then 1 of 1)."""
     config.validate()
     selection.validate()
+    report = progress or (lambda *_: None)
     files = bag_paths(paths, tolerant, notice)
     path = model_output_path(output_path, files[0], inputs=files, overwrite=overwrite)
+    report("loading", 0, len(files), None)
     dataset = load_dataset(
-        files, robot, include_failed=include_failed, tolerant=tolerant, notice=notice
+        files,
+        robot,
+        lambda done, total: report("loading", done, total, None),
+        include_failed=include_failed,
+        tolerant=tolerant,
+        notice=notice,
     )
-    chosen = select_model(dataset, config, selection, executor, jobs, progress)
+    chosen = select_model(
+        dataset,
+        config,
+        selection,
+        executor,
+        jobs,
+        lambda done, total, candidate: report("candidates", done, total, candidate),
+    )
+    report("saving", 0, 1, None)
     chosen.choice.model.save(path)
     chosen.path = path
+    report("saving", 1, 1, None)
     return chosen
