@@ -13,6 +13,7 @@ import hashlib
 import json
 import logging
 import pathlib
+import tempfile
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -120,6 +121,14 @@ class ModelFile:
         if expected is not None:
             expected.check_same(definition, f"model {path}")
         return cls(meta["kind"], definition, arrays, meta.get("info", {}))
+
+
+def from_bytes(content: bytes, expected: FeatureDefinition | None = None) -> ModelFile:
+    """The ModelFile of a model file's bytes (ModelFile.load's checks): what workers send back."""
+    with tempfile.TemporaryDirectory(prefix="tric-model-") as folder:
+        path = pathlib.Path(folder) / "model.safetensors"
+        path.write_bytes(content)
+        return ModelFile.load(path, expected)
 
 
 def made_as(path, kind: str, hyperparameters: dict, dataset_fingerprint: str, code: str) -> bool:

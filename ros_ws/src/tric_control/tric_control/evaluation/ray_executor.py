@@ -8,7 +8,7 @@ cluster's machines need the project's environment (make setup: the libraries and
 messages). ROS-free."""
 
 import collections
-import os
+import logging
 import pathlib
 import shutil
 import signal
@@ -31,6 +31,8 @@ LOCAL_OBJECT_STORE_BYTES = 100 * 2**20
 CLOSE_TIMEOUT_S = 30.0
 #: The signals that end a tool (tric_sim.tools.interrupts).
 ENDING_SIGNALS = (signal.SIGINT, signal.SIGTERM)
+#: The logger of Ray's line about token authentication at every local start.
+AUTHENTICATION_LOGGER = "ray._private.authentication.authentication_token_setup"
 #: The bag folders' parent, relative to the caller's working directory and to the workers'.
 BAGS = pathlib.Path("bags")
 
@@ -67,10 +69,9 @@ class RayExecutor:
                 "object_store_memory": LOCAL_OBJECT_STORE_BYTES,
                 "include_dashboard": False,
             }
-            # Ray's own default for a local instance (a token, made once), asked for by name: Ray
-            # then does not print a line about it on every start
-            os.environ.setdefault("RAY_AUTH_MODE", "token")
         self._handlers = {signum: signal.getsignal(signum) for signum in ENDING_SIGNALS}
+        # a local start keeps Ray's default, token authentication, without its line about it
+        logging.getLogger(AUTHENTICATION_LOGGER).setLevel(logging.ERROR)
         ray.init(
             address=self.address or "local",
             log_to_driver=False,

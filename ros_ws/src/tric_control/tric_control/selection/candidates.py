@@ -47,19 +47,11 @@ def candidate(
     with torch_threads(CANDIDATE_THREADS):
         result = train(dataset, robot, config)
     train_s = time.perf_counter() - started
-    started = time.perf_counter()
     with tempfile.TemporaryDirectory(prefix="tric-candidate-") as folder:
         path = model_file.from_training(result, dataset).save(
             pathlib.Path(folder) / f"candidate_s{config.seed}.safetensors"
         )
         content = path.read_bytes()
-        evaluator = OfflineEvaluator(
-            dataset.definition.task, str(path), max_steps, controller_options=controller_options
-        )
-        try:
-            rollouts = roll_out(evaluator, dataset)
-        finally:
-            evaluator.close()
     record = {
         "losses": result.losses,
         "iterations": result.iterations,
@@ -67,4 +59,29 @@ def candidate(
         "delta": result.delta,
         "rho": result.rho,
     }
-    return Candidate(config.seed, content, record, rollouts, train_s, time.perf_counter() - started)
+    return rolled_out(dataset, content, config.seed, record, train_s, max_steps, controller_options)
+
+
+def rolled_out(
+    dataset: Dataset,
+    content: bytes,
+    seed: int,
+    record: dict,
+    train_s: float = 0.0,
+    max_steps: int = 0,
+    controller_options: dict | None = None,
+) -> Candidate:
+    """The Candidate of a trained model (its model file's bytes, content; its seed and training
+    record), rolled out from every demonstration's start situation of dataset (as candidate())."""
+    started = time.perf_counter()
+    with tempfile.TemporaryDirectory(prefix="tric-candidate-") as folder:
+        path = pathlib.Path(folder) / f"candidate_s{seed}.safetensors"
+        path.write_bytes(content)
+        evaluator = OfflineEvaluator(
+            dataset.definition.task, str(path), max_steps, controller_options=controller_options
+        )
+        try:
+            rollouts = roll_out(evaluator, dataset)
+        finally:
+            evaluator.close()
+    return Candidate(seed, content, record, rollouts, train_s, time.perf_counter() - started)

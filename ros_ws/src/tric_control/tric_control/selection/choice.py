@@ -4,8 +4,6 @@ model file with the selection's provenance: every candidate's seed, score, rollo
 hidden metrics' verdicts on its rollouts (a reference, never the default score's input) and its
 share of the time. ROS-free."""
 
-import pathlib
-import tempfile
 from dataclasses import dataclass
 
 import numpy as np
@@ -39,7 +37,7 @@ def ranked(candidates: list, dataset: Dataset, selection: SelectionConfig) -> li
     """[(score, errors (demos,), candidate)] best first (lower scores; ties by seed)."""
     rows = []
     for candidate in candidates:
-        model = model_file.value_function(_model_file(candidate.model))
+        model = model_file.value_function(model_file.from_bytes(candidate.model))
         errors = per_rollout_errors(selection.score, candidate.rollouts, dataset, model)
         total = float(np.sum(errors)) if selection.score == "successes" else float(np.mean(errors))
         rows.append((total, errors, candidate))
@@ -58,7 +56,7 @@ def choose(
         raise ValueError(f"{len(candidates)} candidates cannot give {selection.members} members")
     rows = ranked(candidates, dataset, selection)
     best = [candidate for _, _, candidate in rows[: selection.members]]
-    files = [_model_file(candidate.model) for candidate in best]
+    files = [model_file.from_bytes(candidate.model) for candidate in best]
     if len(best) == 1:
         chosen = files[0]
     else:
@@ -112,7 +110,7 @@ def _provenance(rows, best, selection: SelectionConfig, config: TrainingConfig) 
                 "train_s": candidate.train_s,
                 "rollout_s": candidate.rollout_s,
                 "time_share": (candidate.train_s + candidate.rollout_s) / total if total else 0.0,
-                "tensor_digest": tensor_digest(_model_file(candidate.model).arrays),
+                "tensor_digest": tensor_digest(model_file.from_bytes(candidate.model).arrays),
                 "losses": candidate.record["losses"],
                 "rollouts": [
                     {
@@ -127,11 +125,3 @@ def _provenance(rows, best, selection: SelectionConfig, config: TrainingConfig) 
             for rank, (score, errors, candidate) in enumerate(rows)
         ],
     }
-
-
-def _model_file(content: bytes) -> ModelFile:
-    """The ModelFile of a candidate's model file bytes."""
-    with tempfile.TemporaryDirectory(prefix="tric-choice-") as folder:
-        path = pathlib.Path(folder) / "candidate.safetensors"
-        path.write_bytes(content)
-        return ModelFile.load(path)
