@@ -230,14 +230,21 @@ def record_fields(record) -> dict:
 
 
 def study_results(folder) -> dict:
-    """A tric-study folder's rows and failed cells without their timings (nor the model files'
-    digests: their metadata holds the timings), and its models' arrays: two runs of one study
-    give equal ones."""
+    """A tric-study folder's rows and failed cells without their timings (the candidates' too),
+    and its models' arrays: two runs of one study give equal ones."""
     results = json.loads((folder / "study.json").read_text())
     rows = {}
+    timings = ("train_s", "rollout_s", "time_share")
     for name, row in results["rows"].items():
-        model = {k: v for k, v in row["model"].items() if k not in ("train_s", "file_sha1")}
-        rows[name] = {**row, "model": model, "date": None}
+        model = {k: v for k, v in row["model"].items() if k not in timings}
+        selection = {
+            **row["selection"],
+            "candidates": [
+                {k: v for k, v in c.items() if k not in timings}
+                for c in row["selection"]["candidates"]
+            ],
+        }
+        rows[name] = {**row, "model": model, "selection": selection, "date": None}
     arrays = {
         path.name: {k: v.tobytes() for k, v in model_file.ModelFile.load(path).arrays.items()}
         for path in sorted((folder / "models").iterdir())

@@ -136,7 +136,7 @@ def test_an_address_means_ray_and_processes_refuse_one(monkeypatch):
 #: validation spheres with short episodes.
 TINY_STUDY = [
     "--variant",
-    f"tiny=max_iterations=5,noisy_samples=5,grasp_steps={TICKS}",
+    f"tiny=candidates=1,max_iterations=5,noisy_samples=5,grasp_steps={TICKS}",
     "--tasks",
     "sphere",
     "--seeds",
@@ -147,9 +147,10 @@ TINY_STUDY = [
 
 @pytest.mark.slow
 def test_a_study_on_a_two_node_ray_cluster_gives_the_local_results(tmp_path, monkeypatch):
-    """tric-study --address on a 2-node cluster (one CPU each, on this machine): the trainings and
-    the episodes run on both nodes, the code and the bags reach them through Ray's runtime
-    environment, the models and rows come back to --out, and they equal a run here."""
+    """tric-study --address on a 2-node cluster (one CPU each, on this machine): the candidates
+    and the episodes run on both nodes, the code reaches them through Ray's runtime environment
+    and the demonstrations through its object store, the models and rows come back to --out, and
+    they equal a run here."""
     from ray.cluster_utils import Cluster
 
     monkeypatch.chdir(BAGS.parent)  # tric-study reads bags/ of the working directory
@@ -180,7 +181,7 @@ def test_a_study_on_a_two_node_ray_cluster_gives_the_local_results(tmp_path, mon
     [executor] = opened
     assert executor.kind == "ray"
     assert set(executor.node_work) == nodes and len(nodes) == 2  # both nodes worked
-    # 2 trainings and 2 x 15 episodes
+    # 2 candidates (each trained and rolled out in one call) and 2 x 15 episodes
     assert sum(executor.node_work.values()) == 2 + 2 * 15
     assert study_results(remote) == study_results(local)
     rows = json.loads((remote / "study.json").read_text())["rows"]

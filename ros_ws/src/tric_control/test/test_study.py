@@ -3,7 +3,7 @@
 import pytest
 
 from tric_control.study import cli as study
-from tric_control.study import runs as study_runs
+from tric_control.study import measures as study_measures
 from tric_control.study import variants as study_variants
 from tric_sim.world.scene import TASK_CONTACTS
 
@@ -44,7 +44,7 @@ def test_study_sets_are_training_and_validation_sets_only():
         assert kind in ("grasp", "open_box")
 
 
-def test_the_seed_summary_gives_each_seed_and_the_mean_min_max():
+def test_the_summary_gives_each_group_and_the_mean_min_max():
     rows = [
         {
             "variant": "v",
@@ -57,11 +57,24 @@ def test_the_seed_summary_gives_each_seed_and_the_mean_min_max():
     ]
     text = study.seed_summary(rows)
     assert (
-        "v / box over 3 seeds" in text
+        "v / box over 3 groups" in text
         and "box_val opened 20/23/17 (mean 20, min 17, max 23)" in text
         and "box_val at rest 0/1/2 (mean 1, min 0, max 2)" in text
         and "cosine_weighted -0.5/-0.6/-0.7 (mean -0.6, min -0.7, max -0.5)" in text
     )
+
+
+def test_selection_settings_are_variant_options_checked_as_a_training_checks_them():
+    name, changes = study_variants.parse_variant("s8n3=candidates=8,members=3,score=judge")
+    assert changes == {"candidates": 8, "members": 3, "score": "judge"}
+    assert study_variants.training_part(changes) == {}
+    assert study_variants.selection_part(changes) == changes
+    with pytest.raises(
+        ValueError, match=r"variant 's': members must be in \[1, candidates \(2\)\]"
+    ):
+        study_variants.parse_variant("s=candidates=2,members=3")
+    with pytest.raises(ValueError, match="variant 's': the selection score must be one of"):
+        study_variants.parse_variant("s=score=luck")
 
 
 def test_controller_settings_are_variant_options_that_do_not_change_the_training():
@@ -78,12 +91,12 @@ def test_contact_options_change_the_task_s_contact_rules_only_where_given():
     )
     assert changes == {"grasp_cushion": 0.0, "lid_beneath_only": False, "lid_depth": 0.01}
     assert study_variants.training_part(changes) == {}
-    grasp = study_runs.contact_rules(changes, "grasp")["object"]
+    grasp = study_measures.contact_rules(changes, "grasp")["object"]
     assert grasp.cushion == 0.0 and grasp.depth == TASK_CONTACTS["grasp"]["target"].depth
-    lid = study_runs.contact_rules(changes, "open_box")["lid"]
+    lid = study_measures.contact_rules(changes, "open_box")["lid"]
     assert lid.side is None and lid.depth == 0.01
-    assert study_runs.contact_rules({"hand_lead": 0.1}, "grasp") is None
-    assert study_runs.contact_rules({"grasp_depth": 0.0}, "open_box") is None
+    assert study_measures.contact_rules({"hand_lead": 0.1}, "grasp") is None
+    assert study_measures.contact_rules({"grasp_depth": 0.0}, "open_box") is None
     with pytest.raises(ValueError, match="contact depths and cushions must be in"):
         study_variants.parse_variant("v=grasp_depth=0.2")
 

@@ -78,16 +78,16 @@ def chosen_executor(args) -> ExecutorChoice:
     return ExecutorChoice(kind, address)
 
 
-def open_executor(choice: ExecutorChoice | None = None, num_cpus: int | None = None, bags=()):
+def open_executor(choice: ExecutorChoice | None = None, num_cpus: int | None = None):
     """The executor of choice (default: a process pool): ProcessExecutor, or RayExecutor, which
-    starts Ray (locally with num_cpus CPUs, None: all) or joins its cluster (the project's code and
-    the named bag folders under bags/ sent in its runtime environment) at its first work. Close it
-    after use (it is a context manager)."""
+    starts Ray (locally with num_cpus CPUs, None: all) or joins its cluster (the project's code
+    sent in its runtime environment) at its first work. Close it after use (it is a context
+    manager)."""
     if choice is None or choice.kind == "processes":
         return ProcessExecutor()
     from tric_control.evaluation.ray_executor import RayExecutor
 
-    return RayExecutor(choice.address, num_cpus=num_cpus, bags=bags)
+    return RayExecutor(choice.address, num_cpus=num_cpus)
 
 
 class ProcessExecutor:

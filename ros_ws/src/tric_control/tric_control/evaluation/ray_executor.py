@@ -1,18 +1,16 @@
 """Ray as the executor (tric_control.evaluation.executors): episodes run on Ray actors, each holding
 one evaluator as a spawned worker process does, and calls (trainings) are Ray tasks. Ray starts
 locally with no set-up (its workers share this machine's packages and files), or joins a cluster
-at an address: there the project's code (its three Python packages) and the bag folders the run
-names reach the workers through Ray's runtime environment (py_modules and working_dir), not a
-shared disk; model files go as bytes, and results come back to the caller, who writes them. The
+at an address: there the project's code (its three Python packages) reaches the workers through
+Ray's runtime environment (py_modules), not a shared disk; model files go as bytes, the datasets
+of trainings through Ray's object store, and results come back to the caller, who writes them. The
 cluster's machines need the project's environment (make setup: the libraries and the built
 messages). ROS-free."""
 
 import collections
 import logging
 import pathlib
-import shutil
 import signal
-import tempfile
 import threading
 from typing import Any
 
@@ -33,36 +31,34 @@ CLOSE_TIMEOUT_S = 30.0
 ENDING_SIGNALS = (signal.SIGINT, signal.SIGTERM)
 #: The logger of Ray's line about token authentication at every local start.
 AUTHENTICATION_LOGGER = "ray._private.authentication.authentication_token_setup"
-#: The bag folders' parent, relative to the caller's working directory and to the workers'.
-BAGS = pathlib.Path("bags")
 
 
 class RayExecutor:
     """Ray started here (address None, with num_cpus CPUs, None: all; its workers share this
-    machine's packages and working directory) or joined at address (the project's packages, and
-    the folders under bags/ named in bags, sent in the runtime environment). node_work counts the
-    episodes and calls each node (by Ray node id) ran."""
+    machine's packages and working directory) or joined at address (the project's packages sent
+    in the runtime environment). node_work counts the episodes and calls each node (by Ray node id)
+    ran."""
 
     kind = "ray"
 
-    def __init__(self, address: str | None = None, num_cpus: int | None = None, bags=()):
+    def __init__(self, address: str | None = None, num_cpus: int | None = None):
         if ray.is_initialized():
             raise RuntimeError("Ray is already initialized in this process")
-        self.address, self.num_cpus, self.bags = address, num_cpus, tuple(bags)
+        self.address, self.num_cpus = address, num_cpus
         self.node_work: collections.Counter[str] = collections.Counter()
         self._actors: dict[int, Any] = {}
         self._calls = 0
-        self._staging: pathlib.Path | None = None
+        self._started = False
         self._handlers: dict[int, Any] = {}
 
     def _start(self) -> None:
         """Start or join Ray, once (at the first work: a run with nothing to do starts nothing)."""
-        if self._staging is not None:
+        if self._started:
             return
-        self._staging = pathlib.Path(tempfile.mkdtemp(prefix="tric-ray-"))
+        self._started = True
         settings: dict[str, Any]
         if self.address:
-            settings = {"runtime_env": self._runtime_env(self._staging, self.bags)}
+            settings = {"runtime_env": self._runtime_env()}
         else:
             settings = {
                 "num_cpus": self.num_cpus,
@@ -94,20 +90,14 @@ class RayExecutor:
             signal.raise_signal(signum)
 
     @staticmethod
-    def _runtime_env(staging: pathlib.Path, bags) -> dict:
-        """The runtime environment of a cluster's workers: the project's Python packages, and a
-        working directory (staging) holding bags/<name> for each name in bags."""
-        runtime_env: dict[str, Any] = {
+    def _runtime_env() -> dict:
+        """The runtime environment of a cluster's workers: the project's Python packages."""
+        return {
             "py_modules": [
                 str(pathlib.Path(str(package.__file__)).resolve().parent)
                 for package in (tric_sim, tric_learning, tric_control)
             ]
         }
-        if bags:
-            for name in sorted(set(bags)):
-                shutil.copytree(BAGS / name, staging / BAGS / name)
-            runtime_env["working_dir"] = str(staging)
-        return runtime_env
 
     def __enter__(self):
         return self
@@ -117,7 +107,7 @@ class RayExecutor:
 
     def close(self) -> None:
         """End the actors and shut Ray down (a local instance ends; a cluster keeps running)."""
-        if self._staging is None:
+        if not self._started:
             return
         try:
             if ray.is_initialized():
@@ -127,8 +117,7 @@ class RayExecutor:
             if threading.current_thread() is threading.main_thread():
                 for signum, handler in self._handlers.items():
                     signal.signal(signum, handler)
-            shutil.rmtree(self._staging, ignore_errors=True)
-            self._staging = None
+            self._started = False
 
     @staticmethod
     def ship(path):

@@ -38,14 +38,17 @@ def candidate(
     config: TrainingConfig,
     max_steps: int = 0,
     controller_options: dict | None = None,
+    fit=None,
 ) -> Candidate:
     """Train TRIC on dataset with config (its seed the candidate's) and roll the model out from
     every demonstration's start situation, max_steps ticks at most (0: the task's default), the
-    controller built with controller_options (OfflineEvaluator's)."""
+    controller built with controller_options (OfflineEvaluator's). fit(dataset, robot, config) ->
+    a TrainingResult, a module-level function (a study's other training procedure; None:
+    training.value.train)."""
     robot = RobotModel()
     started = time.perf_counter()
     with torch_threads(CANDIDATE_THREADS):
-        result = train(dataset, robot, config)
+        result = (fit or train)(dataset, robot, config)
     train_s = time.perf_counter() - started
     with tempfile.TemporaryDirectory(prefix="tric-candidate-") as folder:
         path = model_file.from_training(result, dataset).save(

@@ -1,17 +1,20 @@
-"""tric-study: compare training variants of TRIC on the training and validation sets, over seeds.
+"""tric-study: compare training variants of TRIC on the training and validation sets, over
+independent groups of candidates.
 
-    tric-study [--variant NAME=OPTIONS ...] [--seeds S ...] [--tasks TASK ...] [--out DIR] [--jobs
-    N] [--executor processes|ray] [--address HOST:PORT]
+    tric-study [--variant NAME=OPTIONS ...] [--seeds G ...] [--tasks TASK ...] [--every-candidate]
+    [--out DIR] [--jobs N] [--executor processes|ray] [--address HOST:PORT]
 
 A variant is a name and TrainingConfig fields to change from the defaults, e.g.
-`--variant balanced=per_step_weights=true,optimizer=lbfgsb,alpha_g=3` (no options: the defaults),
-and controller settings: hand_lead (rad: how far the command may lead the measured hand joints,
-motion_rate.MAX_HAND_LEAD by default), grasp_steps and box_steps (the episodes' step budgets), and
+`--variant balanced=per_step_weights=true,optimizer=lbfgsb,alpha_g=3` (no options: the defaults);
+how the model is chosen: candidates (S), members (the best N kept) and score
+(tric_control.selection, the training's defaults otherwise); and controller settings: hand_lead
+(rad: how far the command may lead the measured hand joints, motion_rate.MAX_HAND_LEAD by
+default), grasp_steps and box_steps (the episodes' step budgets), the contact options, and
 hard_negative_rounds (rounds of training again on the controller's own rollouts in the training
-situations: tric_control.study.hard_negatives). Variants that differ only in controller settings
-share their models.
-For each variant, seed and task, a model is trained on the reference bags of the task (the seed
-draws the noisy samples and the initial weights) and measured:
+situations: tric_control.study.hard_negatives).
+For each variant, group seed G and task, a model is chosen as a training chooses it: S candidates
+(seeds G .. G + S - 1) trained on the reference bags of the task, each rolled out from its
+demonstrations' starts, the best kept. It is measured:
 
 - on its own demonstrations (tric-analyze's numbers): the share of the moving steps along which f
   falls, L_g's mean cosine over them, and the selected features;
@@ -22,15 +25,19 @@ draws the noisy samples and the initial weights) and measured:
   the angles) likewise; box -> box_train, box_val; obstacle -> obstacle_val (with the sphere
   model).
 
+With --every-candidate each candidate is measured on the sets too, and the selection's study is
+printed (tric_control.study.selection_report): how each score ranks the candidates against their
+validation results, and the best of the first S of each group by each score.
 Test sets are never used here: choices are made on training and validation sets; test sets are only
-reported (tric-experiments). Models are kept in DIR/models and every finished cell (variant x task x
-seed) is merged into DIR/study.json as it ends, each keyed on all that made it (the options, the
-bags' digest, the code's digests: tric_control.study.runs), so a study can be extended run by run,
-an interrupted one continues from its finished cells, and nothing stale is re-used. A cell that
-fails is named with its error; the others are kept. Trainings (--jobs at once) and episodes run in
-spawned processes here, or on Ray (--executor ray: a local instance; --address or RAY_ADDRESS: a
-cluster, the models and results coming back to DIR). Prints one row per cell, and per variant the
-mean, min and max over the seeds.
+reported (tric-experiments). Candidates are kept in DIR/candidates, the chosen models in
+DIR/models, and every finished cell (variant x task x group) is merged into DIR/study.json as it
+ends, each keyed on all that made it (the options, the bags' digest, the code's digests:
+tric_control.study.runs), so a study can be extended run by run, an interrupted one continues from
+its finished cells, cells share the candidates they have in common, and nothing stale is re-used.
+A cell that fails is named with its error; the others are kept. Candidates (--jobs at once) and
+episodes run in spawned processes here, or on Ray (the default: a local instance; --address or
+RAY_ADDRESS: a cluster, the models and results coming back to DIR). Prints one row per cell, and
+per variant the mean, min and max over the groups.
 """
 
 import argparse
@@ -57,8 +64,9 @@ def format_row(row: dict) -> str:
         return f"{row['variant']:16s} {row['task']:8s} s{row['seed']:<2d} FAILED: {row['error']}"
     m = row["model"]
     kept = "(kept) " if row.get("kept") else ""
+    chosen = ",".join(str(seed) for seed in m["chosen"])
     cells = [
-        f"{kept}{row['variant']:16s} {row['task']:8s} s{row['seed']:<2d} "
+        f"{kept}{row['variant']:16s} {row['task']:8s} g{row['seed']:<3d} chose {chosen:8s} "
         f"cos {m['cosine_weighted']:6.3f} "
         f"slow {m['cosine_slow']:6.3f} falls {m['falls']:5.3f} f95 {m['features_95']:3d} "
         f"train {m['train_s']:5.1f}s"
@@ -77,7 +85,7 @@ def format_row(row: dict) -> str:
 
 
 def seed_summary(rows: list) -> str:
-    """Per variant and task: each measure's seeds and their mean, min and max."""
+    """Per variant and task: each measure's groups and their mean, min and max."""
     lines = []
     groups: dict[tuple, list] = {}
     for row in rows:
@@ -98,7 +106,7 @@ def seed_summary(rows: list) -> str:
             f"min {np.min(values):.3g}, max {np.max(values):.3g})"
             for k, values in measures.items()
         ]
-        lines.append(f"{variant} / {task} over {len(group)} seeds: " + "; ".join(parts))
+        lines.append(f"{variant} / {task} over {len(group)} groups: " + "; ".join(parts))
     return "\n".join(lines)
 
 
@@ -116,7 +124,13 @@ def run(argv) -> int:
         help="a training variant (repeatable; default: 'default=', TrainingConfig's settings)",
     )
     parser.add_argument(
-        "--seeds", type=int, nargs="+", default=[0, 1, 2], help="training seeds (default 0 1 2)"
+        "--seeds",
+        type=int,
+        nargs="+",
+        default=[0, 100, 200],
+        metavar="G",
+        help="the groups' seeds: a group's candidates have the seeds G .. G + S - 1 (default 0 "
+        "100 200)",
     )
     parser.add_argument(
         "--tasks",
@@ -124,6 +138,11 @@ def run(argv) -> int:
         default=list(DEFAULT_TASKS),
         choices=list(TASKS),
         help=f"tasks to measure (default: {' '.join(DEFAULT_TASKS)})",
+    )
+    parser.add_argument(
+        "--every-candidate",
+        action="store_true",
+        help="measure every candidate on the sets too, and print the selection's study",
     )
     parser.add_argument(
         "--out", default="results/study", help="folder of the models and study.json"
@@ -153,9 +172,8 @@ def run(argv) -> int:
             for task in args.tasks
             for seed in args.seeds
         ]
-        bags = {TASKS[task][0] for task in args.tasks}
-        with open_executor(choice, num_cpus=args.jobs, bags=bags) as executor:
-            study = Study(out, args.jobs, executor)
+        with open_executor(choice, num_cpus=args.jobs) as executor:
+            study = Study(out, args.jobs, executor, args.every_candidate)
             rows = study.run(cells, lambda row: print(format_row(row), flush=True))
     except (ValueError, WriteFailed, ConnectionError) as error:
         print(f"tric-study: {error}", file=sys.stderr)
@@ -167,6 +185,10 @@ def run(argv) -> int:
     if failed:
         print(f"\n{len(failed)} of {len(rows)} cells failed (the others are kept):")
         print("\n".join(f"  {name}: {error}" for name, error in failed.items()))
+    if args.every_candidate:
+        from tric_control.study.selection_report import report_lines, selection_report
+
+        print("\n" + "\n".join(report_lines(selection_report(measured))))
     print(f"\nwrote {study.path}")
     return 1 if failed else 0
 

@@ -1,110 +1,56 @@
-"""A study's runs (tric-study): its cells (variant x task x seed) each train a model on the task's
-reference bags (or re-use one) and measure it offline on the task's training and validation sets;
-trainings and episodes run on an executor (tric_control.evaluation.executors: processes here, or
-Ray), and every finished cell is merged into DIR/study.json at once.
+"""A study's runs (tric-study): its cells (variant x task x group seed) each choose a model as a
+training does (tric_control.selection: the group's candidates trained on the task's reference bags,
+rolled out from their demonstrations' starts, the best kept) and measure it offline on the task's
+training and validation sets; with every_candidate, each candidate is measured on them too, for
+the selection's own study (tric_control.study.selection_report). Candidates and episodes run on an
+executor (tric_control.evaluation.executors: processes here, or Ray), and every finished cell is
+merged into DIR/study.json at once.
 
-Nothing stale is re-used: a model is keyed on its training options, seed, the bags' digest and the
-digests of the training and analysis code (tric_sim.tools.provenance.code_digest); a finished cell
-on its model's key, its controller options, step budget, sets and the digest of the episodes' code.
+Nothing stale is re-used: a candidate is keyed on its training options, seed, the bags' digest,
+its rollouts' controller options and step budget, and the digests of the training, selection and
+episode code (tric_sim.tools.provenance.code_digest), and kept under DIR/candidates
+(tric_control.study.candidates); a model's measures on a set on its arrays' digest, the controller
+options, step budget and episode code; a finished cell on all of these and its selection settings.
 An interrupted study run again does only the cells whose key has no finished row; a cell that fails
 is named with its error, and the others are kept."""
 
-import collections
 import dataclasses
 import hashlib
 import json
 import math
 import pathlib
-import tempfile
 import time
-
-import numpy as np
 
 from tric_control.episode_runner import DEFAULT_MAX_STEPS
 from tric_control.evaluation.offline import evaluate_offline
-from tric_control.evaluation.records import task_done, write_json
-from tric_control.motion_rate import MAX_LEAD
-from tric_control.study.hard_negatives import train_with_hard_negatives
+from tric_control.evaluation.records import write_json
+from tric_control.selection.choice import choose
+from tric_control.selection.scores import score as selection_score
+from tric_control.selection.settings import CANDIDATE_THREADS, SCORES, SelectionConfig
+from tric_control.study.candidates import CandidateStore, key_name, study_candidate
+from tric_control.study.measures import controller_options, measure_set
 from tric_control.study.variants import (
     CONTROLLER_OPTIONS,
     MODEL_MEASURES,
     TASKS,
+    selection_part,
     training_part,
 )
 from tric_learning import analysis, model_file
 from tric_learning.bags.loader import bag_paths, load_dataset
-from tric_learning.training.lbfgs import torch_threads
-from tric_learning.training.value import TrainingConfig, train
-from tric_sim.physics.metrics import GOOD_GRASP, LID_OPEN_ANGLE
-from tric_sim.tools.output_files import atomic_path
+from tric_learning.model_file import tensor_digest
+from tric_learning.training.value import TrainingConfig
 from tric_sim.tools.provenance import code_digest
 from tric_sim.world.robot_model import RobotModel
-from tric_sim.world.scene import TASK_CONTACTS
 from tric_sim.world.situations import dataset
 
 BAGS = pathlib.Path("bags")
-#: PyTorch's threads in every training of a study: the same model on every executor and machine
-#: core count, and trainings that run side by side on one CPU each.
-TRAINING_THREADS = 1
-
-
-def contact_rules(changes: dict, task: str):
-    """The contacts ({scene body name: tric_sim.world.scene.Contact}) a variant's contact options
-    make of the task's, or None when it changes none of them."""
-    if task == "open_box":
-        if "lid_depth" not in changes and "lid_beneath_only" not in changes:
-            return None
-        lid = TASK_CONTACTS["open_box"]["lid"]
-        beneath = changes.get("lid_beneath_only", lid.side is not None)
-        return {
-            "lid": dataclasses.replace(
-                lid,
-                depth=changes.get("lid_depth", lid.depth),
-                side=(0.0, 0.0, -1.0) if beneath else None,
-            )
-        }
-    if "grasp_depth" not in changes and "grasp_cushion" not in changes:
-        return None
-    target = TASK_CONTACTS["grasp"]["target"]
-    return {
-        "object": dataclasses.replace(
-            target,
-            depth=changes.get("grasp_depth", target.depth),
-            cushion=changes.get("grasp_cushion", target.cushion),
-        )
-    }
-
-
-def measure_set(records) -> dict:
-    """Summary numbers of one set's offline episodes."""
-    grasps = [r for r in records if r.task == "grasp"]
-    rest = {
-        "converged": sum(r.outcome == "converged" for r in records),
-        "good_converged": sum(r.outcome == "converged" for r in records if task_done(r)),
-        "collisions": sum(bool(r.collided) for r in records),
-        "overshoot": max(r.max_joint_overshoot for r in records),
-        "failures": dict(collections.Counter(r.failure for r in records if r.failure)),
-    }
-    if grasps:
-        costs = [r.grasp_cost for r in grasps if math.isfinite(r.grasp_cost)]
-        return {
-            "episodes": len(records),
-            "cost_mean": float(np.mean(costs)) if costs else math.nan,
-            "good": sum(r.grasp_cost < GOOD_GRASP for r in grasps),
-            "lifted": sum(r.lift_passed is True for r in grasps),
-            **rest,
-        }
-    return {
-        "episodes": len(records),
-        "opened": sum(r.lid_angle > LID_OPEN_ANGLE for r in records),
-        "lid_mean": float(np.mean([r.lid_angle for r in records])),
-        **rest,
-    }
 
 
 @dataclasses.dataclass(frozen=True)
 class Cell:
-    """One cell of a study: a variant (its name and changes) on a task with a training seed."""
+    """One cell of a study: a variant (its name and changes) on a task, its candidates drawn from
+    the group seed `seed` on."""
 
     variant: str
     changes: dict
@@ -122,6 +68,19 @@ class Cell:
         option = "box_steps" if self.task == "box" else "grasp_steps"
         return self.changes.get(option, DEFAULT_MAX_STEPS[kind])
 
+    @property
+    def bags(self) -> str:
+        return TASKS[self.task][0]
+
+    @property
+    def selection(self) -> SelectionConfig:
+        return SelectionConfig(**selection_part(self.changes)).validate()
+
+    @property
+    def seeds(self) -> list:
+        """The seeds of the cell's candidates."""
+        return [self.seed + k for k in range(self.selection.candidates)]
+
 
 def bags_digest(bags: str) -> str:
     """A digest of the contents of the bags in bags/<bags> (relative to the working directory): a
@@ -133,102 +92,77 @@ def bags_digest(bags: str) -> str:
     return digest.hexdigest()[:12]
 
 
-def train_study_model(config: dict, bags: str) -> dict:
-    """Train the model of config (Study.model_config) on bags/<bags> of the working directory (a
-    worker's: the executor puts the bags there) and measure it on its demonstrations: {"model": the
-    model file's bytes, "record": its training record}. ValueError when the bags are not those the
-    config was keyed on."""
-    if bags_digest(bags) != config["bags_digest"]:
-        raise ValueError(f"the worker's bags/{bags} are not the caller's (another digest)")
-    robot = RobotModel()
-    demos = load_dataset(bag_paths([BAGS / bags]), robot)
-    training = TrainingConfig(**training_part(config), seed=config["seed"])
-    started = time.perf_counter()
-    with torch_threads(config["torch_threads"]):
-        if config.get("hard_negative_rounds"):
-            result = train_with_hard_negatives(
-                demos, robot, training, config["hard_negative_rounds"], config["rollout_steps"]
-            )
-        else:
-            result = train(demos, robot, training)
-    with tempfile.TemporaryDirectory(prefix="tric-study-") as folder:
-        path = model_file.from_training(result, demos).save(pathlib.Path(folder) / "model")
-        content = path.read_bytes()
-    numbers = analysis.key_numbers(result.model, demos, 20)
-    record = {
-        "config": config,
-        "train_s": time.perf_counter() - started,
-        "iterations": result.iterations,
-        "losses": result.losses,
-        **{key: numbers[key] for key in MODEL_MEASURES},
-        "selected_features": numbers["selected_features"],
-        "kept_features": numbers["kept_features"],
-        "file_sha1": hashlib.sha1(content).hexdigest(),
-    }
-    return {"model": content, "record": record}
-
-
-def controller_options(changes: dict, task: str, robot: RobotModel) -> dict:
-    """The keyword arguments of MotionRateController that a variant's controller settings make for
-    the task (OfflineEvaluator's controller_options)."""
-    options = {}
-    if "hand_lead" in changes:
-        lead = np.full(robot.n_joints, MAX_LEAD)
-        lead[robot.hand_indices] = changes["hand_lead"]
-        options["max_lead"] = lead
-    if "domain_damper" in changes:
-        options["domain_damper"] = changes["domain_damper"]
-    contacts = contact_rules(changes, "open_box" if task == "box" else "grasp")
-    if contacts is not None:
-        options["contacts"] = contacts
-    return options
+#: The code whose digest keys a study's episodes: the controller, the physics, the metrics and the
+#: situations.
+EPISODE_CODE = ("tric_control.evaluation.offline", "tric_sim.world.situations")
 
 
 class Study:
     """Runs a study's cells on an executor (tric_control.evaluation.executors) with jobs workers;
-    models under out/models, results merged into out/study.json."""
+    candidates under out/candidates, the chosen models under out/models, results merged into
+    out/study.json. every_candidate: measure every candidate on the task's sets too."""
 
-    def __init__(self, out: pathlib.Path, jobs: int, executor):
+    def __init__(self, out: pathlib.Path, jobs: int, executor, every_candidate: bool = False):
         self.out, self.jobs, self.executor = out, jobs, executor
+        self.every_candidate = every_candidate
         self.robot = RobotModel()
         self.path = out / "study.json"
         self.results = json.loads(self.path.read_text()) if self.path.is_file() else {}
         self.failed: dict[str, str] = {}
         self.cleared: set[str] = set()
+        self.store = CandidateStore(out / "candidates")
         self._bags_digests: dict[str, str] = {}
+        self._datasets: dict = {}
         (out / "models").mkdir(parents=True, exist_ok=True)
 
-    def model_config(self, cell: Cell) -> dict:
-        """Everything that makes the cell's model: its training options and seed, the bags' digest,
-        PyTorch's threads and the training and analysis code's digests (and the hard negatives'
-        rounds and rollout budget)."""
-        bags = TASKS[cell.task][0]
-        if bags not in self._bags_digests:
-            self._bags_digests[bags] = bags_digest(bags)
+    def demonstrations(self, bags: str):
+        """The dataset of bags/<bags>, read once."""
+        if bags not in self._datasets:
+            self._datasets[bags] = load_dataset(bag_paths([BAGS / bags]), self.robot)
+        return self._datasets[bags]
+
+    def training_key(self, cell: Cell, seed: int) -> dict:
+        """Everything that makes one of the cell's candidates' model: its training options and
+        seed, the bags' digest, PyTorch's threads and the training code's digest (and the hard
+        negatives' rounds and their rollouts' budget)."""
+        if cell.bags not in self._bags_digests:
+            self._bags_digests[cell.bags] = bags_digest(cell.bags)
         rounds = cell.changes.get("hard_negative_rounds", 0)
-        training = "tric_control.study.hard_negatives" if rounds else "tric_learning.training.value"
         return {
             **training_part(cell.changes),
-            "seed": cell.seed,
+            "seed": seed,
             **({"hard_negative_rounds": rounds, "rollout_steps": cell.max_steps} if rounds else {}),
-            "bags_digest": self._bags_digests[bags],
-            "torch_threads": TRAINING_THREADS,
-            "training_code": code_digest(training),
-            "analysis_code": code_digest("tric_learning.analysis"),
+            "bags_digest": self._bags_digests[cell.bags],
+            "torch_threads": CANDIDATE_THREADS,
+            "training_code": code_digest(
+                "tric_learning.training.value", "tric_control.study.hard_negatives"
+            ),
         }
 
-    def cell_key(self, cell: Cell) -> dict:
-        """Everything that makes the cell's row: its model's config, its controller settings, step
-        budget and sets, and the digest of the episodes' code (the controller, the physics, the
-        metrics and the situations)."""
+    def rollouts_key(self, cell: Cell, seed: int) -> dict:
+        """Everything that makes a candidate's rollouts: its model's key, the controller options,
+        the step budget and the digests of the rollouts' and the episodes' code."""
         return {
-            "model": self.model_config(cell),
-            "controller": {k: v for k, v in cell.changes.items() if k in CONTROLLER_OPTIONS},
+            "model": key_name(self.training_key(cell, seed)),
+            "controller": self.controller_key(cell),
             "max_steps": cell.max_steps,
+            "rollout_code": code_digest("tric_control.selection.rollouts"),
+            "episode_code": code_digest(*EPISODE_CODE),
+        }
+
+    @staticmethod
+    def controller_key(cell: Cell) -> dict:
+        return {k: v for k, v in cell.changes.items() if k in CONTROLLER_OPTIONS}
+
+    def cell_key(self, cell: Cell) -> dict:
+        """Everything that makes the cell's row: its candidates' keys, its selection, the sets and
+        the analysis code."""
+        return {
+            "candidates": [key_name(self.rollouts_key(cell, seed)) for seed in cell.seeds],
+            "selection": cell.selection.to_dict(),
+            "every_candidate": self.every_candidate,
             "sets": list(TASKS[cell.task][1]),
-            "episode_code": code_digest(
-                "tric_control.evaluation.offline", "tric_sim.world.situations"
-            ),
+            "choice_code": code_digest("tric_control.selection.choice", "tric_learning.analysis"),
         }
 
     def finished_row(self, cell: Cell):
@@ -236,95 +170,104 @@ class Study:
         row = self.results.get("rows", {}).get(cell.name)
         return row if row is not None and row.get("key") == self.cell_key(cell) else None
 
-    def cached_model(self, config: dict, bags: str):
-        """(path, record) of a model trained with config on bags, its file intact; None if
-        none."""
-        for key, record in self.results.get("models", {}).items():
-            path = self._model_path(key)
-            if (
-                key.split("/")[1] == bags
-                and record["config"] == config
-                and path.is_file()
-                and hashlib.sha1(path.read_bytes()).hexdigest() == record.get("file_sha1")
-            ):
-                return path, record
-        return None
-
     def run(self, cells, on_row=None) -> dict:
-        """Run every cell that has no finished row of its key: the missing models are trained first
-        (at most jobs at once), then each cell's sets are measured; on_row(row) after each cell, a
-        kept one too. {cell name: row} in the cells' order; a cell that failed has a row
-        {"error": ...} and is listed in study.json's "failed"."""
+        """Run every cell that has no finished row of its key: the missing candidates are trained
+        and rolled out first (at most jobs at once), then each cell chooses and its sets are
+        measured; on_row(row) after each cell, a kept one too. {cell name: row} in the cells'
+        order; a cell that failed has a row {"error": ...} and is listed in study.json's
+        "failed"."""
         rows = {cell.name: self.finished_row(cell) for cell in cells}
         todo = [cell for cell in cells if rows[cell.name] is None]
         for cell in cells:
             if rows[cell.name] is not None and on_row is not None:
                 on_row({**rows[cell.name], "kept": True})
-        models = self._train_models(todo)
+        made = self._make_candidates(todo)
         for cell in todo:
-            model = models[json.dumps(self.model_config(cell), sort_keys=True)]
             try:
-                if isinstance(model, Exception):
-                    raise model
-                rows[cell.name] = self._measure(cell, *model)
+                candidates = [made[self._candidate_name(cell, seed)] for seed in cell.seeds]
+                failure = next((c for c in candidates if isinstance(c, Exception)), None)
+                if failure is not None:
+                    raise failure
+                rows[cell.name] = self._measure(cell, candidates)
             except Exception as error:
                 rows[cell.name] = self._fail(cell, error)
             if on_row is not None:
                 on_row(rows[cell.name])
         return rows
 
-    def _train_models(self, cells) -> dict:
-        """{the model config's JSON: (path, record), or the Exception its training raised} of the
-        cells' models, the missing ones trained on the executor and saved as each ends."""
-        models, calls, names = {}, [], []
+    def _make_candidates(self, cells) -> dict:
+        """{(bags, seed, rollouts key name): Candidate, or the Exception its making raised} of the
+        cells' candidates, the missing ones made on the executor (one call each, trained unless
+        their model is kept, then rolled out; the bags' dataset sent once) and kept as each
+        ends."""
+        made: dict = {}
+        missing: dict = {}  # bags -> [(training key, rollouts key, call)]
         for cell in cells:
-            config = self.model_config(cell)
-            key = json.dumps(config, sort_keys=True)
-            if key in models:
-                continue
-            bags = TASKS[cell.task][0]
-            models[key] = self.cached_model(config, bags)
-            if models[key] is None:
-                calls.append((config, bags))
-                names.append((key, f"{cell.variant}/{bags}/{cell.seed}"))
-        if calls:
-            print(f"training {len(calls)} models ({self.executor.kind})", flush=True)
-        for k, result in self.executor.run_calls(train_study_model, calls, self.jobs):
-            key, name = names[k]
-            if isinstance(result, Exception):
-                models[key] = result
-                continue
-            path = self._model_path(name)
-            with atomic_path(path) as temporary:
-                temporary.write_bytes(result["model"])
-            self.results.setdefault("models", {})[name] = result["record"]
-            self.save()
-            models[key] = path, result["record"]
-            print(f"trained {name} in {result['record']['train_s']:.1f} s", flush=True)
-        return models
+            for seed in cell.seeds:
+                name = self._candidate_name(cell, seed)
+                if name in made:
+                    continue
+                training, rollouts = self.training_key(cell, seed), self.rollouts_key(cell, seed)
+                made[name] = self.store.get(cell.bags, seed, training, rollouts)
+                if made[name] is not None:
+                    continue
+                config = TrainingConfig(**training_part(cell.changes), seed=seed)
+                options = controller_options(cell.changes, cell.task, self.robot)
+                rounds = cell.changes.get("hard_negative_rounds", 0)
+                kept = self.store.model(cell.bags, seed, training)
+                call = (config, cell.max_steps, options, rounds, kept)
+                missing.setdefault(cell.bags, []).append((training, rollouts, call))
+        for bags, todo in missing.items():
+            print(
+                f"making {len(todo)} candidates on bags/{bags} ({self.executor.kind})", flush=True
+            )
+            demos = self.demonstrations(bags)
+            calls = [call for _, _, call in todo]
+            for k, result in self.executor.run_calls(study_candidate, calls, self.jobs, (demos,)):
+                training, rollouts, call = todo[k]
+                made[(bags, call[0].seed, key_name(rollouts))] = result
+                if isinstance(result, Exception):
+                    continue
+                self.store.put(bags, training, rollouts, result)
+                print(
+                    f"candidate {bags} s{result.seed}: "
+                    + ("model kept" if call[-1] else f"trained in {result.train_s:.1f} s")
+                    + f", rolled out in {result.rollout_s:.1f} s",
+                    flush=True,
+                )
+        return made
 
-    def _measure(self, cell: Cell, path: pathlib.Path, record: dict) -> dict:
-        """The cell's row: its model measured offline on the task's sets; saved."""
+    def _candidate_name(self, cell: Cell, seed: int) -> tuple:
+        return cell.bags, seed, key_name(self.rollouts_key(cell, seed))
+
+    def _measure(self, cell: Cell, candidates: list) -> dict:
+        """The cell's row: its chosen model measured offline on the task's sets (and, with
+        every_candidate, each candidate); saved."""
+        demos = self.demonstrations(cell.bags)
+        config = TrainingConfig(**training_part(cell.changes), seed=cell.seed)
+        choice = choose(candidates, demos, config, cell.selection)
+        path = self.out / "models" / f"{cell.variant}_{cell.bags}_s{cell.seed}.safetensors"
+        choice.model.save(path)
+        model = model_file.value_function(choice.model)
+        numbers = analysis.key_numbers(model, demos, 20)
         row: dict = {
             "variant": cell.variant,
             "task": cell.task,
             "seed": cell.seed,
             "changes": cell.changes,
-            "model": record,
-            "sets": {},
+            "model": {
+                "train_s": sum(c.train_s + c.rollout_s for c in candidates),
+                "chosen": choice.chosen,
+                **{key: numbers[key] for key in MODEL_MEASURES},
+                "selected_features": numbers["selected_features"],
+                "kept_features": numbers["kept_features"],
+                "tensor_digest": tensor_digest(choice.model.arrays),
+            },
+            "selection": choice.provenance,
+            "sets": self._sets(cell, path, choice.model.arrays, f"{cell.variant} g{cell.seed}"),
         }
-        options = controller_options(cell.changes, cell.task, self.robot)
-        for name in TASKS[cell.task][1]:
-            records = evaluate_offline(
-                dataset(name),
-                str(path),
-                cell.max_steps,
-                jobs=self.jobs,
-                desc=f"{cell.variant} s{cell.seed} {name}",
-                controller_options=options,
-                executor=self.executor,
-            )
-            row["sets"][name] = measure_set(records)
+        if self.every_candidate:
+            row["candidates"] = [self._candidate_row(cell, c, demos) for c in candidates]
         row["key"] = self.cell_key(cell)
         row["date"] = time.strftime("%Y-%m-%d %H:%M")
         self.results.setdefault("rows", {})[cell.name] = row
@@ -332,6 +275,49 @@ class Study:
         self.cleared.add(cell.name)
         self.save()
         return row
+
+    def _candidate_row(self, cell: Cell, made, demos) -> dict:
+        """A candidate's every score and its measures on the task's sets."""
+        path = self.store.model_path(cell.bags, made.seed, self.training_key(cell, made.seed))
+        model = model_file.value_function(model_file.from_bytes(made.model))
+        scores = {name: selection_score(name, made.rollouts, demos, model) for name in SCORES}
+        arrays = model_file.from_bytes(made.model).arrays
+        return {
+            "seed": made.seed,
+            "scores": {k: (v if math.isfinite(v) else None) for k, v in scores.items()},
+            "sets": self._sets(cell, path, arrays, f"{cell.variant} g{cell.seed} s{made.seed}"),
+        }
+
+    def _sets(self, cell: Cell, path: pathlib.Path, arrays: dict, label: str) -> dict:
+        """{set name: measure_set} of the model file at path (its arrays) on the task's sets, each
+        measured once per arrays' digest, controller options and budget (study.json's
+        "evaluations")."""
+        options = controller_options(cell.changes, cell.task, self.robot)
+        sets = {}
+        for name in TASKS[cell.task][1]:
+            key = key_name(
+                {
+                    "arrays": tensor_digest(arrays),
+                    "set": name,
+                    "controller": self.controller_key(cell),
+                    "max_steps": cell.max_steps,
+                    "episode_code": code_digest(*EPISODE_CODE),
+                }
+            )
+            kept = self.results.get("evaluations", {}).get(key)
+            if kept is None:
+                records = evaluate_offline(
+                    dataset(name),
+                    str(path),
+                    cell.max_steps,
+                    jobs=self.jobs,
+                    desc=f"{label} {name}",
+                    controller_options=options,
+                    executor=self.executor,
+                )
+                kept = self.results.setdefault("evaluations", {})[key] = measure_set(records)
+            sets[name] = kept
+        return sets
 
     def _fail(self, cell: Cell, error: Exception) -> dict:
         """The row of a cell that failed (kept in study.json's "failed", not as a finished row)."""
@@ -341,15 +327,11 @@ class Study:
         self.save()
         return {"variant": cell.variant, "task": cell.task, "seed": cell.seed, "error": message}
 
-    def _model_path(self, key: str) -> pathlib.Path:
-        variant, bags, seed = key.split("/")
-        return self.out / "models" / f"{variant}_{bags}_s{seed}.safetensors"
-
     def save(self):
-        """Merge this study's models, rows and failed cells into the file (another study may have
-        written it since)."""
+        """Merge this study's rows, measured sets and failed cells into the file (another study
+        may have written it since)."""
         merged = json.loads(self.path.read_text()) if self.path.is_file() else {}
-        for part in ("models", "rows"):
+        for part in ("rows", "evaluations"):
             merged.setdefault(part, {}).update(self.results.get(part, {}))
         failed = {**merged.get("failed", {}), **self.failed}
         merged["failed"] = {k: v for k, v in failed.items() if k not in self.cleared}

@@ -4,6 +4,7 @@ checks its arguments with them before the libraries load."""
 
 import dataclasses
 
+from tric_control.selection.settings import SelectionConfig
 from tric_learning.training.hyperparameters import TrainingConfig
 
 #: Each task: the bags its model is trained on, the sets it is measured on, and the kind of its
@@ -62,11 +63,15 @@ CONTROLLER_OPTIONS = {
 #: Training procedures beyond TrainingConfig: rounds of hard negatives
 #: (tric_control.study.hard_negatives).
 PROCEDURE_OPTIONS = {"hard_negative_rounds": int}
+#: How a cell chooses its model (tric_control.selection.settings.SelectionConfig): candidates, the
+#: best kept (members) and the score that ranks them.
+SELECTION_OPTIONS = {"candidates": int, "members": int, "score": str}
 
 
 def parse_variant(text: str):
-    """(name, {field: value}) from NAME=FIELD=VALUE,FIELD=VALUE (TrainingConfig fields and
-    CONTROLLER_OPTIONS); ValueError naming a bad part."""
+    """(name, {field: value}) from NAME=FIELD=VALUE,FIELD=VALUE (TrainingConfig fields,
+    CONTROLLER_OPTIONS, PROCEDURE_OPTIONS and SELECTION_OPTIONS); ValueError naming a bad
+    part."""
     name, _, options = text.partition("=")
     if not name or not name.replace("_", "").replace("-", "").isalnum():
         raise ValueError(f"variant '{text}': the name must be letters, digits, - and _")
@@ -74,7 +79,7 @@ def parse_variant(text: str):
     changes = {}
     for option in filter(None, options.split(",")):
         key, _, value = option.partition("=")
-        extras = {**CONTROLLER_OPTIONS, **PROCEDURE_OPTIONS}
+        extras = {**CONTROLLER_OPTIONS, **PROCEDURE_OPTIONS, **SELECTION_OPTIONS}
         if (key not in fields and key not in extras) or key == "seed":
             raise ValueError(
                 f"variant '{name}': unknown option '{key}' (known: "
@@ -93,6 +98,10 @@ def parse_variant(text: str):
                     f"variant '{name}': {key} must be a {kind.__name__}, got '{value}'"
                 ) from None
     TrainingConfig(**training_part(changes)).validate()
+    try:
+        SelectionConfig(**selection_part(changes)).validate()
+    except ValueError as error:
+        raise ValueError(f"variant '{name}': {error}") from None
     if (
         changes.get("hand_lead", 0.0) < 0
         or changes.get("grasp_steps", 1) < 1
@@ -116,3 +125,8 @@ def training_part(changes: dict) -> dict:
     """The TrainingConfig fields (but the seed) of a variant's changes or a model's record."""
     fields = {f.name for f in dataclasses.fields(TrainingConfig)} - {"seed"}
     return {k: v for k, v in changes.items() if k in fields}
+
+
+def selection_part(changes: dict) -> dict:
+    """The SelectionConfig fields of a variant's changes."""
+    return {k: v for k, v in changes.items() if k in SELECTION_OPTIONS}

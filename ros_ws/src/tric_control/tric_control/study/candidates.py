@@ -1,0 +1,140 @@
+"""A study's candidates (tric-study): each trained once and rolled out from its demonstrations'
+starts (tric_control.selection.candidates), and kept under DIR/candidates: the model file and its
+training record keyed on what made the model, the rollouts keyed on the model and on what makes
+an episode (a change of the controller or the episodes' code rolls the kept model out again,
+without training it again). Every cell whose keys name them re-uses them: cells of one task and
+group that differ only in how many candidates they choose from, how many they keep or by which
+score. ROS-free."""
+
+import functools
+import hashlib
+import json
+import math
+import pathlib
+
+import numpy as np
+
+from tric_control.evaluation.records import write_json
+from tric_control.selection.candidates import Candidate, candidate, rolled_out
+from tric_control.selection.rollouts import Rollout
+from tric_control.study.hard_negatives import train_with_hard_negatives
+from tric_sim.tools.output_files import atomic_path
+
+
+def key_name(key: dict) -> str:
+    """A short, stable name of a key (its hash)."""
+    return hashlib.sha1(json.dumps(key, sort_keys=True).encode()).hexdigest()[:12]
+
+
+class CandidateStore:
+    """The candidates kept in folder: <bags>_s<seed>_<training key>.safetensors and .json (the
+    model and its training record), and <bags>_s<seed>_<rollouts key>.rollouts.json."""
+
+    def __init__(self, folder: pathlib.Path):
+        self.folder = folder
+        folder.mkdir(parents=True, exist_ok=True)
+
+    def model_path(self, bags: str, seed: int, training: dict) -> pathlib.Path:
+        """Where the candidate trained as training says keeps its model file."""
+        return self.folder / f"{bags}_s{seed}_{key_name(training)}.safetensors"
+
+    def model(self, bags: str, seed: int, training: dict):
+        """(model file bytes, its training record) trained as training says, intact; else None."""
+        path = self.model_path(bags, seed, training)
+        data = _read(path.with_suffix(".json"))
+        if data is None or data.get("key") != training or not path.is_file():
+            return None
+        content = path.read_bytes()
+        if data.get("sha1") != hashlib.sha1(content).hexdigest():
+            return None
+        return content, data
+
+    def get(self, bags: str, seed: int, training: dict, rollouts: dict) -> Candidate | None:
+        """The kept candidate trained as training says and rolled out as rollouts says, or
+        None."""
+        model = self.model(bags, seed, training)
+        data = _read(self.folder / f"{bags}_s{seed}_{key_name(rollouts)}.rollouts.json")
+        if model is None or data is None or data.get("key") != rollouts:
+            return None
+        content, record = model
+        return Candidate(
+            seed,
+            content,
+            record["record"],
+            [_rollout(r) for r in data["rollouts"]],
+            record["train_s"],
+            data["rollout_s"],
+        )
+
+    def put(self, bags: str, training: dict, rollouts: dict, made: Candidate) -> None:
+        """Keep a made candidate (its model unless kept already, and its rollouts)."""
+        path = self.model_path(bags, made.seed, training)
+        if self.model(bags, made.seed, training) is None:
+            with atomic_path(path) as temporary:
+                temporary.write_bytes(made.model)
+            write_json(
+                path.with_suffix(".json"),
+                {
+                    "key": training,
+                    "sha1": hashlib.sha1(made.model).hexdigest(),
+                    "record": made.record,
+                    "train_s": made.train_s,
+                },
+            )
+        write_json(
+            self.folder / f"{bags}_s{made.seed}_{key_name(rollouts)}.rollouts.json",
+            {
+                "key": rollouts,
+                "rollout_s": made.rollout_s,
+                "rollouts": [rollout.to_dict() for rollout in made.rollouts],
+            },
+        )
+
+
+def study_candidate(
+    dataset, config, max_steps: int, controller_options, rounds: int, kept=None
+) -> Candidate:
+    """A study's candidate (run on its executor): the kept model (kept: (model file bytes, its
+    training record), or None) rolled out again, or a model trained as the selection trains one,
+    or with `rounds` rounds of hard negatives (tric_control.study.hard_negatives), then rolled
+    out."""
+    if kept is not None:
+        content, record = kept
+        return rolled_out(
+            dataset,
+            content,
+            config.seed,
+            record["record"],
+            record["train_s"],
+            max_steps,
+            controller_options,
+        )
+    fit = (
+        functools.partial(train_with_hard_negatives, rounds=rounds, max_steps=max_steps)
+        if rounds
+        else None
+    )
+    return candidate(dataset, config, max_steps, controller_options, fit)
+
+
+def _read(path: pathlib.Path):
+    """A kept JSON file's data, or None when it is missing or unreadable."""
+    try:
+        return json.loads(path.read_text())
+    except (OSError, ValueError):
+        return None
+
+
+def _rollout(data: dict) -> Rollout:
+    """A Rollout from its to_dict() (None back to NaN)."""
+    nan = lambda value: math.nan if value is None else value  # noqa: E731
+    return Rollout(
+        data["demo"],
+        np.array(data["q"], dtype=float),
+        np.array(data["y"], dtype=float),
+        nan(data["value_start"]),
+        nan(data["value_end"]),
+        data["steps"],
+        data["outcome"],
+        {k: nan(v) if k in ("grasp_cost", "lid_angle") else v for k, v in data["judged"].items()},
+    )

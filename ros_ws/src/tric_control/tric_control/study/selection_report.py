@@ -1,0 +1,107 @@
+"""The selection's own study (tric-study --every-candidate): how each score ranks a cell's
+candidates against their results on the task's validation set, and what choosing the best of the
+first S of each group by it gives, beside a candidate drawn blindly and the best in hindsight.
+ROS-free; plain numbers from study.json's rows.
+
+The validation result of a candidate: its mean grasp cost on the task's validation set (lower is
+better), or minus its boxes opened. A group is a cell (variant, task, group seed) with its
+candidates measured."""
+
+import math
+
+import numpy as np
+from scipy.stats import spearmanr
+
+from tric_control.selection.settings import SCORES
+from tric_control.study.variants import TASKS
+
+
+def validation_result(sets: dict, task: str) -> float:
+    """A model's result on the task's validation set (its last set): lower is better."""
+    measured = sets[TASKS[task][1][-1]]
+    return -float(measured["opened"]) if "opened" in measured else float(measured["cost_mean"])
+
+
+def selection_report(rows: list) -> dict:
+    """{(variant, task): {"groups": count, "spearman": {score: rho}, "best_of": {S: {score: [the
+    chosen candidate's validation result per group]}, "blind": {S: [per group]}, "hindsight":
+    {S: [per group]}, "picks_best": {S: {score: groups where the score picked the hindsight
+    best}}}} over the rows that hold their candidates (every_candidate)."""
+    groups: dict = {}
+    for row in rows:
+        if "candidates" in row:
+            groups.setdefault((row["variant"], row["task"]), []).append(row)
+    report = {}
+    for (variant, task), cells in groups.items():
+        candidates = [
+            [(c["scores"], validation_result(c["sets"], task)) for c in row["candidates"]]
+            for row in cells
+        ]
+        results = [v for group in candidates for _, v in group]
+        spearman = {}
+        for name in SCORES:
+            scored = [(s[name], v) for group in candidates for s, v in group if s[name] is not None]
+            finite = [(s, v) for s, v in scored if math.isfinite(s)]
+            spearman[name] = (
+                float(spearmanr(*zip(*finite)).correlation) if len(finite) > 2 else math.nan
+            )
+        sizes = range(1, min(len(group) for group in candidates) + 1)
+        best_of, blind, hindsight, picks = {}, {}, {}, {}
+        for size in sizes:
+            firsts = [group[:size] for group in candidates]
+            blind[size] = [float(np.mean([v for _, v in group])) for group in firsts]
+            hindsight[size] = [min(v for _, v in group) for group in firsts]
+            best_of[size], picks[size] = {}, {}
+            for name in SCORES:
+                chosen = [min(group, key=lambda c, n=name: _rank(c[0][n]))[1] for group in firsts]
+                best_of[size][name] = chosen
+                picks[size][name] = sum(c == h for c, h in zip(chosen, hindsight[size]))
+        report[(variant, task)] = {
+            "groups": len(cells),
+            "candidates": len(results),
+            "spearman": spearman,
+            "best_of": best_of,
+            "blind": blind,
+            "hindsight": hindsight,
+            "picks_best": picks,
+        }
+    return report
+
+
+def _rank(score) -> float:
+    """A score for ranking: missing or non-finite (failed rollouts) last."""
+    return score if score is not None and math.isfinite(score) else math.inf
+
+
+def report_lines(report: dict) -> list:
+    """The report as text lines, one block per variant and task."""
+    lines = []
+    for (variant, task), numbers in report.items():
+        unit = "boxes opened" if task == "box" else "mean cost"
+        sign = -1 if task == "box" else 1
+        lines.append(
+            f"{variant} / {task}: {numbers['candidates']} candidates in {numbers['groups']} "
+            f"groups; the validation {unit} of the candidate each score chooses"
+        )
+        spearman = ", ".join(
+            f"{name} {rho:+.2f}" for name, rho in numbers["spearman"].items() if math.isfinite(rho)
+        )
+        lines.append(f"  Spearman against the validation result: {spearman}")
+        for size, by_score in numbers["best_of"].items():
+            lines.append(
+                f"  best of {size}: blind {_cells(numbers['blind'][size], sign)}, hindsight "
+                f"{_cells(numbers['hindsight'][size], sign)}"
+            )
+            for name, chosen in by_score.items():
+                best = numbers["picks_best"][size][name]
+                lines.append(
+                    f"    {name:10s} {_cells(chosen, sign)}, the best in {best} of "
+                    f"{numbers['groups']}"
+                )
+    return lines
+
+
+def _cells(values, sign: int) -> str:
+    """'a/b/c (mean m)' of per-group values, each times sign (boxes: opened, not minus it)."""
+    values = [sign * v for v in values]
+    return f"{'/'.join(format(v, '.3g') for v in values)} (mean {np.mean(values):.3g})"
