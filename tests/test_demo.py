@@ -13,8 +13,15 @@ import pytest
 
 from conftest import REFERENCE_BAGS
 from tric_control import demo, demo_cli
+from tric_control.selection.candidates import rolled_out
+from tric_control.selection.choice import choose
+from tric_control.selection.select_model import Selection
+from tric_control.selection.settings import SelectionConfig
+from tric_learning.bags.loader import bag_paths, load_dataset
+from tric_learning.training.dataset import Dataset
 from tric_learning.training.value import TrainingConfig
 from tric_sim.world import situations
+from tric_sim.world.robot_model import RobotModel
 
 BAGS = REFERENCE_BAGS / "sphere"
 PNG = b"\x89PNG\r\n\x1a\n"
@@ -40,14 +47,23 @@ def test_tric_demo_on_the_reference_bags(tmp_path, monkeypatch, capsys, referenc
     cut_down(monkeypatch, test=tests)
     asked = []
 
-    def trained(bags, model, config):
-        asked.append((pathlib.Path(bags), config))
-        return reference_sphere_training
+    def trained(bags, model, config, jobs):
+        """The session's reference training as the one candidate of a selection, rolled out from
+        two of the demonstrations' starts (the tool's own selection is tested below)."""
+        asked.append((pathlib.Path(bags), config, jobs))
+        demos = load_dataset(bag_paths([bags]), RobotModel())
+        demos = Dataset(demos.definition, demos.demos[12:14])
+        content = reference_sphere_training.path.read_bytes()
+        record = {"losses": reference_sphere_training.result.losses}
+        made = rolled_out(demos, content, 0, record)
+        choice = choose([made], demos, config, SelectionConfig(candidates=1))
+        choice.model.save(model)
+        return Selection(choice, demos, [made], made.rollout_s, model)
 
     monkeypatch.setattr(demo, "train", trained)
     out = tmp_path / "results"
     status = demo_cli.main(["--reuse", str(BAGS), "--out", str(out), "--check", "--jobs", "2"])
-    assert asked == [(BAGS, TrainingConfig())]
+    assert asked == [(BAGS, TrainingConfig(), 2)]
     report = json.loads((out / "demo.json").read_text())
     assert report["episodes"] == 4 and report["bags"] == str(BAGS)
     for agent in ("teacher", "tric"):
@@ -78,9 +94,10 @@ def test_tric_demo_on_the_reference_bags(tmp_path, monkeypatch, capsys, referenc
 def test_tric_demo_records_its_demonstrations_and_check_fails_when_tric_misses(
     tmp_path, monkeypatch, capsys
 ):
-    """Without --reuse: two sphere-grid demonstrations recorded through the nodes, one L-BFGS
-    iteration (a model that cannot grasp), one test sphere: the targets are reported as not met and
-    --check makes the exit code 1; the results are written all the same."""
+    """Without --reuse: two sphere-grid demonstrations recorded through the nodes, the default
+    selection's candidates trained for one L-BFGS iteration each (models that cannot grasp) and
+    rolled out from the two starts, one test sphere: the targets are reported as not met and
+    --check makes the exit code 1; the results are written all the same, with every candidate."""
     cut_down(
         monkeypatch,
         train=situations.sphere_grid()[12:14],
@@ -96,6 +113,9 @@ def test_tric_demo_records_its_demonstrations_and_check_fails_when_tric_misses(
     ]
     report = json.loads((out / "demo.json").read_text())
     assert report["episodes"] == 2 and report["tric"]["summary"]["good_grasps"] == 0
+    candidates = report["training"]["candidates"]
+    assert sorted(c["seed"] for c in candidates) == list(range(SelectionConfig().candidates))
+    assert [c["seed"] for c in candidates if c["chosen"]] == report["training"]["chosen"]
     assert report["tric"]["episodes"][0]["grasp_cost"] >= 0.25
     assert (out / "demo.png").read_bytes()[:8] == PNG
 

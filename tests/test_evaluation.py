@@ -322,7 +322,7 @@ def test_discussions_follow_the_numbers():
         "0.040/0.045/0.030 (mean 0.038, min 0.030, max 0.045)" in close
         and "the gaps +0.020/+0.025/+0.010" in close
     )
-    assert "Every seed reproduces the paper's result" in close
+    assert "Every group reproduces the paper's result" in close
     far = table1.discussion(
         {
             "teacher": grasp_row(0.02),
@@ -331,7 +331,7 @@ def test_discussions_follow_the_numbers():
             ),
         }
     )
-    assert "We fall short of the paper with seed 1, seed 2." in far and "collisions 0/0/1" in far
+    assert "We fall short of the paper with group 1, group 2." in far and "collisions 0/0/1" in far
 
     def fig8_rows(costs, few_good=15):
         """Rows of every Fig. 8 setting: costs[(N, M)] for the default variant, 0.1 more for the
@@ -379,8 +379,8 @@ def test_discussions_follow_the_numbers():
     }
     text = table3.discussion(cylinders)
     assert (
-        "Every seed and draw meets the design's targets" in text
-        and "K = 30 beats K = 0 with every seed" in text
+        "Every group and draw meets the design's targets" in text
+        and "K = 30 beats K = 0 with every group" in text
     )
     assert "Of TRIC K = 30's good test grasps, 96% came to rest" in text
     cylinders["TRIC K = 30"]["seeds"][1] = grasp_row(0.35, good=7, lift=4, episodes=10)
@@ -389,8 +389,8 @@ def test_discussions_follow_the_numbers():
     )
     text = table3.discussion(cylinders)
     assert (
-        "TRIC K = 30: seed 1; TRIC K = 30, 2nd draw (val): seed 2." in text
-        and "K = 30 beats K = 0 with seeds 0, 2 only" in text
+        "TRIC K = 30: group 1; TRIC K = 30, 2nd draw (val): group 2." in text
+        and "K = 30 beats K = 0 with groups 0, 2 only" in text
     )
 
     def boxes(tric, joint, finger):
@@ -408,7 +408,7 @@ def test_discussions_follow_the_numbers():
     text = table4.discussion(boxes([24, 23, 25], [2, 1, 3], [9, 8, 7]))
     assert "TRIC 24/23/25 (mean 24.0, min 23, max 25) (the paper 24)" in text
     assert (
-        "TRIC opens at least 23 with every seed" in text
+        "TRIC opens at least 23 with every group" in text
         and "Both DPL variants open fewer boxes" in text
     )
     text = table4.discussion(boxes([24, 12, 25], [2, 13, 3], [9, 8, 7]))

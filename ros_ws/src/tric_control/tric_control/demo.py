@@ -1,6 +1,7 @@
 """tric-demo's job (tric_control.demo_cli checks its arguments first): record the sphere-grid
-demonstrations (or reuse bags), train TRIC, evaluate the teacher and TRIC on the 15 test spheres
-through the nodes, and write demo.json and the figures."""
+demonstrations (or reuse bags), train TRIC's candidates and choose the model
+(tric_control.selection), evaluate the teacher and TRIC on the 15 test spheres through the nodes,
+and write demo.json and the figures."""
 
 import json
 import math
@@ -15,12 +16,15 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from tqdm import tqdm  # noqa: E402
 
+from tric_control.evaluation.executors import ProcessExecutor  # noqa: E402
 from tric_control.evaluation.graph import evaluate  # noqa: E402
 from tric_control.evaluation.records import report, summarize, write_json  # noqa: E402
 from tric_control.experiments.paper import PAPER_TEACHER, PAPER_TRIC  # noqa: E402
 from tric_control.experiments.targets import MARGIN_TO_TEACHER  # noqa: E402
+from tric_control.selection.select_model import select_from_bags  # noqa: E402
+from tric_control.selection.settings import SelectionConfig  # noqa: E402
 from tric_learning.demonstrations import demonstrate_all  # noqa: E402
-from tric_learning.training.value import TrainingConfig, train_from_bags  # noqa: E402
+from tric_learning.training.value import TrainingConfig  # noqa: E402
 from tric_sim.physics.metrics import GOOD_GRASP  # noqa: E402
 from tric_sim.ros.dds_domains import private_domain_id  # noqa: E402
 from tric_sim.tools.output_files import atomic_path  # noqa: E402
@@ -44,21 +48,25 @@ def record(out: pathlib.Path, domain_id: int, view=None) -> pathlib.Path:
     return bags
 
 
-def train(bags: pathlib.Path, model: pathlib.Path, config: TrainingConfig):
-    """Train TRIC on the bags with a progress bar; the BagTraining."""
-    bar = tqdm(total=100, desc="training", unit="%")
+def train(bags: pathlib.Path, model: pathlib.Path, config: TrainingConfig, jobs: int):
+    """Train TRIC's candidates on the bags, jobs at once in spawned processes, and choose the
+    model (the default selection), with a progress bar; the selection (Selection)."""
+    selection = SelectionConfig()
+    bar = tqdm(total=selection.candidates, desc="candidates", unit="model")
 
-    def progress(stage, fraction, losses):
-        bar.set_description(f"training ({stage})")
-        bar.n = round(100 * fraction)
-        if losses and "iteration" in losses:
-            bar.set_postfix_str(
-                f"L_n {losses['n']:.3f} L_g {losses['g']:.3f} |w| {losses['w']:.0f}"
-            )
-        bar.refresh()
+    def progress(stage, done, total, candidate):
+        if stage == "candidates":
+            bar.update(done - bar.n)
+            if candidate is not None and not isinstance(candidate, Exception):
+                bar.set_postfix_str(
+                    f"seed {candidate.seed}: trained {candidate.train_s:.0f} s, rolled out "
+                    f"{candidate.rollout_s:.0f} s"
+                )
 
     try:
-        return train_from_bags([bags], model, config, RobotModel(), progress)
+        return select_from_bags(
+            [bags], model, config, selection, RobotModel(), ProcessExecutor(), jobs, progress
+        )
     finally:
         bar.close()
 
@@ -121,13 +129,19 @@ def run_demo(args, out: pathlib.Path) -> int:
         else:
             print("[1/4] recording the 27 sphere-grid demonstrations with the teacher")
             bags = record(work, domain_id, view)
-        print("[2/4] training TRIC (TrainingConfig's defaults: K = 30, M = 60, docs/fidelity.md)")
-        trained = train(bags, work / "tric_sphere.safetensors", config)
-        result = trained.result
+        selection = SelectionConfig()
         print(
-            f"      {trained.path}: {result.selected_features} selected features, L_n "
-            f"{result.losses['n']:.3f}, L_g {result.losses['g']:.3f}, trained in "
-            f"{result.train_time_s:.1f} s"
+            f"[2/4] training {selection.candidates} TRIC candidates (TrainingConfig's defaults: K "
+            "= 30, M = 60, docs/fidelity.md), each rolled out from the demonstrations' starts, and "
+            "choosing one (docs/decisions/model-selection.md)"
+        )
+        trained = train(bags, work / "tric_sphere.safetensors", config, args.jobs)
+        info = trained.choice.model.info
+        print(
+            f"      {trained.path}: seed {', '.join(map(str, trained.choice.chosen))} chosen by "
+            f"the score '{selection.score}', {info['selected_features']} selected features, L_n "
+            f"{info['losses']['n']:.3f}, L_g {info['losses']['g']:.3f}; trained and chosen in "
+            f"{trained.wall_s:.1f} s"
         )
         print("[3/4] the teacher on the 15 test situations")
         tests = dataset("sphere_test")
@@ -160,7 +174,7 @@ def run_demo(args, out: pathlib.Path) -> int:
         "tric_cost_max": rs["grasp_cost_max"],
         "tric_lift_passed": rs["lift_passed"],
         "episodes": len(teacher) + len(tric),
-        "train_s": result.train_time_s,
+        "train_s": trained.wall_s,
         "total_s": total,
     }
     write_json(
@@ -169,7 +183,15 @@ def run_demo(args, out: pathlib.Path) -> int:
             **summary,
             "model": str(trained.path),
             "bags": str(bags),
-            "training": {"losses": result.losses, "selected_features": result.selected_features},
+            "training": {
+                "losses": info["losses"],
+                "selected_features": info["selected_features"],
+                "chosen": trained.choice.chosen,
+                "candidates": [
+                    {"seed": row["seed"], "score": row["score"], "chosen": row["chosen"]}
+                    for row in trained.choice.provenance["candidates"]
+                ],
+            },
             "tric": report(tric),
             "teacher": report(teacher),
         },

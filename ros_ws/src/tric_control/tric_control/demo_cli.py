@@ -6,13 +6,16 @@
 1. Record the paper's 27 sphere-grid demonstrations with the teacher through the real nodes
    (simulator in lockstep, teacher, recorder) into DIR/demo/bags, or, with --reuse, take the bags
    in BAGS (default: the reference set bags/sphere).
-2. Train TRIC on them with the defaults (K = 30, M = 60, alpha = 1, 30, 0.001: the paper's but for
-   alpha_g, see tric_learning.training.value).
+2. Train TRIC's candidates on them with the defaults (K = 30, M = 60, alpha = 1, 30, 0.001: the
+   paper's but for alpha_g, see tric_learning.training.value), --jobs at once in spawned processes,
+   roll each out from the demonstrations' starts and choose the model (tric_control.selection,
+   docs/decisions/model-selection.md).
 3. Evaluate the teacher and the learned controller on the 15 test situations (paper Table 1),
    through the simulator, teacher and controller nodes, judged by the hidden metrics; --jobs
    (default: the number of CPUs) graphs of them at once, each in a process of its own.
 4. Print the Table 1 comparison; write DIR/demo.json (teacher_cost_mean, tric_cost_mean,
-   tric_cost_max, tric_lift_passed, episodes, train_s, total_s; and under "tric" and "teacher"
+   tric_cost_max, tric_lift_passed, episodes, train_s (the candidates and the choice), total_s; the
+   chosen seeds and every candidate's score under "training"; and under "tric" and "teacher"
    each agent's summary and per-episode records),
    DIR/demo.png (grasp costs per test situation) and DIR/demo_grasp.png (one TRIC grasp).
 
@@ -62,7 +65,7 @@ def run(argv) -> int:
         "--jobs",
         type=int,
         default=os.cpu_count() or 1,
-        help="evaluation graphs run at once (default: the number of CPUs)",
+        help="candidates trained and evaluation graphs run at once (default: the number of CPUs)",
     )
     parser.add_argument("--check", action="store_true", help="exit 1 when TRIC misses its targets")
     add_view_arguments(parser)

@@ -1,8 +1,9 @@
 """tric-experiments --check: the experiments' results (their JSON) against the design's targets
-(targets.py, docs/design.md section 5), each target for every training seed.
+(targets.py, docs/design.md section 5), each target for every group (TRIC: the model chosen among
+a group's candidates; DPL: one seed).
 
-Each check is one target of one experiment: its text, the measured value of each seed, and whether
-every seed meets it. An experiment without a target (fig8, table2, fig9: curves to look at) has no
+Each check is one target of one experiment: its text, the measured value of each group, and whether
+every group meets it. An experiment without a target (fig8, table2, fig9: curves to look at) has no
 check; one whose JSON is missing, or holds no rows, is skipped.
 """
 
@@ -49,7 +50,7 @@ def check_results(results: dict) -> list:
 
 def check_table(checks: list) -> str:
     """The checks as a table: experiment, target, each seed's value, met or MISSED."""
-    lines = [f"{'experiment':10s} {'met':6s} {'target':68s} measured (seeds 0/1/2)"]
+    lines = [f"{'experiment':10s} {'met':6s} {'target':68s} measured (groups 0/100/200)"]
     for check in checks:
         lines.append(
             f"{check.experiment:10s} {'yes' if check.met else 'MISSED':6s} {check.target:68s} "

@@ -20,10 +20,10 @@ NAME (default: all, in this order):
   exp5      stability (ours): 10 sphere test situations pushed (0.1, 0.2, 0.4 rad), with the
             target jumping (2, 5, 10 cm) or drifting (2 cm/s) mid-approach, from random starts
             (0.1, 0.2, 0.4 rad), and 10 test boxes pushed with the finger under the lip: TRIC, DPL
-            in joint space (three seeds each) and the teacher; success against the perturbation's
+            in joint space (three groups each) and the teacher; success against the perturbation's
             size, and f and the joint speed through a push.
   exp5_wide wider situations than the training sets' (box_wide, sphere_wide, cylinder_wide): the
-            models of Tables 1, 3, 4 and DPL (three seeds each) and the teacher; success against
+            models of Tables 1, 3, 4 and DPL (three groups each) and the teacher; success against
             the distance from the training range.
   analysis  the sphere, cylinder and box models on their demonstrations (paper Fig. 12-17), three
             seeds each: f along every demo, the cosines of L_g, the collision prior, kernel PCA,
@@ -43,7 +43,7 @@ from its numbers; DIR/REPORT.md is then rewritten from every experiment's JSON f
 table beside the paper's numbers and followed by its discussion, and the results page (default
 DIR/results.md; --results-page FILE: elsewhere, its figures linked relative to it): each
 experiment's discussion, the paper's numbers and its figures. --check then compares every
-experiment's results found in DIR with the design's targets, each for every seed
+experiment's results found in DIR with the design's targets, each for every group
 (tric_control.experiments.checks), prints them and exits 1 if one is missed; --check-only does
 that without running anything; --report-only rewrites the report and the results page from the
 folder's JSON without running anything.
@@ -108,7 +108,7 @@ def run(argv) -> int:
         "--check",
         action="store_true",
         help="after the runs, compare every experiment's results in the folder with the design's "
-        "targets (for every seed); exit 1 if one is missed",
+        "targets (for every group); exit 1 if one is missed",
     )
     parser.add_argument(
         "--check-only", action="store_true", help="--check the folder's results, run nothing"
@@ -217,7 +217,7 @@ def check_folder(out) -> int:
     if not checks:
         print(f"tric-experiments: {out} holds no results with targets", file=sys.stderr)
         return 2
-    print(f"\nthe design's targets, each for every seed:\n{check_table(checks)}")
+    print(f"\nthe design's targets, each for every group:\n{check_table(checks)}")
     return 0 if all(check.met for check in checks) else 1
 
 

@@ -8,8 +8,8 @@ from tric_sim.world import situations
 
 #: The experiment's heading in the report and the log.
 TITLE = (
-    "The sphere model (three training seeds) with an obstacle in the approach path, never "
-    "seen in training."
+    "The sphere model (three groups: each the model chosen among its candidates) with an obstacle "
+    "in the approach path, never seen in training."
 )
 
 
@@ -25,18 +25,18 @@ def discussion(rows: dict) -> str:
     n = tric["episodes"]
     text = (
         f"Behind the unseen obstacle TRIC grasps {spread(tric['good'])} of {n} spheres well "
-        f"(seeds {'/'.join(map(str, tric['seeds']))}; mean cost "
+        f"(groups {'/'.join(map(str, tric['seeds']))}; mean cost "
         f"{spread([r['cost_mean'] for r in tric['seeds'].values()], '.3f')}) with "
         f"{'/'.join(map(str, tric['collisions']))} collisions. "
     )
     if not any(tric["collisions"]) and min(tric["good"]) == n:
         text += (
-            "This matches the paper with every seed: the collision prior steers it to another "
+            "This matches the paper with every group: the collision prior steers it to another "
             "grasp. "
         )
     elif not any(tric["collisions"]):
         text += (
-            "As in the paper it never collides, but not every grasp is good with every seed, so "
+            "As in the paper it never collides, but not every grasp is good with every group, so "
             "we fall short of the paper there. "
         )
     else:

@@ -23,7 +23,7 @@ from tric_sim.world.perturbation_trials import PERTURB_AT_S, Trial  # noqa: E402
 #: The experiment's heading in the report and the log.
 TITLE = (
     "Stability: pushes, a target that jumps or drifts, and random starts, on 10 sphere and 10 box "
-    "test situations; TRIC and DPL in joint space with three training seeds each, and the teacher."
+    "test situations; TRIC and DPL in joint space with three groups each, and the teacher."
 )
 
 #: Situations per trial.
@@ -52,7 +52,7 @@ AGENTS: dict[str, dict[str, dict[str, Any]]] = {
         "DPL joint space": dict(name="box_dpl_joint", bags="box", kind="dpl_joint"),
     },
 }
-#: The push of the trace figure (f and the joint speed through it): TRIC, first seed.
+#: The push of the trace figure (f and the joint speed through it): TRIC, first group.
 TRACE = ("sphere_test_00", Trial("push", 0.4))
 
 
@@ -199,7 +199,7 @@ def trace_text(trace: dict) -> str:
     back = t[(t > peak_t) & (f < before)]
     last = speed[t > t[-1] - 1.0]
     return (
-        f"Through the push of {trace['situation']} (TRIC, first seed), f rises from "
+        f"Through the push of {trace['situation']} (TRIC, first group), f rises from "
         f"{before:.1f} to {np.nanmax(f[after]):.1f} and is back below {before:.1f} "
         + (f"{back[0] - at:.2f} s after the push" if back.size else "never")
         + f"; the grasp is {'a success' if trace['success'] else 'a failure'} "
@@ -236,7 +236,7 @@ def discussion(rows: dict, trace: dict | None = None) -> str:
     teacher_total = total(rows["teacher"]["seeds"]["-"])
     text = (
         f"Of {episodes} perturbed episodes, TRIC succeeds in "
-        f"{'/'.join(map(str, tric_totals))} (seeds {', '.join(tric)}), DPL in joint space in "
+        f"{'/'.join(map(str, tric_totals))} (groups {', '.join(tric)}), DPL in joint space in "
         f"{'/'.join(map(str, dpl_totals))}, the teacher in {teacher_total}. "
     )
     if min(tric_totals) > max(dpl_totals):
@@ -283,7 +283,7 @@ def discussion(rows: dict, trace: dict | None = None) -> str:
 
 def _trace(runner: Runner) -> dict:
     """f, the arm's joint speed and the hand's distance from its final place through TRACE's push,
-    TRIC trained with the first seed, offline (the same controller core as the node's)."""
+    TRIC chosen from the first group, offline (the same controller core as the node's)."""
     from tric_control.evaluation.offline import OfflineEvaluator
 
     name, trial = TRACE

@@ -21,7 +21,7 @@ from tric_sim.world import situations  # noqa: E402
 TITLE = (
     "Wider situations than the training sets': boxes turned within +-45 degrees on widened "
     "ranges, spheres up to 10 cm outside the grid, cylinders turned beyond [0, pi/2]; TRIC and "
-    "DPL (three seeds each) and the teacher."
+    "DPL (three groups each) and the teacher."
 )
 
 #: Each wide set's agents (Runner.model's arguments; None: the teacher).
@@ -128,9 +128,9 @@ def discussion(rows: dict) -> str:
             for cell in seeds.values()
         ]
         text += (
-            ": TRIC holds up better than DPL with every seed."
+            ": TRIC holds up better than DPL with every group."
             if min(tric) > max(dpl)
-            else f": TRIC does not hold up better than DPL with every seed (TRIC at worst "
+            else f": TRIC does not hold up better than DPL with every group (TRIC at worst "
             f"{min(tric)}, DPL at best {max(dpl)})."
         )
         parts.append(text)

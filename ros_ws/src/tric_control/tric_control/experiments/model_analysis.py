@@ -23,10 +23,7 @@ from tric_learning.model_file import ModelFile
 from tric_learning.training.value import SELECTED_FRACTION
 
 #: The experiment's heading in the report and the log.
-TITLE = (
-    "The models of spheres, cylinders and boxes (three training seeds each) on their "
-    "demonstrations:"
-)
+TITLE = "The models of spheres, cylinders and boxes (three groups each) on their demonstrations:"
 
 
 #: The analysis' tasks: the bags each model is trained on, and the model's name.
@@ -121,7 +118,7 @@ def discussion(rows: dict) -> str:
                 f"{SLOW_COSINE_TARGET}"
             )
         parts.append(text + ".")
-    text = "Over the training seeds " + "/".join(map(str, SEEDS)) + ": " + " ".join(parts) + " "
+    text = "Over the groups " + "/".join(map(str, SEEDS)) + ": " + " ".join(parts) + " "
     sphere = rows["sphere"][SEEDS[0]]
     early, late = sphere["cosine_moving_early"], sphere["cosine_moving_late"]
     if math.isfinite(late):

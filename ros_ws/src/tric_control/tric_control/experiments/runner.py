@@ -1,7 +1,9 @@
-"""The experiments' runner: trains (or re-uses) their models under DIR/models and evaluates
-them through the real nodes, each evaluation kept under DIR/episodes, re-used when made as asked
-and continued after an interrupt (tric_control.evaluation.kept); the trainings and episodes run on
-an executor (tric_control.evaluation.executors: processes here, or Ray)."""
+"""The experiments' runner: chooses (or re-uses) their models under DIR/models as a training
+chooses them (TRIC: the best of the default selection's candidates from each group seed,
+tric_control.selection; DPL: one model a seed) and evaluates them through the real nodes, each
+evaluation kept under DIR/episodes, re-used when made as asked and continued after an interrupt
+(tric_control.evaluation.kept); the candidates, trainings and episodes run on an executor
+(tric_control.evaluation.executors: processes here, or Ray)."""
 
 import pathlib
 
@@ -10,6 +12,8 @@ import torch
 from tric_control.evaluation.executors import ProcessExecutor
 from tric_control.evaluation.graph import evaluate
 from tric_control.evaluation.kept import kept_evaluation
+from tric_control.selection.select_model import chosen_as, select_model
+from tric_control.selection.settings import SelectionConfig
 from tric_learning import model_file
 from tric_learning.bags.loader import load_dataset
 from tric_learning.training import dpl
@@ -23,9 +27,10 @@ from tric_sim.world.robot_model import RobotModel
 BAGS = pathlib.Path("bags")
 
 
-#: The training seeds of every model of Tables 1, 3, 4 and Exp. 4 (a seed draws the noisy samples
-#: and the initial weights): a result holds over all of them, not for one draw.
-SEEDS = (0, 1, 2)
+#: The group seeds of every model of Tables 1, 3, 4 and Exps. 4 and 5: TRIC's candidates are drawn
+#: from G, G + 1, ... (a seed draws the noisy samples and the initial weights), DPL's model from G;
+#: a result holds over all three independent groups, not for one draw.
+SEEDS = (0, 100, 200)
 
 
 def trained_model_file(kind: str, dataset: Dataset, config, threads: int):
@@ -62,36 +67,47 @@ class Runner:
     def model(
         self, name: str, bags: str, kind: str = "tric", hidden_units: int = 30, seed: int = 0
     ) -> pathlib.Path:
-        """The model file out/models/<name>_s<seed>.safetensors, trained on bags/<bags> unless a
-        model made as asked is there (model_file.made_as: the kind, hyper-parameters, dataset and
-        training code); TRIC: with the defaults but hidden_units; the seed draws the noisy samples
-        and the initial weights, or DPL's initial weights."""
+        """The model file out/models/<name>_s<seed>.safetensors, made on bags/<bags> unless a model
+        made as asked is there: TRIC chosen by the default selection among candidates from the
+        group seed (the defaults but hidden_units; selection.select_model.chosen_as), DPL trained
+        with the seed's initial weights (model_file.made_as: the kind, hyper-parameters, dataset
+        and training code)."""
         path = self.out / "models" / f"{name}_s{seed}.safetensors"
         dataset = self.demonstrations(bags)
-        config: TrainingConfig | dpl.DplConfig
         if kind == "tric":
-            config = TrainingConfig(hidden_units=hidden_units, seed=seed)
-            code = code_digest("tric_learning.training.value")
-        else:
-            config, code = dpl.DplConfig(seed=seed), code_digest("tric_learning.training.dpl")
+            config, selection = (
+                TrainingConfig(hidden_units=hidden_units, seed=seed),
+                SelectionConfig(),
+            )
+            if not chosen_as(path, dataset, config, selection):
+                print(
+                    f"choosing {name} (group {seed}) among {selection.candidates} candidates "
+                    f"trained on {BAGS / bags}",
+                    flush=True,
+                )
+                chosen = select_model(dataset, config, selection, self.executor, self.jobs)
+                chosen.choice.model.save(path)
+            return path
+        config, code = dpl.DplConfig(seed=seed), code_digest("tric_learning.training.dpl")
         if not model_file.made_as(path, kind, config.to_dict(), dataset.fingerprint, code):
             print(f"training {name} (seed {seed}) on {BAGS / bags}", flush=True)
             self._train(kind, dataset, config).save(path)
         return path
 
     def over_seeds(self, tests, label: str, max_steps: int = 0, **model) -> dict:
-        """{seed: [EpisodeRecord]} of the model (Runner.model's arguments) trained with each of
+        """{seed: [EpisodeRecord]} of the model (Runner.model's arguments) made from each of
         SEEDS."""
         return {
             seed: self.evaluate(
-                tests, self.model(**model, seed=seed), f"{label}, seed {seed}", max_steps
+                tests, self.model(**model, seed=seed), f"{label}, group {seed}", max_steps
             )
             for seed in SEEDS
         }
 
     def trained(self, name: str, dataset: Dataset, config: TrainingConfig) -> pathlib.Path:
-        """The TRIC model file out/models/<name>.safetensors, trained on dataset with config unless
-        a model made as asked is there (model_file.made_as)."""
+        """The TRIC model file out/models/<name>.safetensors, one training on dataset with config
+        (no choice among candidates: the paper's sweeps, Fig. 8) unless a model made as asked is
+        there (model_file.made_as)."""
         path = self.out / "models" / f"{name}.safetensors"
         code = code_digest("tric_learning.training.value")
         if not model_file.made_as(path, "tric", config.to_dict(), dataset.fingerprint, code):

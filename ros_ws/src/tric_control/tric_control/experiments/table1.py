@@ -8,7 +8,8 @@ from tric_sim.world import situations
 
 #: The experiment's heading in the report and the log.
 TITLE = (
-    "Spheres: the teacher and TRIC K = 30 (three training seeds) on the 15 sphere test situations."
+    "Spheres: the teacher and TRIC K = 30 (three groups: each the model chosen among its "
+    "candidates) on the 15 sphere test situations."
 )
 
 
@@ -28,7 +29,7 @@ def discussion(rows: dict) -> str:
     seeds = tric["seeds"]
     gaps = [r["cost_mean"] - teacher["cost_mean"] for r in seeds.values()]
     text = (
-        f"Over the training seeds {'/'.join(map(str, seeds))}, TRIC's mean grasp cost is "
+        f"Over the groups {'/'.join(map(str, seeds))}, TRIC's mean grasp cost is "
         f"{spread([r['cost_mean'] for r in seeds.values()], '.3f')} against our teacher's "
         f"{teacher['cost_mean']:.3f} +- {teacher['cost_std']:.3f}; the gaps "
         f"{'/'.join(format(g, '+.3f') for g in gaps)} (the design allows {MARGIN_TO_TEACHER}; the "
@@ -37,7 +38,7 @@ def discussion(rows: dict) -> str:
         f"{'/'.join(map(str, tric['collisions']))}. "
     )
     shortfalls = [
-        f"seed {seed}"
+        f"group {seed}"
         for seed, r in seeds.items()
         if r["cost_mean"] - teacher["cost_mean"] > MARGIN_TO_TEACHER
         or r["good"] < n
@@ -47,7 +48,7 @@ def discussion(rows: dict) -> str:
     text += (
         f"We fall short of the paper with {', '.join(shortfalls)}."
         if shortfalls
-        else "Every seed reproduces the paper's result: TRIC grasps unseen sphere positions about "
+        else "Every group reproduces the paper's result: TRIC grasps unseen sphere positions about "
         "as well as its teacher."
     )
     if tric["cost_mean"] < PAPER_TRIC and teacher["cost_mean"] < PAPER_TEACHER:

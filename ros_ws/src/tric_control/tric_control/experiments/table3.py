@@ -10,7 +10,7 @@ from tric_sim.world import situations
 
 #: The experiment's heading in the report and the log.
 TITLE = (
-    "Cylinders: the teacher, TRIC K = 0 and K = 30 (three training seeds each) on the 10 "
+    "Cylinders: the teacher, TRIC K = 0 and K = 30 (three groups each) on the 10 "
     "cylinder tests, and TRIC K = 30 trained on a second draw of the training cylinders and on "
     "the 10 validation cylinders."
 )
@@ -45,7 +45,7 @@ def discussion(rows: dict) -> str:
     n = tric["episodes"]
     text = (
         f"Our teacher's mean cost is {teacher['cost_mean']:.3f} (the paper's 0.07). TRIC K = 30, "
-        f"seeds {'/'.join(map(str, tric['seeds']))}: mean cost "
+        f"groups {'/'.join(map(str, tric['seeds']))}: mean cost "
         f"{spread([r['cost_mean'] for r in tric['seeds'].values()], '.3f')}, good "
         f"{spread(tric['good'])} of {n}, lifted {spread(tric['lift'])} (the paper 0.09). K = 0: "
         f"{spread([r['cost_mean'] for r in linear['seeds'].values()], '.3f')}, good "
@@ -53,7 +53,7 @@ def discussion(rows: dict) -> str:
     )
     cost, good, lifted = CYLINDER_TARGETS
     missed = [
-        f"{label}: seed {seed}"
+        f"{label}: group {seed}"
         for label in (
             "TRIC K = 30",
             SECOND_DRAW,
@@ -72,7 +72,7 @@ def discussion(rows: dict) -> str:
         f"draw {costs('TRIC K = 30' + VALIDATION)}, second {costs(SECOND_DRAW + VALIDATION)}. "
     )
     text += (
-        f"Every seed and draw meets the design's targets on the test and validation cylinders "
+        f"Every group and draw meets the design's targets on the test and validation cylinders "
         f"(mean <= {cost}, >= {good}/{n} good, >= {lifted}/{n} lifted). "
         if not missed
         else f"Short of the design's targets (mean <= {cost}, >= {good}/{n} good, >= "
@@ -89,9 +89,9 @@ def discussion(rows: dict) -> str:
         if tric["seeds"][seed]["cost_mean"] < linear["seeds"][seed]["cost_mean"]
     ]
     text += (
-        "K = 30 beats K = 0 with every seed, as in the paper."
+        "K = 30 beats K = 0 with every group, as in the paper."
         if len(better) == len(tric["seeds"])
-        else f"K = 30 beats K = 0 with seeds {', '.join(map(str, better)) or 'none'} only, unlike "
+        else f"K = 30 beats K = 0 with groups {', '.join(map(str, better)) or 'none'} only, unlike "
         "the paper."
     )
     return text

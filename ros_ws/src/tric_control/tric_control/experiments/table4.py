@@ -30,7 +30,7 @@ TITLE = (
 
 #: TRIC's rows on the other sets: label -> data set.
 OTHER_SETS = {"TRIC (val)": "box_val", "TRIC (train)": "box_train"}
-#: The least TRIC must open of the training boxes, each seed (docs/design.md section 5).
+#: The least TRIC must open of the training boxes, each group (docs/design.md section 5).
 TRAINING_TARGET = 9
 
 
@@ -111,7 +111,7 @@ def _box_row(records) -> dict:
 def discussion(rows: dict) -> str:
     n = rows["TRIC"]["episodes"]
     text = (
-        f"Boxes opened of {n}, by training seed: "
+        f"Boxes opened of {n}, by group: "
         + "; ".join(
             f"{name} {spread(r['opened'])}"
             + (f" (the paper {PAPER_BOXES[name]})" if name in PAPER_BOXES else "")
@@ -121,7 +121,7 @@ def discussion(rows: dict) -> str:
     )
     tric = rows["TRIC"]["opened"]
     if min(tric) >= BOX_TARGET:
-        text += f"TRIC opens at least {BOX_TARGET} with every seed, as the paper's 24. "
+        text += f"TRIC opens at least {BOX_TARGET} with every group, as the paper's 24. "
     else:
         text += (
             f"TRIC misses the design's {BOX_TARGET} with {sum(o < BOX_TARGET for o in tric)} of "
@@ -146,7 +146,7 @@ def discussion(rows: dict) -> str:
         )
     best_dpl = max(max(rows["DPL joint space"]["opened"]), max(rows["DPL finger space"]["opened"]))
     text += (
-        "Both DPL variants open fewer boxes than TRIC with every seed, as in the paper."
+        "Both DPL variants open fewer boxes than TRIC with every group, as in the paper."
         if best_dpl < min(tric)
         else f"A DPL variant opens as many as {best_dpl} with one seed, not far below TRIC, "
         "unlike the paper."

@@ -1,4 +1,4 @@
-"""The design's targets (docs/design.md section 5), each to hold for every training seed."""
+"""The design's targets (docs/design.md section 5), each to hold for every group."""
 
 #: Table 1: the most TRIC's mean grasp cost may exceed our teacher's.
 MARGIN_TO_TEACHER = 0.03

@@ -11,11 +11,17 @@ from tric_control.evaluation.executors import ProcessExecutor
 from tric_control.selection.candidates import candidate
 from tric_control.selection.choice import Choice, choose
 from tric_control.selection.settings import SelectionConfig
+from tric_learning import model_file
 from tric_learning.bags.loader import bag_paths, load_dataset
 from tric_learning.training.dataset import Dataset
 from tric_learning.training.from_bags import model_output_path
 from tric_learning.training.value import TrainingConfig
+from tric_sim.tools.provenance import code_digest
 from tric_sim.world.robot_model import RobotModel
+
+#: The module whose code (and all it imports: the training, the rollouts' controller and physics,
+#: the scores and the choice) makes a chosen model.
+SELECTION_CODE = "tric_control.selection.select_model"
 
 
 @dataclass
@@ -77,6 +83,7 @@ def select_model(
         )
     trained.sort(key=lambda c: c.seed)
     choice = choose(trained, dataset, config, selection)
+    choice.provenance["code"] = code_digest(SELECTION_CODE)
     if failures:
         choice.provenance["failed"] = failures
     return Selection(choice, dataset, trained, time.monotonic() - started)
@@ -130,3 +137,21 @@ def select_from_bags(
     chosen.path = path
     report("saving", 1, 1, None)
     return chosen
+
+
+def chosen_as(path, dataset: Dataset, config: TrainingConfig, selection: SelectionConfig) -> bool:
+    """Whether the model file at path exists and was chosen as asked: with this training's
+    hyper-parameters (its seed the group's) and selection, on the dataset of this fingerprint, by
+    the code of today (SELECTION_CODE). A cache re-uses a chosen model only then; an unreadable
+    file is not one."""
+    try:
+        info = model_file.ModelFile.load(path).info
+    except ValueError:
+        return False
+    chosen = info.get("selection", {})
+    return (
+        info.get("hyperparameters") == config.to_dict()
+        and info.get("dataset_fingerprint") == dataset.fingerprint
+        and chosen.get("config") == selection.to_dict()
+        and chosen.get("code") == code_digest(SELECTION_CODE)
+    )
