@@ -10,6 +10,7 @@ import pytest
 from conftest import REFERENCE_BAGS as BAGS
 from conftest import study_results
 from tric_control.study import cli as study
+from tric_control.study import candidates as study_candidates
 from tric_control.study import runs as study_runs
 
 #: Control ticks per episode here: enough to move and to be judged, short enough for a test.
@@ -37,7 +38,7 @@ def counted(monkeypatch):
     descriptions]}: the candidates trained, those rolled out again, and the sets measured, as they
     start."""
     runs = {"trained": [], "rolled out": [], "measured": []}
-    train, evaluate = study_runs.study_candidate, study_runs.evaluate_offline
+    train, evaluate = study_candidates.study_candidate, study_runs.evaluate_offline
 
     def counting_train(dataset, config, max_steps, options, rounds, kept):
         runs["trained" if kept is None else "rolled out"].append(config.seed)
@@ -47,7 +48,7 @@ def counted(monkeypatch):
         runs["measured"].append(desc)
         return evaluate(*args, desc=desc, **kwargs)
 
-    monkeypatch.setattr(study_runs, "study_candidate", counting_train)
+    monkeypatch.setattr(study_candidates, "study_candidate", counting_train)
     monkeypatch.setattr(study_runs, "evaluate_offline", counting_evaluate)
     monkeypatch.chdir(BAGS.parent)  # tric-study reads bags/ of the working directory
     return runs
@@ -91,6 +92,7 @@ def test_an_interrupted_study_does_only_its_missing_cells(tmp_path, monkeypatch,
         return "changed" if "tric_control.evaluation.offline" in modules else digest(*modules)
 
     monkeypatch.setattr(study_runs, "code_digest", changed)
+    monkeypatch.setattr(study_candidates, "code_digest", changed)
     counted["measured"].clear()
     assert study.main([*STUDY, "--out", str(resumed)]) == 0
     assert counted == {

@@ -6,16 +6,20 @@ evaluation kept under DIR/episodes, re-used when made as asked and continued aft
 (tric_control.evaluation.executors: processes here, or Ray)."""
 
 import pathlib
+from dataclasses import replace
 
 import torch
 
 from tric_control.evaluation.executors import ProcessExecutor
 from tric_control.evaluation.graph import evaluate
 from tric_control.evaluation.kept import kept_evaluation
-from tric_control.selection.select_model import chosen_as, select_model
+from tric_control.selection.choice import choose
+from tric_control.selection.select_model import candidate_seeds
 from tric_control.selection.settings import SelectionConfig
+from tric_control.study.candidates import CandidateStore, key_name, rollouts_key, training_key
 from tric_learning import model_file
 from tric_learning.bags.loader import load_dataset
+from tric_learning.model_file import ModelFile, tensor_digest
 from tric_learning.training import dpl
 from tric_learning.training.dataset import Dataset
 from tric_learning.training.lbfgs import torch_threads
@@ -56,6 +60,7 @@ class Runner:
         self.robot = RobotModel()
         self.domain_id = private_domain_id()
         self._datasets: dict[str, Dataset] = {}
+        self.candidates = CandidateStore(out / "candidates")
         (out / "models").mkdir(parents=True, exist_ok=True)
 
     def demonstrations(self, bags: str) -> Dataset:
@@ -67,31 +72,45 @@ class Runner:
     def model(
         self, name: str, bags: str, kind: str = "tric", hidden_units: int = 30, seed: int = 0
     ) -> pathlib.Path:
-        """The model file out/models/<name>_s<seed>.safetensors, made on bags/<bags> unless a model
-        made as asked is there: TRIC chosen by the default selection among candidates from the
-        group seed (the defaults but hidden_units; selection.select_model.chosen_as), DPL trained
-        with the seed's initial weights (model_file.made_as: the kind, hyper-parameters, dataset
-        and training code)."""
+        """The model file out/models/<name>_s<seed>.safetensors, made on bags/<bags>: TRIC chosen
+        by the default selection among candidates from the group seed (the defaults but
+        hidden_units; the candidates kept, see _chosen), DPL trained with the seed's initial
+        weights unless a model made as asked is there (model_file.made_as: the kind,
+        hyper-parameters, dataset and training code)."""
         path = self.out / "models" / f"{name}_s{seed}.safetensors"
         dataset = self.demonstrations(bags)
         if kind == "tric":
-            config, selection = (
-                TrainingConfig(hidden_units=hidden_units, seed=seed),
-                SelectionConfig(),
-            )
-            if not chosen_as(path, dataset, config, selection):
-                print(
-                    f"choosing {name} (group {seed}) among {selection.candidates} candidates "
-                    f"trained on {BAGS / bags}",
-                    flush=True,
-                )
-                chosen = select_model(dataset, config, selection, self.executor, self.jobs)
-                chosen.choice.model.save(path)
-            return path
+            return self._chosen(path, bags, TrainingConfig(hidden_units=hidden_units, seed=seed))
         config, code = dpl.DplConfig(seed=seed), code_digest("tric_learning.training.dpl")
         if not model_file.made_as(path, kind, config.to_dict(), dataset.fingerprint, code):
             print(f"training {name} (seed {seed}) on {BAGS / bags}", flush=True)
             self._train(kind, dataset, config).save(path)
+        return path
+
+    def _chosen(self, path: pathlib.Path, bags: str, config: TrainingConfig) -> pathlib.Path:
+        """The model at path, chosen by the default selection among the candidates from config's
+        seed (the group's), each trained on bags/<bags> and rolled out from its demonstrations'
+        starts: the candidates kept under out/candidates (tric_control.study.candidates), so
+        that a change of the choice alone trains nothing again."""
+        dataset, selection = self.demonstrations(bags), SelectionConfig()
+        seeds = candidate_seeds(config, selection)
+        wanted = []
+        for seed in seeds:
+            member = replace(config, seed=seed)
+            training = training_key(member, dataset.fingerprint)
+            wanted.append((training, rollouts_key(training, {}, 0), member, 0, None, 0))
+        made = self.candidates.make(bags, dataset, wanted, self.executor, self.jobs)
+        candidates = [made[(seed, key_name(w[1]))] for seed, w in zip(seeds, wanted)]
+        failure = next((c for c in candidates if isinstance(c, Exception)), None)
+        if failure is not None:
+            raise failure
+        choice = choose(candidates, dataset, config, selection)
+        kept = path.is_file() and tensor_digest(ModelFile.load(path).arrays) == tensor_digest(
+            choice.model.arrays
+        )
+        if not kept:
+            print(f"chose {path.name}: seed {', '.join(map(str, choice.chosen))}", flush=True)
+            choice.model.save(path)
         return path
 
     def over_seeds(self, tests, label: str, max_steps: int = 0, **model) -> dict:

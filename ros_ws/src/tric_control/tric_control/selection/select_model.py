@@ -11,7 +11,6 @@ from tric_control.evaluation.executors import ProcessExecutor
 from tric_control.selection.candidates import candidate
 from tric_control.selection.choice import Choice, choose
 from tric_control.selection.settings import SelectionConfig
-from tric_learning import model_file
 from tric_learning.bags.loader import bag_paths, load_dataset
 from tric_learning.training.dataset import Dataset
 from tric_learning.training.from_bags import model_output_path
@@ -137,21 +136,3 @@ def select_from_bags(
     chosen.path = path
     report("saving", 1, 1, None)
     return chosen
-
-
-def chosen_as(path, dataset: Dataset, config: TrainingConfig, selection: SelectionConfig) -> bool:
-    """Whether the model file at path exists and was chosen as asked: with this training's
-    hyper-parameters (its seed the group's) and selection, on the dataset of this fingerprint, by
-    the code of today (SELECTION_CODE). A cache re-uses a chosen model only then; an unreadable
-    file is not one."""
-    try:
-        info = model_file.ModelFile.load(path).info
-    except ValueError:
-        return False
-    chosen = info.get("selection", {})
-    return (
-        info.get("hyperparameters") == config.to_dict()
-        and info.get("dataset_fingerprint") == dataset.fingerprint
-        and chosen.get("config") == selection.to_dict()
-        and chosen.get("code") == code_digest(SELECTION_CODE)
-    )

@@ -17,8 +17,14 @@ import numpy as np
 from tric_control.evaluation.records import write_json
 from tric_control.selection.candidates import Candidate, candidate, rolled_out
 from tric_control.selection.rollouts import Rollout
+from tric_control.selection.settings import CANDIDATE_THREADS
 from tric_control.study.hard_negatives import train_with_hard_negatives
 from tric_sim.tools.output_files import atomic_path
+from tric_sim.tools.provenance import code_digest
+
+#: The code whose digest keys a candidate's rollouts and a model's episodes: the controller, the
+#: physics, the metrics and the situations.
+EPISODE_CODE = ("tric_control.evaluation.offline", "tric_sim.world.situations")
 
 
 def key_name(key: dict) -> str:
@@ -89,6 +95,67 @@ class CandidateStore:
                 "rollouts": [rollout.to_dict() for rollout in made.rollouts],
             },
         )
+
+    def make(self, bags: str, dataset, wanted: list, executor, jobs: int) -> dict:
+        """{(seed, rollouts key name): Candidate, or the Exception its making raised} of the
+        wanted candidates of bags/<bags> (dataset: its demonstrations), each wanted as
+        (training key, rollouts key, TrainingConfig, max_steps, controller options, hard-negative
+        rounds): the kept ones read, the others made on executor, jobs at once (one call each,
+        trained unless their model is kept, then rolled out; the dataset sent once) and kept as
+        each ends."""
+        made: dict = {}
+        todo = []
+        for training, rollouts, config, max_steps, options, rounds in wanted:
+            name = (config.seed, key_name(rollouts))
+            if name in made:
+                continue
+            made[name] = self.get(bags, config.seed, training, rollouts)
+            if made[name] is None:
+                kept = self.model(bags, config.seed, training)
+                todo.append((training, rollouts, (config, max_steps, options, rounds, kept)))
+        if todo:
+            print(f"making {len(todo)} candidates on {bags} ({executor.kind})", flush=True)
+        calls = [call for _, _, call in todo]
+        for k, result in executor.run_calls(study_candidate, calls, jobs, (dataset,)):
+            training, rollouts, call = todo[k]
+            made[(call[0].seed, key_name(rollouts))] = result
+            if isinstance(result, Exception):
+                continue
+            self.put(bags, training, rollouts, result)
+            print(
+                f"candidate {bags} s{result.seed}: "
+                + ("model kept" if call[-1] else f"trained in {result.train_s:.1f} s")
+                + f", rolled out in {result.rollout_s:.1f} s",
+                flush=True,
+            )
+        return made
+
+
+def training_key(config, data_digest: str, rounds: int = 0, max_steps: int = 0) -> dict:
+    """Everything that makes a candidate's model: its TrainingConfig (with its seed), its data's
+    digest, PyTorch's threads and the training code's digest (and the hard negatives' rounds and
+    their rollouts' budget)."""
+    return {
+        **config.to_dict(),
+        **({"hard_negative_rounds": rounds, "rollout_steps": max_steps} if rounds else {}),
+        "data_digest": data_digest,
+        "torch_threads": CANDIDATE_THREADS,
+        "training_code": code_digest(
+            "tric_learning.training.value", "tric_control.study.hard_negatives"
+        ),
+    }
+
+
+def rollouts_key(training: dict, controller: dict, max_steps: int) -> dict:
+    """Everything that makes a candidate's rollouts: its model's key, the controller's settings
+    (JSON), the step budget and the digests of the rollouts' and the episodes' code."""
+    return {
+        "model": key_name(training),
+        "controller": controller,
+        "max_steps": max_steps,
+        "rollout_code": code_digest("tric_control.selection.rollouts"),
+        "episode_code": code_digest(*EPISODE_CODE),
+    }
 
 
 def study_candidate(

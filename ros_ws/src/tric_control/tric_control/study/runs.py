@@ -26,8 +26,14 @@ from tric_control.evaluation.offline import evaluate_offline
 from tric_control.evaluation.records import write_json
 from tric_control.selection.choice import choose
 from tric_control.selection.scores import score as selection_score
-from tric_control.selection.settings import CANDIDATE_THREADS, SCORES, SelectionConfig
-from tric_control.study.candidates import CandidateStore, key_name, study_candidate
+from tric_control.selection.settings import SCORES, SelectionConfig
+from tric_control.study.candidates import (
+    EPISODE_CODE,
+    CandidateStore,
+    key_name,
+    rollouts_key,
+    training_key,
+)
 from tric_control.study.measures import controller_options, measure_set
 from tric_control.study.variants import (
     CONTROLLER_OPTIONS,
@@ -92,11 +98,6 @@ def bags_digest(bags: str) -> str:
     return digest.hexdigest()[:12]
 
 
-#: The code whose digest keys a study's episodes: the controller, the physics, the metrics and the
-#: situations.
-EPISODE_CODE = ("tric_control.evaluation.offline", "tric_sim.world.situations")
-
-
 class Study:
     """Runs a study's cells on an executor (tric_control.evaluation.executors) with jobs workers;
     candidates under out/candidates, the chosen models under out/models, results merged into
@@ -122,33 +123,18 @@ class Study:
         return self._datasets[bags]
 
     def training_key(self, cell: Cell, seed: int) -> dict:
-        """Everything that makes one of the cell's candidates' model: its training options and
-        seed, the bags' digest, PyTorch's threads and the training code's digest (and the hard
-        negatives' rounds and their rollouts' budget)."""
+        """Everything that makes one of the cell's candidates' model (candidates.training_key)."""
         if cell.bags not in self._bags_digests:
             self._bags_digests[cell.bags] = bags_digest(cell.bags)
+        config = TrainingConfig(**training_part(cell.changes), seed=seed)
         rounds = cell.changes.get("hard_negative_rounds", 0)
-        return {
-            **training_part(cell.changes),
-            "seed": seed,
-            **({"hard_negative_rounds": rounds, "rollout_steps": cell.max_steps} if rounds else {}),
-            "bags_digest": self._bags_digests[cell.bags],
-            "torch_threads": CANDIDATE_THREADS,
-            "training_code": code_digest(
-                "tric_learning.training.value", "tric_control.study.hard_negatives"
-            ),
-        }
+        return training_key(config, self._bags_digests[cell.bags], rounds, cell.max_steps)
 
     def rollouts_key(self, cell: Cell, seed: int) -> dict:
-        """Everything that makes a candidate's rollouts: its model's key, the controller options,
-        the step budget and the digests of the rollouts' and the episodes' code."""
-        return {
-            "model": key_name(self.training_key(cell, seed)),
-            "controller": self.controller_key(cell),
-            "max_steps": cell.max_steps,
-            "rollout_code": code_digest("tric_control.selection.rollouts"),
-            "episode_code": code_digest(*EPISODE_CODE),
-        }
+        """Everything that makes a candidate's rollouts (candidates.rollouts_key)."""
+        return rollouts_key(
+            self.training_key(cell, seed), self.controller_key(cell), cell.max_steps
+        )
 
     @staticmethod
     def controller_key(cell: Cell) -> dict:
@@ -197,44 +183,26 @@ class Study:
 
     def _make_candidates(self, cells) -> dict:
         """{(bags, seed, rollouts key name): Candidate, or the Exception its making raised} of the
-        cells' candidates, the missing ones made on the executor (one call each, trained unless
-        their model is kept, then rolled out; the bags' dataset sent once) and kept as each
-        ends."""
-        made: dict = {}
-        missing: dict = {}  # bags -> [(training key, rollouts key, call)]
+        cells' candidates (CandidateStore.make: the kept ones read, the others made)."""
+        wanted: dict = {}  # bags -> [CandidateStore.make's wanted]
         for cell in cells:
+            options = controller_options(cell.changes, cell.task, self.robot)
+            rounds = cell.changes.get("hard_negative_rounds", 0)
             for seed in cell.seeds:
-                name = self._candidate_name(cell, seed)
-                if name in made:
-                    continue
-                training, rollouts = self.training_key(cell, seed), self.rollouts_key(cell, seed)
-                made[name] = self.store.get(cell.bags, seed, training, rollouts)
-                if made[name] is not None:
-                    continue
-                config = TrainingConfig(**training_part(cell.changes), seed=seed)
-                options = controller_options(cell.changes, cell.task, self.robot)
-                rounds = cell.changes.get("hard_negative_rounds", 0)
-                kept = self.store.model(cell.bags, seed, training)
-                call = (config, cell.max_steps, options, rounds, kept)
-                missing.setdefault(cell.bags, []).append((training, rollouts, call))
-        for bags, todo in missing.items():
-            print(
-                f"making {len(todo)} candidates on bags/{bags} ({self.executor.kind})", flush=True
-            )
-            demos = self.demonstrations(bags)
-            calls = [call for _, _, call in todo]
-            for k, result in self.executor.run_calls(study_candidate, calls, self.jobs, (demos,)):
-                training, rollouts, call = todo[k]
-                made[(bags, call[0].seed, key_name(rollouts))] = result
-                if isinstance(result, Exception):
-                    continue
-                self.store.put(bags, training, rollouts, result)
-                print(
-                    f"candidate {bags} s{result.seed}: "
-                    + ("model kept" if call[-1] else f"trained in {result.train_s:.1f} s")
-                    + f", rolled out in {result.rollout_s:.1f} s",
-                    flush=True,
+                wanted.setdefault(cell.bags, []).append(
+                    (
+                        self.training_key(cell, seed),
+                        self.rollouts_key(cell, seed),
+                        TrainingConfig(**training_part(cell.changes), seed=seed),
+                        cell.max_steps,
+                        options,
+                        rounds,
+                    )
                 )
+        made = {}
+        for bags, todo in wanted.items():
+            found = self.store.make(bags, self.demonstrations(bags), todo, self.executor, self.jobs)
+            made.update({(bags, *name): value for name, value in found.items()})
         return made
 
     def _candidate_name(self, cell: Cell, seed: int) -> tuple:
