@@ -9,8 +9,8 @@ import pytest
 
 from conftest import REFERENCE_BAGS as BAGS
 from conftest import study_results
-from tric_control.study import cli as study
 from tric_control.study import candidates as study_candidates
+from tric_control.study import cli as study
 from tric_control.study import runs as study_runs
 
 #: Control ticks per episode here: enough to move and to be judged, short enough for a test.

@@ -378,12 +378,14 @@ def test_tric_analyze_writes_its_figures(cli_run, bag_dir, tmp_path, capsys):
         analysis.COSINES_FIGURE,
         analysis.SCORES_FIGURE,
         analysis.GRADIENTS_FIGURE,
+        analysis.SELECTION_FIGURE,
     ):
         assert (tmp_path / "figures" / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     printed = capsys.readouterr().out
     assert (
         "mean cosine" in printed and "f falls on" in printed and "carry 95% of the score" in printed
     )
+    assert "of 2 candidates from group 3 by the score 'landmarks' (s" in printed
     assert (
         analyze_cli.main(
             [str(tmp_path / "none.safetensors"), str(bag_dir), "--out", str(tmp_path / "x")]

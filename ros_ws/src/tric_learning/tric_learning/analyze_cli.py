@@ -4,9 +4,11 @@
     tric-analyze MODEL BAGS... [--out DIR] [--top N] [--feature-rank N]
 
 Writes the figures of tric_learning.analysis into DIR for the demonstrations in BAGS (bags or
-folders of bags, the training ones or others of the same feature definition). Prints the share of
-demonstration steps along which f decreases, the mean cosine and the top features. Exit status 0,
-or 2 with one line on stderr when the model or a bag is refused.
+folders of bags, the training ones or others of the same feature definition), and, for a model
+chosen among candidates (tric-train), selection.png: each candidate's score against its rollouts'
+outcomes. Prints the share of demonstration steps along which f decreases, the mean cosine, the
+top features and how the model was chosen. Exit status 0, or 2 with one line on stderr when the
+model or a bag is refused.
 """
 
 import argparse
@@ -56,9 +58,11 @@ def run(argv) -> int:
             DEFAULT_FEATURE_RANK,
             FALLING_STEP,
             MOVING_STEP,
+            SELECTION_FIGURE,
             SLOW_STEPS,
             WEIGHT_SHARE,
             key_numbers,
+            plot_selection,
             ranked_feature,
             write_figures,
         )
@@ -81,6 +85,9 @@ def run(argv) -> int:
         # refused before any figure
         ranked_feature(model, dataset.definition.feature_names, rank)
         paths = write_figures(model, dataset, pathlib.Path(args.out), args.top, rank, robot)
+        selection = model_file.info.get("selection")
+        if selection is not None:
+            paths.append(plot_selection(selection, pathlib.Path(args.out) / SELECTION_FIGURE))
     except (ValueError, OSError) as error:
         print(f"{PROG}: {error}", file=sys.stderr)
         return 2
@@ -114,6 +121,19 @@ def run(argv) -> int:
         "top features: "
         + ", ".join(f"{t['name']} {t['score']:.3g}" for t in numbers["top_features"][:5])
     )
+    if selection is not None:
+        config = selection["config"]
+        print(
+            f"chosen: seed {', '.join(map(str, selection['chosen']))} of "
+            f"{len(selection['candidates'])} candidates from group {selection['group_seed']} by "
+            f"the score '{config['score']}' ("
+            + ", ".join(
+                f"s{row['seed']} "
+                + ("failed" if row["score"] is None else format(row["score"], ".3g"))
+                for row in selection["candidates"]
+            )
+            + ")"
+        )
     print(f"wrote {', '.join(str(path) for path in paths)}")
     return 0
 

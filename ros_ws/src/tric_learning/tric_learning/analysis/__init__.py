@@ -1,7 +1,8 @@
 """The paper's analyses of a trained TRIC model (Fig. 12 to 17): the numbers from its
 demonstrations (measures.py) and the figures drawn from them (figures.py names their files and
 draws them all; value_figures.py, feature_figures.py, space_figures.py and collision_figure.py draw
-them), for tric-analyze and tric-experiments' analysis."""
+them), for tric-analyze and tric-experiments' analysis; and how a model was chosen among its
+candidates (selection_figure.py)."""
 
 from tric_learning.analysis.collision_figure import plot_collision_prior
 from tric_learning.analysis.feature_figures import (
@@ -57,6 +58,7 @@ from tric_learning.analysis.measures import (
     value_falls,
     values_along_demos,
 )
+from tric_learning.analysis.selection_figure import SELECTION_FIGURE, plot_selection
 from tric_learning.analysis.space_figures import plot_kernel_pca, plot_task_spaces
 from tric_learning.analysis.value_figures import plot_cosines, plot_values
 
@@ -74,6 +76,7 @@ __all__ = [
     "KERNEL_PCA_FIGURE",
     "KPCA_MAX_SAMPLES",
     "SCORES_FIGURE",
+    "SELECTION_FIGURE",
     "TASK_SPACES_FIGURE",
     "TOUCHED_ROLES",
     "VALUE_FIGURE",
@@ -103,6 +106,7 @@ __all__ = [
     "plot_gradients",
     "plot_kernel_pca",
     "plot_scores",
+    "plot_selection",
     "plot_task_spaces",
     "plot_values",
     "ranked_feature",
