@@ -7,8 +7,11 @@ a model file.
                [--tolerant] [--overwrite]
 
 BAGS are MCAP bags written by tric-record or the recorder node, or folders of them. MODEL defaults
-to model.safetensors next to the first bag, and must not exist unless --overwrite; the
-hyper-parameters default to the paper's (Sec. 5.2) but where docs/fidelity.md says.
+to model.safetensors next to the first bag, and must not exist unless --overwrite; it is claimed
+for this run before any work (another run naming it is refused, naming this one's PID), its room
+checked before the training, and a model file that appears there meanwhile is replaced only with
+--overwrite (else the model goes beside it, as MODEL's stem + .new). The hyper-parameters default
+to the paper's (Sec. 5.2) but where docs/fidelity.md says.
 --kind dpl_joint / dpl_finger trains the DPL baseline instead (tric_learning.training.dpl, Sec.
 5.3.2): it takes --hidden-units, --l2, --iterations, --correlation-threshold and --seed; the other
 hyper-parameters are TRIC's and ignored.
@@ -284,6 +287,7 @@ def run(argv) -> int:
     from tric_learning.training.dpl import train_dpl_from_bags
     from tric_learning.training.from_bags import BagTraining, model_output_path
     from tric_learning.training.value import train_from_bags
+    from tric_sim.tools.claims import claim
     from tric_sim.world.robot_model import RobotModel
 
     # config is the DplConfig or the TrainingConfig that job takes
@@ -294,7 +298,7 @@ def run(argv) -> int:
     )
     try:
         files = bag_paths(args.bags, args.tolerant, notice=lambda _: None)
-        model_output_path(args.out, files[0], inputs=files, overwrite=args.overwrite)
+        path = model_output_path(args.out, files[0], inputs=files, overwrite=args.overwrite)
         bars = StageBars(
             len(files),
             config.max_iterations,
@@ -302,16 +306,18 @@ def run(argv) -> int:
             members=getattr(config, "members", 1),
         )
         try:
-            run = job(
-                args.bags,
-                args.out,
-                config,
-                RobotModel(),
-                bars,
-                include_failed=args.include_failed,
-                tolerant=args.tolerant,
-                notice=lambda text: tqdm.write(f"{PROG}: {text}", file=sys.stderr),
-            )
+            with claim(path, "the model path"):
+                run = job(
+                    args.bags,
+                    args.out,
+                    config,
+                    RobotModel(),
+                    bars,
+                    include_failed=args.include_failed,
+                    tolerant=args.tolerant,
+                    notice=lambda text: tqdm.write(f"{PROG}: {text}", file=sys.stderr),
+                    overwrite=args.overwrite,
+                )
         finally:
             bars.close()
     except (ValueError, OSError) as error:

@@ -126,7 +126,7 @@ def test_a_demonstration_without_collision_free_samples_is_named_with_its_bag(
 
 
 def test_a_folder_is_not_called_a_missing_model_file(tmp_path):
-    with pytest.raises(ValueError, match=f"model file {tmp_path} is a folder, not a model file"):
+    with pytest.raises(ValueError, match=f"model file {tmp_path} is a folder, not a file"):
         ModelFile.load(tmp_path)
 
 

@@ -16,7 +16,6 @@ exists): permission bits alone would pass /proc, or anything else, for root.
 """
 
 import contextlib
-import ctypes
 import errno
 import os
 import pathlib
@@ -60,7 +59,7 @@ def _probe_folder(folder: pathlib.Path, what: str) -> None:
     probe.unlink()
 
 
-def _nearest_existing(path: pathlib.Path) -> pathlib.Path:
+def nearest_existing(path: pathlib.Path) -> pathlib.Path:
     """path, or its nearest ancestor that exists (a name too long to look up counts as missing)."""
     for candidate in (path.absolute(), *path.absolute().parents):
         try:
@@ -101,7 +100,7 @@ def check_output_file(
     if suffixes and path.suffix not in suffixes:
         raise ValueError(f"{where} must end in {' or '.join(suffixes)}")
     _check_name_lengths(path.parent, what)
-    existing = _nearest_existing(path.parent)
+    existing = nearest_existing(path.parent)
     name_max = _name_max(existing)
     siblings = (path.name, _temporary_name(path), path.name + PARTIAL_SUFFIX, f".{path.name}.lock")
     longest = max(siblings, key=lambda name: len(name.encode()))
@@ -148,7 +147,7 @@ def size_text(size: int) -> str:
 
 def _check_name_lengths(path: pathlib.Path, what: str) -> None:
     """ValueError if a part of path is longer than its file system takes."""
-    name_max = _name_max(_nearest_existing(path))
+    name_max = _name_max(nearest_existing(path))
     for part in path.parts:
         if len(part.encode()) > name_max:
             raise ValueError(
@@ -179,7 +178,7 @@ def check_output_folder(
     path = pathlib.Path(path)
     where = f"{what} {str(path)[:200]}"
     _check_name_lengths(path, what)
-    existing = _nearest_existing(path)
+    existing = nearest_existing(path)
     if not existing.is_dir():
         raise ValueError(f"{where} cannot be used: {existing} is a file, not a folder")
     if must_be_empty and existing == path.absolute():
@@ -271,14 +270,14 @@ def rename_without_replacing(source: pathlib.Path, target: pathlib.Path) -> None
     where the C library and the file system have it, else a hard link (which fails on an existing
     target) and the source unlinked; on a file system with neither, a look before the rename (not
     atomic: the one case where a file appearing in between is replaced)."""
-    renameat2 = getattr(_libc(), "renameat2", None)
+    renameat2, get_errno = _renameat2()
     if renameat2 is not None:
         done = renameat2(
             _AT_FDCWD, os.fsencode(source), _AT_FDCWD, os.fsencode(target), RENAME_NOREPLACE
         )
         if done == 0:
             return
-        code = ctypes.get_errno()
+        code = get_errno()
         if code not in (errno.EINVAL, errno.ENOSYS, errno.EOPNOTSUPP):
             raise OSError(code, os.strerror(code), str(target))
     try:
@@ -293,14 +292,13 @@ def rename_without_replacing(source: pathlib.Path, target: pathlib.Path) -> None
     os.unlink(source)
 
 
-_LIBC: list = []
+def _renameat2() -> tuple:
+    """(the C library's renameat2 or None where it has none, ctypes.get_errno); ctypes is imported
+    here, at the first use, as the tools import this module before they install their handling of
+    interrupts."""
+    import ctypes
 
-
-def _libc():
-    """The C library (its renameat2, if it has one)."""
-    if not _LIBC:
-        _LIBC.append(ctypes.CDLL(None, use_errno=True))
-    return _LIBC[0]
+    return getattr(ctypes.CDLL(None, use_errno=True), "renameat2", None), ctypes.get_errno
 
 
 def _umask() -> int:

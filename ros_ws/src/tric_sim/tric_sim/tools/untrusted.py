@@ -84,6 +84,21 @@ def _unique_keys(pairs) -> dict:
     return data
 
 
+def check_input_file(path, what: str) -> pathlib.Path:
+    """path as a Path if it names a regular file, else ValueError naming what: it does not exist,
+    is a folder, or is another kind of file (a device such as /dev/zero, a pipe or a socket, read
+    without end or not at all)."""
+    path = pathlib.Path(path)
+    where = f"{what} {quoted(str(path), 100)}"
+    if path.is_file():
+        return path
+    if path.is_dir():
+        raise ValueError(f"{where} is a folder, not a file")
+    if path.exists():
+        raise ValueError(f"{where} is not a regular file (a device, a pipe or a socket)")
+    raise ValueError(f"{where} does not exist")
+
+
 def read_data_file(path, what: str, json_format: bool | None = None):
     """The data of a YAML file (JSON for a .json suffix, or as json_format says), read by
     load_data's rules, or ValueError naming what and path: unreadable, larger than MAX_BYTES (read
