@@ -493,7 +493,8 @@ def test_tric_record_refuses_a_folder_without_room_for_the_bags_before_any_work(
     tmp_path, monkeypatch, capsys
 ):
     """A stand-in full disk (shutil.disk_usage): tric-record answers with one line and exit 2
-    before any node starts or any bag is begun."""
+    before any node starts or any bag is begun; the room it asks for grows with --duration (before:
+    1 MB a demonstration whatever its length, so --duration 1e9 recorded without bound)."""
     import collections
 
     from tric_learning import record_cli
@@ -502,10 +503,13 @@ def test_tric_record_refuses_a_folder_without_room_for_the_bags_before_any_work(
     usage = collections.namedtuple("usage", "total used free")
     monkeypatch.setattr(output_files.shutil, "disk_usage", lambda _: usage(10**9, 10**9, 10**5))
     out = tmp_path / "bags"
-    assert record_cli.main(["sphere_train", "--out", str(out)]) == 2
-    error = capsys.readouterr().err
-    assert error == (
-        f"tric-record: --out {out} cannot be written: {tmp_path} has 0.1 MB free, "
-        "27.0 MB are needed\n"
-    )
+    needed = {}
+    for duration in ("0", "5", "60", "120"):
+        assert record_cli.main(["sphere_train", "--out", str(out), "--duration", duration]) == 2
+        error = capsys.readouterr().err
+        prefix = f"tric-record: --out {out} cannot be written: {out} has 100 kB free, "
+        assert error.startswith(prefix) and error.endswith(" MB are needed\n"), error
+        needed[duration] = float(error[len(prefix) :].split()[0])
+    assert needed["0"] == needed["5"] == 25.4  # 27 bags of 5 s at 0.125 s: 0.94 MB each
+    assert needed["5"] < needed["60"] < needed["120"]
     assert list(tmp_path.iterdir()) == []

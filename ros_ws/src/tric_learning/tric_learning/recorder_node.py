@@ -40,6 +40,7 @@ from tric_sim.ros import messages
 from tric_sim.ros.graph import EVENT_QOS, run_node
 from tric_sim.ros.parameters import POSITIVE, declare
 from tric_sim.ros.topic_poller import TopicPoller
+from tric_sim.tools.file_names import safe_stem
 from tric_sim.tools.output_files import check_output_folder
 from tric_sim.world.robot_model import RobotModel
 
@@ -234,7 +235,7 @@ class RecorderNode(Node):
     def _free_path(self, name: str) -> pathlib.Path:
         """The bag path for an episode name: <name>.mcap, or with overwrite false and that name
         taken, the first free <name>_<k>.mcap."""
-        safe = "".join(c if c.isalnum() or c in "-_." else "_" for c in name) or "episode"
+        safe = safe_stem(name)
         path, k = self.output_dir / f"{safe}{bags.BAG_SUFFIX}", 1
         while not self.overwrite and (
             path.exists() or path.with_name(path.name + bags.PART_SUFFIX).exists()

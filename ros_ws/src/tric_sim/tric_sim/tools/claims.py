@@ -138,6 +138,42 @@ def _holder(lock: pathlib.Path) -> str:
         time.sleep(0.01)
 
 
+def open_exclusive(path, what: str):
+    """path opened for writing from its start (created, or truncated once locked), holding an
+    exclusive flock until closed: a file one writer writes in place (a bag's ".part"), which
+    another process holding it refuses with FileExistsError naming that process's PID."""
+    descriptor = os.open(path, os.O_RDWR | os.O_CREAT | os.O_CLOEXEC, 0o666)
+    try:
+        fcntl.flock(descriptor, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except BlockingIOError:
+        holder = _flock_holder(descriptor)
+        os.close(descriptor)
+        raise FileExistsError(
+            errno.EEXIST, f"{what} {path} is being written by another process ({holder})"
+        ) from None
+    except OSError as error:
+        if error.errno not in _NO_LOCKS:
+            os.close(descriptor)
+            raise
+    os.ftruncate(descriptor, 0)
+    return os.fdopen(descriptor, "wb")
+
+
+def _flock_holder(descriptor: int) -> str:
+    """ "PID <n>" of the process holding the flock on descriptor's file (from /proc/locks)."""
+    status = os.fstat(descriptor)
+    file_id = f"{os.major(status.st_dev):02x}:{os.minor(status.st_dev):02x}:{status.st_ino}"
+    try:
+        locks = pathlib.Path("/proc/locks").read_text().splitlines()
+    except OSError:
+        locks = []
+    for line in locks:  # "1: FLOCK  ADVISORY  WRITE <pid> <major>:<minor>:<inode> 0 EOF"
+        fields = line.split()
+        if len(fields) > 5 and fields[1] == "FLOCK" and fields[5] == file_id:
+            return f"PID {fields[4]}"
+    return "PID unknown"
+
+
 def _make_folders(folder: pathlib.Path) -> list:
     """Make folder and its missing parents; the folders made, outermost first."""
     missing = []
