@@ -25,10 +25,12 @@ from tric_control.evaluation.offline import evaluate_offline
 from tric_control.evaluation.records import task_done, write_json
 from tric_control.motion_rate import MAX_LEAD
 from tric_control.study.hard_negatives import train_with_hard_negatives
+from tric_control.study.staleness import key_changes
 from tric_control.study.variants import (
     CONTROLLER_OPTIONS,
     MODEL_MEASURES,
     TASKS,
+    model_file_name,
     training_part,
 )
 from tric_learning import analysis, model_file
@@ -38,6 +40,7 @@ from tric_learning.training.value import TrainingConfig, train
 from tric_sim.physics.metrics import GOOD_GRASP, LID_OPEN_ANGLE
 from tric_sim.tools.output_files import atomic_path
 from tric_sim.tools.provenance import code_digest
+from tric_sim.tools.untrusted import read_data_file
 from tric_sim.world.robot_model import RobotModel
 from tric_sim.world.scene import TASK_CONTACTS
 from tric_sim.world.situations import dataset
@@ -192,7 +195,7 @@ class Study:
         self.out, self.jobs, self.executor = out, jobs, executor
         self.robot = RobotModel()
         self.path = out / "study.json"
-        self.results = json.loads(self.path.read_text()) if self.path.is_file() else {}
+        self.results = self._read()
         self.failed: dict[str, str] = {}
         self.cleared: set[str] = set()
         self._bags_digests: dict[str, str] = {}
@@ -235,6 +238,17 @@ class Study:
         """The cell's row in study.json if it was made with the cell's key, else None."""
         row = self.results.get("rows", {}).get(cell.name)
         return row if row is not None and row.get("key") == self.cell_key(cell) else None
+
+    def stale_rows(self, cells) -> list:
+        """["NAME (why)"] of the cells whose row in study.json was made with another key (they are
+        measured again)."""
+        rows = self.results.get("rows", {})
+        stale = []
+        for cell in cells:
+            row = rows.get(cell.name)
+            if isinstance(row, dict) and self.finished_row(cell) is None:
+                stale.append(f"{cell.name} ({key_changes(row.get('key'), self.cell_key(cell))})")
+        return stale
 
     def cached_model(self, config: dict, bags: str):
         """(path, record) of a model trained with config on bags, its file intact; None if
@@ -343,12 +357,25 @@ class Study:
 
     def _model_path(self, key: str) -> pathlib.Path:
         variant, bags, seed = key.split("/")
-        return self.out / "models" / f"{variant}_{bags}_s{seed}.safetensors"
+        return self.out / "models" / model_file_name(variant, bags, int(seed))
+
+    def _read(self) -> dict:
+        """The study file's results ({} without a file); ValueError naming the file when it is
+        not a study's (read with tric_sim.tools.untrusted's limits)."""
+        if not self.path.is_file():
+            return {}
+        results = read_data_file(self.path, "study file", json_format=True)
+        parts = ("models", "rows", "failed")
+        if not isinstance(results, dict) or any(
+            not isinstance(results.get(part, {}), dict) for part in parts
+        ):
+            raise ValueError(f"study file {self.path} is not a study's results: move it away")
+        return results
 
     def save(self):
         """Merge this study's models, rows and failed cells into the file (another study may have
         written it since)."""
-        merged = json.loads(self.path.read_text()) if self.path.is_file() else {}
+        merged = self._read()
         for part in ("models", "rows"):
             merged.setdefault(part, {}).update(self.results.get(part, {}))
         failed = {**merged.get("failed", {}), **self.failed}

@@ -10,6 +10,7 @@ import unicodedata
 import uuid
 
 from tric_sim.tools.output_files import check_output_file, nearest_existing
+from tric_sim.tools.untrusted import quoted
 
 
 def safe_stem(name: str) -> str:
@@ -51,18 +52,19 @@ def check_file_names(folder, files: dict, what: str, inputs=(), overwrite: bool 
     folds_case, folds_unicode = name_folding(folder)
     seen: dict[str, tuple] = {}
     for item, name in files.items():
+        item = quoted(repr(item), 80)
         if name.startswith("."):
-            raise ValueError(f"the {what} of {item!r} would be {name!r}, hidden by its leading dot")
+            raise ValueError(f"the {what} of {item} would be {name!r}, hidden by its leading dot")
         key = unicodedata.normalize("NFD", name) if folds_unicode else name
         key = key.casefold() if folds_case else key
         if key in seen:
             first, first_name = seen[key]
             how = "" if first_name == name else f" ({first_name} to its file system)"
             raise ValueError(
-                f"the {what}s of {first!r} and {item!r} would be one file, "
+                f"the {what}s of {first} and {item} would be one file, "
                 f"{str(folder / name)[:200]}{how}: rename one"
             )
         seen[key] = item, name
         check_output_file(
-            folder / name, what=f"the {what} of {item!r}", inputs=inputs, overwrite=overwrite
+            folder / name, what=f"the {what} of {item}", inputs=inputs, overwrite=overwrite
         )
