@@ -6,13 +6,13 @@
 Runs the simulator (lockstep), the teacher and the recorder nodes in one process: for each situation
 the teacher demonstrates (action /teacher/demonstrate) and the recorder writes one bag
 DIR/<situation>.mcap. DATASET is a built-in data set (sphere_train, cylinder_train, box_train, ...).
-DIR must be new or empty unless --overwrite is given (then a bag of the same name is replaced). Before
-the first demonstration DIR is claimed for this run (another run naming it is refused, naming this
-one's PID), its room checked for the bags (which grow with --duration, at most 120 s, and shrink
-with --period), and every bag's name: no two situations may map to one file (as DIR's file system
-compares names), and no bag may be an input (the situations file).
-Prints a table of the demonstrations' outcomes; exits non-zero if any failed. --viz serves a live
-Foxglove view of the run (tric_sim.visualizer_node) on ws://127.0.0.1:P (default 8765).
+DIR must be new or empty unless --overwrite is given (then a bag of the same name is replaced).
+Before the first demonstration DIR is claimed for this run (another run naming it is refused, naming
+this one's PID), its room checked for the bags (which grow with --duration, at most 120 s, and
+shrink with --period), and every bag's name: no two situations may map to one file (as DIR's file
+system compares names), and no bag may be an input (the situations file). Prints a table of the
+demonstrations' outcomes; exits non-zero if any failed. --viz serves a live Foxglove view of the run
+(tric_sim.visualizer_node) on ws://127.0.0.1:P (default 8765).
 """
 
 import argparse

@@ -26,9 +26,9 @@ from tric_control.objectives import CONTROL_PERIOD, make_objective
 from tric_learning.features import FeatureDefinition
 from tric_learning.model_file import ModelFile
 from tric_sim import teachers
-from tric_sim.world.durations import DEFAULT_DURATION
 from tric_sim.physics import metrics
 from tric_sim.physics.simulation import PhysicsWorld
+from tric_sim.world.durations import DEFAULT_DURATION
 from tric_sim.world.proximity import Proximity
 from tric_sim.world.robot_model import RobotModel
 

@@ -38,15 +38,15 @@ controller nodes at once, each in a process and DDS domain of its own
 (tric_control.evaluation.graph): spawned processes here, or Ray actors (--executor ray: a local
 instance; --address or RAY_ADDRESS: a cluster whose machines have the project's environment), where
 the trainings then run as Ray tasks; models and results come back to DIR.
-DIR is claimed for the run before any work (another run naming it is refused, naming this one's
-PID; --check-only only reads it). Each experiment writes DIR/<name>.json and its PNG(s) and prints
-its table and a discussion composed from its numbers; DIR/REPORT.md is then rewritten from every experiment's JSON found in DIR, each
-table beside the paper's numbers and followed by its discussion, and the results page (default
-DIR/results.md; --results-page FILE: elsewhere, its figures linked relative to it): each
-experiment's discussion, the paper's numbers and its figures. --check then compares every
-experiment's results found in DIR with the design's targets, each for every seed
-(tric_control.experiments.checks), prints them and exits 1 if one is missed; --check-only does
-that without running anything; --report-only rewrites the report and the results page from the
+DIR is claimed for the run before any work (another run naming it is refused, naming this one's PID;
+--check-only only reads it). Each experiment writes DIR/<name>.json and its PNG(s) and prints its
+table and a discussion composed from its numbers; DIR/REPORT.md is then rewritten from every
+experiment's JSON found in DIR, each table beside the paper's numbers and followed by its
+discussion, and the results page (default DIR/results.md; --results-page FILE: elsewhere, its
+figures linked relative to it): each experiment's discussion, the paper's numbers and its figures.
+--check then compares every experiment's results found in DIR with the design's targets, each for
+every seed (tric_control.experiments.checks), prints them and exits 1 if one is missed; --check-only
+does that without running anything; --report-only rewrites the report and the results page from the
 folder's JSON without running anything.
 """
 

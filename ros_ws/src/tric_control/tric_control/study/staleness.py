@@ -18,8 +18,9 @@ MODEL_CHANGES = {
 NAMED_ROWS = 5
 
 
-def key_changes(kept: dict, key: dict) -> str:
-    """What differs between a kept row's key and a cell's key, named ("" when none does)."""
+def key_changes(kept, key: dict) -> str:
+    """What differs between a kept row's key (None, or not a dict: none) and a cell's key, named
+    ("" when nothing does)."""
     if not isinstance(kept, dict):
         return "kept without a key"
     changes = [why for part, why in KEY_CHANGES.items() if kept.get(part) != key.get(part)]

@@ -6,8 +6,8 @@ import pathlib
 from dataclasses import dataclass
 
 from tric_learning.bags.loader import bag_paths, load_dataset
-from tric_learning.training.dataset import Dataset
 from tric_learning.model_file import expected_size
+from tric_learning.training.dataset import Dataset
 from tric_sim.tools.claims import claim
 from tric_sim.tools.output_files import check_output_file
 from tric_sim.world.robot_model import RobotModel

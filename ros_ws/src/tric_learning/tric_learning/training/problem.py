@@ -9,7 +9,6 @@ out, none by default; a step of length zero has no direction and adds nothing); 
 divided by the number S of demonstration steps (see tric_learning.training.value).
 """
 
-
 import numpy as np
 import scipy.optimize
 import torch
