@@ -72,10 +72,10 @@ class PartialRecords:
             raise ValueError(f"{self.path} is not a partial run of tric-eval: remove it")
         dropped = []
         for episode in data["episodes"]:
-            if not isinstance(episode, dict) or "record" not in episode:
+            if not isinstance(episode, dict):
                 raise ValueError(f"{self.path} is not a partial run of tric-eval: remove it")
-            try:
-                record = record_from_json(episode["record"])
+            try:  # an earlier tric-eval kept the records alone, without keys
+                record = record_from_json(episode.get("record", episode))
             except (TypeError, ValueError):
                 raise ValueError(f"{self.path} holds a damaged episode record: remove it") from None
             why = self._mismatch(record.situation, episode.get("key"))

@@ -4,13 +4,15 @@ instead of both writing it and one result being lost.
 
 A claim is an exclusive flock(2) on a lock file: beside a file output (".<name>.lock"), inside a
 folder output (FOLDER_LOCK). The lock file holds the PID of the run that holds it. The kernel
-releases the lock when that process ends, however it ends (SIGKILL too), so a lock file left
-behind claims nothing and the next run takes it over. A run removes its lock files when it ends
-(tric_sim.tools.interrupts too, on a signal), and the folders its claims created while still
-empty. Claims are held per process: claiming again what this process holds is counted, not
-refused (a tool and the library code it calls may both claim one output). ROS-free.
+releases the lock when that process ends, however it ends (SIGKILL too), so a lock file left behind
+claims nothing and the next run takes it over. A run removes its lock files when it ends
+(tric_sim.tools.interrupts too, on a signal; and at any exit of the interpreter), and the folders
+its claims created while still empty. Claims are held per process: claiming again what this process
+holds is counted, not refused (a tool and the library code it calls may both claim one output).
+ROS-free.
 """
 
+import atexit
 import errno
 import fcntl
 import os
@@ -197,7 +199,10 @@ def held_locks() -> list:
 
 
 def remove_lock_files() -> None:
-    """Remove the lock files this process holds (a tool ending at once on a signal: the kernel
-    releases the locks as it exits)."""
+    """Remove the lock files this process holds (a tool ending at once on a signal, or a process
+    exiting with claims it did not release: the kernel releases the locks as it exits)."""
     for lock in list(_held):
         lock.unlink(missing_ok=True)
+
+
+atexit.register(remove_lock_files)

@@ -14,10 +14,10 @@ Called in-process (tests, scripts), run_interruptible turns the signals into Key
 the tool's own cleanup runs.
 
 The entry points of the commands and nodes (command_main, node_main) install this handling before
-they import anything (this module imports only what Python's start-up has), so that a signal
-during the imports (torch, rclpy and pybullet take a second or more) ends a tool the same way.
-Only what Python does before the entry point runs (its start-up and the console script's look-up
-of the entry point, some 40 ms) is left to Python's own handling.
+they import anything (this module imports no more than signal, threading and importlib), so that a
+signal during the imports (torch, rclpy and pybullet take a second or more) ends a tool the same
+way. Only what Python does before the entry point runs (its start-up and the console script's
+look-up of the entry point, some 40 ms) is left to Python's own handling.
 """
 
 import importlib
