@@ -49,27 +49,41 @@ def line(prog: str, signum: int, kept: str = "") -> str:
 def _print_line(prog: str, signum: int, kept: str) -> None:
     """The tool's line on stderr, on a line of its own: a progress bar (tqdm) draws without a
     newline, so one ends the bar's line first while a bar is open."""
-    progress = sys.modules.get("tqdm")
-    bars_open = progress is not None and len(getattr(progress.tqdm, "_instances", ())) > 0
+    bars = getattr(sys.modules.get("tqdm"), "tqdm", None)  # None: not imported (or not yet whole)
+    bars_open = len(getattr(bars, "_instances", ())) > 0
     print(("\n" if bars_open else "") + line(prog, signum, kept), file=sys.stderr, flush=True)
 
 
 def end_at_once(prog: str, signum: int, kept: str = "") -> None:
     """End the process now as signum ends a command: its worker processes ended, the temporary
-    files of writes in progress removed, the line printed, exit status 128 + signum."""
-    # looked up, not imported: a module not imported yet holds nothing to end or remove
+    files of writes in progress and its lock files removed, its semaphores unlinked, the line
+    printed, exit status 128 + signum. The cleaning up is done as far as it can be: the signal may
+    come in the middle of any import, with modules not yet whole, and nothing it meets there may
+    keep the tool from its line and its end."""
+    try:
+        _clean_up()
+    except Exception:  # a module caught half imported: what it holds is not worth a traceback
+        pass
+    try:
+        sys.stdout.flush()
+    except (OSError, ValueError):  # stdout closed, or a pipe whose reader left
+        pass
+    _print_line(prog, signum, kept)
+    os._exit(exit_status(signum))
+
+
+def _clean_up() -> None:
+    """End the worker processes, remove the temporary and lock files, unlink the semaphores; the
+    modules that hold them are looked up, not imported (one not imported yet holds nothing)."""
     multiprocessing = sys.modules.get("multiprocessing")
     for child in multiprocessing.active_children() if multiprocessing else ():
         child.terminate()
     for module, cleanup in (
         ("tric_sim.tools.output_files", "remove_temporaries"),
         ("tric_sim.tools.claims", "remove_lock_files"),
-    ):  # a module still being imported may not have its function yet (nor anything to clean)
+    ):
         getattr(sys.modules.get(module), cleanup, lambda: None)()
     _unlink_semaphores()
-    sys.stdout.flush()
-    _print_line(prog, signum, kept)
-    os._exit(exit_status(signum))
 
 
 def _unlink_semaphores() -> None:
