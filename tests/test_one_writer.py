@@ -12,13 +12,17 @@ import subprocess
 import sys
 import threading
 
+import pytest
 from demo_bags import sphere, write_demo_bag
 
 from conftest import HANG_S
 from tric_control import evaluate_cli, train_cli
 from tric_control.evaluation import offline
-from tric_learning import demonstrations, record_cli
+from tric_control.experiments import cli as experiments_cli
+from tric_control.study import cli as study_cli
+from tric_learning import analyze_cli, demonstrations, record_cli
 from tric_learning.training import value
+from tric_sim import snapshot
 from tric_sim.world.robot_model import RobotModel
 from tric_sim.world.situation_files import save_situations
 from tric_sim.world.situations import dataset
@@ -180,3 +184,45 @@ def test_two_commands_started_together_and_one_json_file(tmp_path):
     assert f"(PID {runs[winner].pid})" in error or "exists; give --overwrite" in error
     episodes = json.loads(out.read_text())["episodes"]
     assert [e["situation"] for e in episodes] == [s.name for s in dataset(winner)[:3]]
+
+
+def hold_claim(path, folder: bool) -> subprocess.Popen:
+    """Another process holding a claim on path until its stdin closes (it says "held" first)."""
+    code = (
+        "import sys\nfrom tric_sim.tools.claims import claim\n"
+        f"c = claim({str(path)!r}, folder={folder})\nprint('held', flush=True)\nsys.stdin.read()\n"
+    )
+    process = subprocess.Popen(
+        [sys.executable, "-c", code], stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True
+    )
+    assert process.stdout.readline() == "held\n"
+    return process
+
+
+@pytest.mark.parametrize(
+    "tool, arguments, what",
+    [
+        (experiments_cli, ["table1", "--executor", "processes"], "--out folder"),
+        (experiments_cli, ["--report-only"], "--out folder"),
+        (study_cli, ["--tasks", "sphere", "--executor", "processes"], "--out folder"),
+        (analyze_cli, ["m.safetensors", "b.mcap"], "--out folder"),
+        (snapshot, ["sphere_grid_00"], "--out folder"),
+    ],
+)
+def test_a_folder_another_run_writes_is_refused_before_work(
+    tmp_path, capsys, tool, arguments, what
+):
+    """Experiment, study, analysis and picture folders: one line naming the other run's PID."""
+    out = tmp_path / "out"
+    holder = hold_claim(out, folder=True)
+    try:
+        assert tool.main([*arguments, "--out", str(out)]) == 2
+    finally:
+        holder.stdin.close()
+        holder.wait(HANG_S)
+    error = capsys.readouterr().err
+    assert error.endswith(
+        f"{what} {out} is being written by another run (PID {holder.pid}): wait for it to end, "
+        "or give another path\n"
+    )
+    assert error.count("\n") == 1
