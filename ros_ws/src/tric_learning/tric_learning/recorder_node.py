@@ -17,9 +17,11 @@ status of every tick.
 Parameters (checked at startup: a bad one ends the node with exit status 2): output_dir
 ("recordings": a folder that can be written, created if missing), sample_period_s (0.125, > 0),
 sources (["teacher"]: the episode sources to record), outcome_timeout_s (30, > 0), overwrite (false:
-an episode whose bag name is taken is written to <name>_1.mcap, ...; true: its new bag replaces the
-old one when it is finished), status_topic ("": none; "/controller/status" to record a controller's
-episodes with their status).
+an episode whose bag name is taken is written to <name>_1.mcap, ..., and a bag that appears under
+its name while it records is kept too; true: its new bag replaces the old one when it is finished),
+status_topic ("": none; "/controller/status" to record a controller's episodes with their status).
+A bag's .part is held under an exclusive lock while it is written (another recorder writing the
+same one is refused: the episode is not recorded, naming that recorder's PID).
 """
 
 import pathlib

@@ -5,7 +5,8 @@ publishes EpisodeEvent START on /episode, drives the robot with the task's teach
 controller, or the box-opening planner) by answering every /joint_states with a /joint_command of
 the same stamp, publishes END, asks the simulator for the hidden metrics (/simulator/evaluate_task,
 with the lift test for grasps), publishes them as OUTCOME and returns them. One goal at a time;
-others are rejected while one runs.
+others are rejected while one runs. A goal's duration must be in [0, MAX_DURATION] simulated s
+(tric_sim.world.durations; 0: the task's default), or the goal is aborted saying so.
 """
 
 import sys

@@ -26,11 +26,12 @@ Test sets are never used here: choices are made on training and validation sets;
 reported (tric-experiments). Models are kept in DIR/models and every finished cell (variant x task x
 seed) is merged into DIR/study.json as it ends, each keyed on all that made it (the options, the
 bags' digest, the code's digests: tric_control.study.runs), so a study can be extended run by run,
-an interrupted one continues from its finished cells, and nothing stale is re-used. A cell that
-fails is named with its error; the others are kept. Trainings (--jobs at once) and episodes run in
-spawned processes here, or on Ray (--executor ray: a local instance; --address or RAY_ADDRESS: a
-cluster, the models and results coming back to DIR). Prints one row per cell, and per variant the
-mean, min and max over the seeds.
+an interrupted one continues from its finished cells, and nothing stale is re-used (each row
+measured again is named with what changed). DIR is claimed for the run, and every model's file name
+checked, before any work. A cell that fails is named with its error; the others are kept. Trainings
+(--jobs at once) and episodes run in spawned processes here, or on Ray (--executor ray: a local
+instance; --address or RAY_ADDRESS: a cluster, the models and results coming back to DIR). Prints
+one row per cell, and per variant the mean, min and max over the seeds.
 """
 
 import argparse
