@@ -30,10 +30,12 @@ _NO_LOCKS = (errno.ENOLCK, errno.EOPNOTSUPP, errno.EINVAL)
 
 
 class _Held:
-    """A lock this process holds: its descriptor, how many claims share it, the folders made."""
+    """A lock this process holds: its descriptor, how many claims share it, the folders made, and
+    the process that made it (a forked child inherits the table, not the claims)."""
 
     def __init__(self, descriptor: int, made: list):
         self.descriptor, self.count, self.made = descriptor, 1, made
+        self.pid = os.getpid()
 
 
 _held: dict[pathlib.Path, _Held] = {}
@@ -201,8 +203,9 @@ def held_locks() -> list:
 def remove_lock_files() -> None:
     """Remove the lock files this process holds (a tool ending at once on a signal, or a process
     exiting with claims it did not release: the kernel releases the locks as it exits)."""
-    for lock in list(_held):
-        lock.unlink(missing_ok=True)
+    for lock, held in list(_held.items()):
+        if held.pid == os.getpid():
+            lock.unlink(missing_ok=True)
 
 
 atexit.register(remove_lock_files)
