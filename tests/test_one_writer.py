@@ -21,7 +21,7 @@ from tric_control.evaluation import offline
 from tric_control.experiments import cli as experiments_cli
 from tric_control.study import cli as study_cli
 from tric_learning import analyze_cli, demonstrations, record_cli
-from tric_learning.training import value
+from tric_learning.training import dpl
 from tric_sim import snapshot
 from tric_sim.world.robot_model import RobotModel
 from tric_sim.world.situation_files import save_situations
@@ -106,15 +106,15 @@ def test_two_runs_on_one_model_path(tmp_path, monkeypatch):
     for k in range(2):
         write_demo_bag(bags / f"demo_{k}.mcap", robot, sphere(f"demo_{k}"))
     out = tmp_path / "m.safetensors"
-    tiny = ["--iterations", "2", "--noisy-samples", "2", "--hidden-units", "0", "--quiet"]
+    tiny = ["--kind", "dpl_joint", "--iterations", "2", "--hidden-units", "4", "--quiet"]
     run = HeldRun(train_cli.main, [str(bags), "--out", str(out), "--seed", "1", *tiny])
-    train = value.train
+    train = dpl.train_dpl
 
     def held(*args, **kwargs):
         run.hold()
         return train(*args, **kwargs)
 
-    monkeypatch.setattr(value, "train", held)
+    monkeypatch.setattr(dpl, "train_dpl", held)
     with run:
         second = command(
             "tric_control.train_cli", str(bags), "--out", str(out), "--seed", "2", *tiny

@@ -33,7 +33,7 @@ from tric_control.study import cli as study_cli
 from tric_control.study import runs as study_runs
 from tric_learning import demonstrations, record_cli
 from tric_learning.model_file import ModelFile
-from tric_learning.training import value
+from tric_learning.training import dpl
 from tric_sim.tools import claims, output_files
 from tric_sim.tools.file_names import safe_stem
 from tric_sim.tools.interrupts import Terminated
@@ -208,29 +208,32 @@ test_tric_eval_runs_again_and_again = EvaluationRuns.TestCase
 
 
 _TRAINING: dict = {}
+#: A tiny DPL training: its options on tric-train's command line.
+TINY = ["--kind", "dpl_joint", "--iterations", "2", "--hidden-units", "4", "--quiet"]
 
 
 def tiny_training() -> tuple:
-    """(folder of two hand-made demonstration bags, a real training result on them), made once."""
+    """(folder of two hand-made demonstration bags, a real DPL training result on them), made
+    once. DPL's path through tric-train (training.dpl.train_dpl_from_bags, from_bags.train_on_bags)
+    claims, checks and writes its model as TRIC's does."""
     if not _TRAINING:
         folder = pathlib.Path(tempfile.mkdtemp(prefix="tric-machine-bags-"))
         robot = RobotModel()
         for k in range(2):
             write_demo_bag(folder / f"demo_{k}.mcap", robot, sphere(f"demo_{k}"))
         out = folder.parent / f"{folder.name}.safetensors"
-        tiny = ["--iterations", "2", "--noisy-samples", "2", "--hidden-units", "0", "--quiet"]
         captured = {}
-        train = value.train
+        train = dpl.train_dpl
 
         def capture(*args, **kwargs):
             captured["result"] = train(*args, **kwargs)
             return captured["result"]
 
-        value.train = capture
+        dpl.train_dpl = capture
         try:
-            assert train_cli.main([str(folder), "--out", str(out), *tiny]) == 0
+            assert train_cli.main([str(folder), "--out", str(out), *TINY]) == 0
         finally:
-            value.train = train
+            dpl.train_dpl = train
         out.unlink()
         _TRAINING.update(bags=folder, result=captured["result"])
     return _TRAINING["bags"], _TRAINING["result"]
@@ -248,10 +251,10 @@ class TrainingRuns(Machine):
         self.bags, self.result = tiny_training()
         self.out = self.folder / "m.safetensors"
         self.ending, self.foreign, self.fits = None, False, 0
-        self.patch(value, "train", self.fit)
+        self.patch(dpl, "train_dpl", self.fit)
         self.umask = os.umask(0o022)
 
-    def fit(self, dataset, robot, config, report=None):
+    def fit(self, dataset, robot, config, kind, report=None):
         """The stand-in of the training: the real tiny result, with this run's settings."""
         self.fits += 1
         if self.foreign:
@@ -276,7 +279,7 @@ class TrainingRuns(Machine):
             self.patch(
                 output_files.shutil, "disk_usage", lambda path: usage(path)._replace(free=20_000)
             )
-        arguments = [str(self.bags), "--out", str(self.out), "--seed", str(seed), "--quiet"]
+        arguments = [str(self.bags), "--out", str(self.out), "--seed", str(seed), *TINY]
         try:
             status = train_cli.main(arguments + ["--overwrite"] * overwrite)
         finally:

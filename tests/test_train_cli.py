@@ -132,7 +132,7 @@ def test_a_disk_that_fills_while_the_model_is_written_ends_with_one_line(
 
     monkeypatch.setattr(pathlib.Path, "write_bytes", full)
     out = tmp_path / "m.safetensors"
-    tiny = ["--iterations", "2", "--noisy-samples", "2", "--hidden-units", "0", "--quiet"]
+    tiny = ["--kind", "dpl_joint", "--iterations", "2", "--hidden-units", "4", "--quiet"]
     assert train_cli.main([str(good_bag), "--out", str(out), *tiny]) == 2
     assert capsys.readouterr().err == (
         f"tric-train: {out} could not be written (No space left on device)\n"
