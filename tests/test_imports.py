@@ -46,13 +46,52 @@ def test_tools_load_nothing_of_foxglove_without_viz():
     assert proc.stdout.strip() == "[]"
 
 
-def console_scripts() -> dict:
-    """{module: executable} of every console script in the packages' setup.py files."""
+def entry_points() -> dict:
+    """{executable: (entry module, function)} of every console script in the packages' setup.py
+    files."""
     found = {}
     for setup in (pathlib.Path(__file__).parents[1] / "ros_ws" / "src").glob("*/setup.py"):
-        for executable, module in re.findall(r'"([\w-]+) = ([\w.]+):main"', setup.read_text()):
-            found[module] = executable
+        for executable, module, function in re.findall(
+            r'"([\w-]+) = ([\w.]+):(\w+)"', setup.read_text()
+        ):
+            found[executable] = (module, function)
     return found
+
+
+def started_module(entry: str, function: str) -> tuple:
+    """(how the entry point starts its tool or node: "command_main" or "node_main", the module it
+    imports then), read from the entry module's source."""
+    source = pathlib.Path(importlib.util.find_spec(entry).origin).read_text()
+    found = re.search(
+        rf'def {function}\(\) -> int:\n    return (command_main|node_main)\("[\w-]+", "([\w.]+)"\)',
+        source,
+    )
+    assert found, f"{entry}:{function} does not start its tool through command_main or node_main"
+    return found.group(1), found.group(2)
+
+
+def console_scripts() -> dict:
+    """{module: executable} of every console script: the module of its tool or node."""
+    return {started_module(*entry)[1]: executable for executable, entry in entry_points().items()}
+
+
+def test_every_entry_point_handles_interrupts_before_its_imports():
+    """Ctrl-C in the first half second of tric-eval or tric-train (its imports) gave a 40-line
+    traceback: every console script now starts through command_main (tools) or node_main (nodes),
+    whose module imports no more than signal, threading and importlib, before it imports the
+    tool's."""
+    kinds = {started_module(*entry)[0] for entry in entry_points().values()}
+    assert kinds == {"command_main", "node_main"}
+    code = (
+        "import sys; before = set(sys.modules); import tric_sim.tools.interrupts; "
+        "print(' '.join(sorted(set(sys.modules) - before)))"
+    )
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    standard = {"signal", "threading", "_weakrefset", "importlib", "importlib._bootstrap"}
+    standard |= {"importlib._bootstrap_external"}
+    ours = {"tric_sim", "tric_sim.tools", "tric_sim.tools.interrupts"}
+    assert set(proc.stdout.split()) <= standard | ours
 
 
 def imported_modules(module: str) -> set:

@@ -148,23 +148,25 @@ def test_tric_record_overwrite_terminated_keeps_the_earlier_bag(tmp_path):
 
 def test_tric_eval_interrupted_keeps_its_episodes_and_resume_continues(tmp_path):
     """SIGTERM ends tric-eval --jobs 2 (its workers too) with the episodes judged so far in the
-    --json file's .partial and no result; --resume runs only the others, and the result holds
-    every episode in the situations' order."""
+    --json file's .partial, no result, and nothing after its line (before: two lines about leaked
+    semaphores); --resume runs only the others, and the result holds every episode in the
+    situations' order."""
     out = tmp_path / "teacher.json"
-    evaluation = start(
-        "tric_control.evaluate_cli", "--teacher", "sphere_test", "--json", str(out), "--jobs", "2"
-    )
-    code, rest = signal_after(evaluation, "demonstrating ", 6, signal.SIGTERM)
+    arguments = ["--teacher", "sphere_test", "--json", str(out), "--jobs", "2", "--offline"]
+    evaluation = start("tric_control.evaluate_cli", *arguments)
+    code, rest = signal_after(evaluation, "sphere_test_05", 1, signal.SIGTERM)
     assert code == 143, rest
-    assert "tric-eval: terminated; with --json, the episodes judged so far kept" in rest
-    assert "Traceback" not in rest and "Fatal Python error" not in rest
+    assert rest.rstrip("\n").endswith(
+        "tric-eval: terminated; with --json, the episodes judged so far kept (--resume continues)"
+    )
+    for sign in ("Traceback", "Fatal Python error", "resource_tracker", "leaked"):
+        assert sign not in rest, rest
     partial = tmp_path / "teacher.json.partial"
     assert sorted(p.name for p in tmp_path.iterdir()) == [partial.name]  # no result, no temporary
-    kept = [e["situation"] for e in json.loads(partial.read_text())["episodes"]]
+    kept = [e["record"]["situation"] for e in json.loads(partial.read_text())["episodes"]]
     assert 1 <= len(kept) < 15
     resumed = subprocess.run(
-        [sys.executable, "-m", "tric_control.evaluate_cli", "--teacher", "sphere_test"]
-        + ["--json", str(out), "--resume", "--offline"],
+        [sys.executable, "-m", "tric_control.evaluate_cli", *arguments, "--resume"],
         capture_output=True,
         text=True,
         timeout=HANG_S * 3,

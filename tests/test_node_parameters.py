@@ -2,6 +2,8 @@
 range ends `ros2 run PKG NODE` with one line naming the parameter and exit status 2."""
 
 import math
+import pathlib
+import subprocess
 
 import pytest
 from rclpy.node import Node
@@ -143,3 +145,40 @@ def test_declare_converts_numbers_and_checks_types_and_ranges(ros_context):
         assert description == "a rate (positive)"
     finally:
         node.destroy_node()
+
+
+#: The workspace's installed executables, as `ros2 run PKG EXE` starts them.
+INSTALL = pathlib.Path(__file__).resolve().parent.parent / "ros_ws" / "install"
+#: Seconds a node's --help may take on a loaded machine before the test gives up on it (it reads
+#: the node module's docstring without importing it: well under a second).
+HELP_S = 60.0
+
+
+@pytest.mark.parametrize(
+    "package, node, described",
+    [
+        ("tric_sim", "simulator", "PyBullet"),
+        ("tric_sim", "teacher", "demonstrates situations"),
+        ("tric_sim", "visualizer", "Foxglove"),
+        ("tric_learning", "recorder", "one MCAP bag per episode"),
+        ("tric_control", "trainer", "trains models from demonstration bags"),
+        ("tric_control", "controller", "motion-rate control"),
+    ],
+)
+def test_a_node_answers_help_without_starting(package, node, described):
+    """`ros2 run tric_sim simulator --help` printed nothing of it and started the node; now it
+    prints how to start it and its description, and exits 0; another argument before --ros-args
+    is one line and exit 2."""
+    executable = str(INSTALL / package / "lib" / package / node)
+    shown = subprocess.run([executable, "--help"], capture_output=True, text=True, timeout=HELP_S)
+    assert shown.returncode == 0, shown.stderr
+    assert shown.stdout.startswith(f"usage: ros2 run {package} {node} [--ros-args -p NAME:=VALUE")
+    assert described in shown.stdout and shown.stderr == ""
+    wrong = subprocess.run(
+        [executable, "--rate", "5"], capture_output=True, text=True, timeout=HELP_S
+    )
+    assert wrong.returncode == 2
+    assert wrong.stderr == (
+        f"{node}: unknown argument '--rate' (a node takes ROS arguments only: --ros-args -p "
+        "NAME:=VALUE ...; --help describes it)\n"
+    )

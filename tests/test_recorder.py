@@ -463,13 +463,10 @@ def test_tric_record_checks_its_folder_before_recording(tmp_path, capsys):
             "give either DATASET or --situations-file",
         ),
         (["sphere_everywhere"], "argument dataset: invalid choice: 'sphere_everywhere'"),
-        (
-            ["sphere_train", "--period", "0"],
-            "--period must be positive and --duration not negative",
-        ),
+        (["sphere_train", "--period", "0"], "--period must be in (0, 10] simulated s"),
         (
             ["sphere_train", "--duration", "-1"],
-            "--period must be positive and --duration not negative",
+            "--duration must be in [0, 120] simulated s (0: the default)",
         ),
         (["sphere_train", "--domain-id", "233"], "--domain-id must be in [0, 232]"),
         (["sphere_train", "--period", "fast"], "argument --period: invalid float value: 'fast'"),

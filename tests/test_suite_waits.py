@@ -13,6 +13,10 @@ SLOW_ON_PURPOSE = {
         "the simulator takes each command 50 ms late, so that a judge that did not wait for it "
         "would run first"
     ),
+    (
+        "tests/test_every_tool_interrupted.py",
+        "test_a_tool_ends_within_two_seconds_of_a_signal_at_a_random_moment",
+    ): "the signal's moment, drawn at random over the tool's imports and work: the test's input",
 }
 
 

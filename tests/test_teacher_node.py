@@ -67,3 +67,17 @@ def test_bad_situation_is_refused(ros_context, spin):
     assert status == GoalStatus.STATUS_ABORTED and "teapot" in result.message
     run_periods(client)
     assert not events
+
+
+def test_a_demonstration_too_long_or_not_finite_is_refused(ros_context, spin):
+    """A duration of inf (tric-record --duration inf) failed inside the teacher with an
+    OverflowError; past MAX_DURATION a demonstration recorded without bound."""
+    client, events = start(ros_context, spin)
+    situation = messages.situation_to_msg(situations.sphere_grid()[0])
+    for duration in (float("inf"), float("nan"), 1e9):
+        goal = Demonstrate.Goal(situation=situation, duration=duration)
+        status, result, _ = run_action(client, Demonstrate, "/teacher/demonstrate", goal)
+        assert status == GoalStatus.STATUS_ABORTED
+        assert result.message.startswith("duration must be in [0, 120] simulated s"), result.message
+    run_periods(client)
+    assert not events

@@ -30,11 +30,11 @@ setup(
         "console_scripts": [
             "controller = tric_control.nodes:controller",
             "trainer = tric_control.nodes:trainer",
-            "tric-train = tric_control.train_cli:main",
-            "tric-eval = tric_control.evaluate_cli:main",
-            "tric-demo = tric_control.demo_cli:main",
-            "tric-experiments = tric_control.experiments.cli:main",
-            "tric-study = tric_control.study.cli:main",
+            "tric-train = tric_control.commands:tric_train",
+            "tric-eval = tric_control.commands:tric_eval",
+            "tric-demo = tric_control.commands:tric_demo",
+            "tric-experiments = tric_control.commands:tric_experiments",
+            "tric-study = tric_control.commands:tric_study",
         ]
     },
 )

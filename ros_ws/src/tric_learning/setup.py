@@ -20,8 +20,8 @@ setup(
     entry_points={
         "console_scripts": [
             "recorder = tric_learning.nodes:recorder",
-            "tric-record = tric_learning.record_cli:main",
-            "tric-analyze = tric_learning.analyze_cli:main",
+            "tric-record = tric_learning.commands:tric_record",
+            "tric-analyze = tric_learning.commands:tric_analyze",
         ]
     },
 )

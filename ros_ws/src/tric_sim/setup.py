@@ -27,7 +27,7 @@ setup(
         "console_scripts": [
             "simulator = tric_sim.nodes:simulator",
             "teacher = tric_sim.nodes:teacher",
-            "tric-snapshot = tric_sim.snapshot:main",
+            "tric-snapshot = tric_sim.commands:tric_snapshot",
             "visualizer = tric_sim.nodes:visualizer",
         ]
     },

@@ -156,3 +156,14 @@ def test_the_experiments_runner_keeps_its_evaluations_under_out_episodes(tmp_pat
     assert len(list((tmp_path / "results" / "episodes").glob("*.json"))) == 1
     runner.evaluate(tests, None, "teacher, 300 steps", max_steps=300)
     assert ran[1:] == [["s0", "s1", "s2"]]
+
+
+def test_a_sparse_kept_file_is_refused_before_it_is_read_whole(tmp_path):
+    tests = spheres(2)
+    key, _ = evaluation_key(None, tests, 0, CODE)
+    folder = tmp_path / "episodes"
+    folder.mkdir()
+    with open(folder / f"{key}.json.partial", "wb") as file:
+        file.truncate(300 * 2**20)
+    with pytest.raises(ValueError, match="is larger than 16 MiB"):
+        kept_evaluation(folder, tests, None, 0, CODE, StandIn(None, 0))

@@ -120,3 +120,49 @@ def test_tric_study_checks_its_results_file_before_any_training(tmp_path, capsys
         f"tric-study: study file {tmp_path / 'study.json'} is a folder; give a file path\n"
     )
     assert sorted(p.name for p in tmp_path.iterdir()) == ["study.json"]
+
+
+def test_variant_names_are_checked_before_any_work(tmp_path, capsys, monkeypatch):
+    """A variant name of 300 characters passed, trained for about 50 s, then failed on its
+    model's file name; a name given twice mixed two variants' rows; names its models' file names
+    make one file (as a case-insensitive file system compares them) are refused too."""
+    from tric_sim.tools import file_names
+
+    out = tmp_path / "study"
+    base = ["--tasks", "sphere", "--seeds", "0", "--out", str(out), "--executor", "processes"]
+    refusals = [
+        (["--variant", "v" * 300 + "=max_iterations=2"], "the name is 300 characters long"),
+        (["--variant", "a=max_iterations=2", "--variant", "a="], "variant 'a' is given twice"),
+    ]
+    for variants, message in refusals:
+        assert study.main([*variants, *base]) == 2
+        error = capsys.readouterr().err
+        assert message in error and error.count("\n") == 1
+    monkeypatch.setattr(file_names, "name_folding", lambda folder: (True, False))
+    assert study.main(["--variant", "Tiny=", "--variant", "tiny=", *base]) == 2
+    assert "the models of 'Tiny/sphere/0' and 'tiny/sphere/0' would be one file" in (
+        capsys.readouterr().err
+    )
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_stale_rows_are_named_with_what_changed():
+    from tric_control.study.staleness import key_changes, stale_line
+
+    key = {
+        "model": {"bags_digest": "b", "training_code": "t", "alpha_g": 3.0, "seed": 0},
+        "controller": {},
+        "max_steps": 800,
+        "sets": ["sphere_val"],
+        "episode_code": "e",
+    }
+    assert key_changes(key, key) == ""
+    changed = {**key, "episode_code": "f", "model": {**key["model"], "bags_digest": "c"}}
+    assert key_changes(changed, key) == "the bags changed, the episodes' code changed"
+    retrained = {**key, "model": {**key["model"], "alpha_g": 1.0}}
+    assert key_changes(retrained, key) == "the training options changed"
+    assert key_changes(None, key) == "kept without a key"
+    assert (
+        stale_line(["a/sphere/0 (x)"])
+        == "1 kept row made otherwise, measured again: a/sphere/0 (x)"
+    )

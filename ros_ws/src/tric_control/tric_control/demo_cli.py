@@ -33,6 +33,7 @@ import sys
 # Only what the arguments need: --help and argument errors answer before torch, pybullet,
 # pinocchio, rclpy and matplotlib are imported (tric_control.demo, the job, is imported after).
 from tric_learning.training.hyperparameters import TrainingConfig
+from tric_sim.tools.claims import claim
 from tric_sim.tools.interrupts import run_interruptible
 from tric_sim.tools.output_files import WriteFailed, check_output_folder
 from tric_sim.viz.view_options import add_view_arguments
@@ -81,7 +82,8 @@ def run(argv) -> int:
         out = check_output_folder(args.out, "--out folder")
         from tric_control.demo import run_demo
 
-        return run_demo(args, out)
+        with claim(out, "--out folder", folder=True):
+            return run_demo(args, out)
     except (ValueError, RuntimeError, WriteFailed) as error:
         print(f"tric-demo: {error}", file=sys.stderr)
         return 2

@@ -14,30 +14,35 @@ per-episode records and their summary to the --json file. DATASET is a built-in 
 (sphere_test, cylinder_test, obstacle_test, box_test, ...); any YAML/JSON situations file of one
 task works too. --snapshots DIR writes a PNG of each final state (before the lift test). The --json
 file and the --snapshots folder are checked before the first episode (the --json file must not be
-the model or the situations file, nor exist unless --overwrite), and written atomically. The
-nodes run in a private DDS domain unless --domain-id names one. --jobs N runs N such graphs at once,
-each in a worker process of its own on its own domain (the base one and the N - 1 above it), the
-situations shared out one at a time; the records keep the situations' order. The workers are
-spawned processes here, or Ray actors (--executor ray: a local Ray instance; --address or
-RAY_ADDRESS: a Ray cluster whose machines have the project's environment, the model file and the
-code shipped to them, the records coming back; not with --snapshots, --record or --viz, which write
-on the workers' disks). --offline runs the same
-episodes without nodes: the controller core (or the teacher's) on the physics directly
-(tric_control.evaluation.offline), several times faster, for sweeps; the table and JSON are the
-same. --record DIR writes one bag per episode (the recorder node: the joint states, poses, samples
-and outcome, the controller's status of every tick, and /tf, /robot_description and /scene_markers
-for Foxglove to replay it in 3D). --viz serves a live Foxglove view of the run
-(tric_sim.viz.foxglove_view) on ws://127.0.0.1:P (default 8765); it shows one graph, so it takes
---jobs 1. --record and --viz need the nodes (not --offline). --perturb puts each situation through
-perturbed trials instead (tric_sim.world.perturbation_trials): push:SIZE shoves the arm by SIZE rad,
-jump:SIZE moves the grasp target SIZE m sideways at once, drift:SIZE moves it at SIZE m/s,
-start:SIZE starts SIZE rad from the nominal start; @SECONDS sets when (default 1 s for grasps, 4 s
-for boxes). Each --perturb value gives one episode per situation, named "<situation>_<kind><size>";
-the perturbations are in the situation the episode runs (and in its bag, with --record). Exits 0
-when every episode ran (whatever its score), 1 when one could not be run, 2 on bad arguments.
+the model or the situations file, nor exist unless --overwrite), claimed for this run (another run
+naming them is refused, naming this one's PID), with the name of every picture and bag the episodes
+will write; a result is written atomically, never over a file that appeared meanwhile unless
+--overwrite. Each episode judged is kept in the --json file's .partial with the key of all that made
+it (tric_control.evaluation.partial); --resume runs only the episodes not kept with this run's key,
+naming those dropped. The nodes run in a private DDS domain unless --domain-id names one. --jobs N
+runs N such graphs at once, each in a worker process of its own on its own domain (the base one and
+the N - 1 above it), the situations shared out one at a time; the records keep the situations'
+order. The workers are spawned processes here, or Ray actors (--executor ray: a local Ray instance;
+--address or RAY_ADDRESS: a Ray cluster whose machines have the project's environment, the model
+file and the code shipped to them, the records coming back; not with --snapshots, --record or --viz,
+which write on the workers' disks). --offline runs the same episodes without nodes: the controller
+core (or the teacher's) on the physics directly (tric_control.evaluation.offline), several times
+faster, for sweeps; the table and JSON are the same. --record DIR writes one bag per episode (the
+recorder node: the joint states, poses, samples and outcome, the controller's status of every tick,
+and /tf, /robot_description and /scene_markers for Foxglove to replay it in 3D). --viz serves a live
+Foxglove view of the run (tric_sim.viz.foxglove_view) on ws://127.0.0.1:P (default 8765); it shows
+one graph, so it takes --jobs 1. --record and --viz need the nodes (not --offline). --perturb puts
+each situation through perturbed trials instead (tric_sim.world.perturbation_trials): push:SIZE
+shoves the arm by SIZE rad, jump:SIZE moves the grasp target SIZE m sideways at once, drift:SIZE
+moves it at SIZE m/s, start:SIZE starts SIZE rad from the nominal start; @SECONDS sets when (default
+1 s for grasps, 4 s for boxes). Each --perturb value gives one episode per situation, named
+"<situation>_<kind><size>"; the perturbations are in the situation the episode runs (and in its bag,
+with --record). Exits 0 when every episode ran (whatever its score), 1 when one could not be run, 2
+on bad arguments.
 """
 
 import argparse
+import contextlib
 import pathlib
 import sys
 
@@ -50,8 +55,13 @@ from tric_control.evaluation.executors import (
     open_executor,
 )
 from tric_sim.ros.dds_domains import MAX_DOMAIN_ID, private_domain_id
+from tric_sim.ros.fields import INTEGER_RANGES
+from tric_sim.tools.claims import claim
+from tric_sim.tools.file_names import check_file_names, safe_stem
 from tric_sim.tools.interrupts import run_interruptible
-from tric_sim.tools.output_files import check_output_file, check_output_folder
+from tric_sim.tools.output_files import PARTIAL_SUFFIX, check_output_file, check_output_folder
+from tric_sim.tools.provenance import code_digest
+from tric_sim.tools.untrusted import check_input_file
 from tric_sim.viz.view_options import add_view_arguments, open_view
 from tric_sim.world.perturbation_trials import parse_trial
 from tric_sim.world.situation_files import load_situations
@@ -59,6 +69,8 @@ from tric_sim.world.situations import DATASETS, dataset
 
 #: What --json takes per episode at most, bytes (a record is about 600).
 JSON_BYTES_PER_EPISODE = 4096
+#: The largest --max-steps: the Execute goal's max_steps is a uint32.
+MAX_STEPS = INTEGER_RANGES["uint32"][1]
 
 
 def main(argv=None) -> int:
@@ -130,8 +142,8 @@ def run(argv) -> int:
         parser.error("give either DATASET or --situations-file")
     if args.resume and not args.json:
         parser.error("--resume continues a run that keeps its episodes: give its --json file")
-    if args.max_steps < 0:
-        parser.error("--max-steps must not be negative")
+    if not 0 <= args.max_steps <= MAX_STEPS:
+        parser.error(f"--max-steps must be in [0, {MAX_STEPS}] (0: the controller's default)")
     domain_id = private_domain_id() if args.domain_id is None else args.domain_id
     if not 1 <= args.jobs <= 64:
         parser.error("--jobs must be in [1, 64]")
@@ -150,12 +162,13 @@ def run(argv) -> int:
         parser.error("--viz, and on a cluster --snapshots and --record, need workers here")
     if args.offline and (args.viz or args.record):
         parser.error("--viz and --record watch the nodes: not with --offline")
-    if (
-        args.record
-        and pathlib.Path(args.record).exists()
-        and not pathlib.Path(args.record).is_dir()
-    ):
-        parser.error(f"--record {args.record} exists and is not a folder")
+    with contextlib.ExitStack() as claims:
+        return evaluate_and_report(args, executor, domain_id, claims)
+
+
+def evaluate_and_report(args, executor, domain_id: int, claims: contextlib.ExitStack) -> int:
+    """Check and claim the outputs, run the episodes not kept yet, print the table and write the
+    --json file; the exit status."""
     view = None
     name = "teacher" if args.teacher else args.model
     try:
@@ -169,32 +182,18 @@ def run(argv) -> int:
             situations = [
                 trial.apply(situation, robot) for situation in situations for trial in args.perturb
             ]
-        if args.model and not pathlib.Path(args.model).is_file():
-            raise ValueError(
-                f"model file {args.model} "
-                + ("is a folder" if pathlib.Path(args.model).is_dir() else "does not exist")
-            )
-        if args.json:
-            check_output_file(
-                args.json,
-                what="--json file",
-                inputs=(args.model, args.situations_file),
-                overwrite=args.overwrite,
-                expected_bytes=JSON_BYTES_PER_EPISODE * len(situations),
-            )
-        if args.snapshots:
-            check_output_folder(args.snapshots, "--snapshots folder")
-        model = None if args.teacher else args.model
+        model = None if args.teacher else str(check_input_file(args.model, "model file"))
+        claim_outputs(args, situations, claims)
         from tric_control.evaluation.graph import evaluate
         from tric_control.evaluation.offline import evaluate_offline
-        from tric_control.evaluation.records import PartialRecords
+        from tric_control.evaluation.partial import dropped_line
 
-        kept = PartialRecords(args.json, name, situations) if args.json else None
-        done = kept.resume() if kept is not None and args.resume else {}
-        if kept is not None and not args.resume:
-            kept.remove()
+        kept = kept_records(args, model, situations)
+        done, dropped = kept.resume() if kept is not None and args.resume else ({}, [])
         if kept is not None and done:
             print(f"tric-eval: {len(done)} episodes kept in {kept.path}", file=sys.stderr)
+        if dropped:
+            print(f"tric-eval: {dropped_line(dropped)}", file=sys.stderr)
         todo = [situation for situation in situations if situation.name not in done]
         on_record = kept.add if kept is not None else None
         if not todo:
@@ -244,12 +243,61 @@ def run(argv) -> int:
     )
     if kept is not None:
         try:
-            print(f"wrote {write_json(args.json, {'agent': name, **report(records)})}")
+            result = {"agent": name, **report(records)}
+            print(f"wrote {write_json(args.json, result, replace=args.overwrite)}")
         except OSError as error:
             print(f"tric-eval: {error.strerror}", file=sys.stderr)
             return 2
         kept.remove()
     return 1 if any(r.failed for r in records) else 0
+
+
+def claim_outputs(args, situations, claims: contextlib.ExitStack) -> None:
+    """Check every output before any work, and claim it for this run (tric_sim.tools.claims, held
+    until claims closes): the --json file (and its .partial: without --resume, one there is
+    refused unless --overwrite), the --snapshots and --record folders, and the file each episode
+    will write into them (tric_sim.tools.file_names)."""
+    inputs = (args.model, args.situations_file)
+    if args.json:
+        check_output_file(
+            args.json,
+            what="--json file",
+            inputs=inputs,
+            overwrite=args.overwrite,
+            expected_bytes=JSON_BYTES_PER_EPISODE * len(situations),
+        )
+        claims.enter_context(claim(args.json, "--json file"))
+        partial = pathlib.Path(args.json + PARTIAL_SUFFIX)
+        if partial.exists() and not args.resume and not args.overwrite:
+            raise ValueError(
+                f"{partial} holds the episodes of an interrupted run: give --resume to continue "
+                "it, or --overwrite to start anew"
+            )
+    outputs = (
+        (args.snapshots, "--snapshots folder", "picture", ".png", str),
+        (args.record, "--record folder", "bag", ".mcap", safe_stem),
+    )
+    for folder, what, item, suffix, stem in outputs:
+        if folder:
+            check_output_folder(folder, what)
+            claims.enter_context(claim(folder, what, folder=True))
+            names = {situation.name: stem(situation.name) + suffix for situation in situations}
+            check_file_names(folder, names, item, inputs=inputs)
+
+
+def kept_records(args, model, situations):
+    """The PartialRecords of a run with --json (None without), keyed on all that makes its
+    episodes (tric_control.evaluation.partial)."""
+    if not args.json:
+        return None
+    from tric_control.evaluation.partial import PartialRecords, agent_digest
+
+    runs = "offline" if args.offline else "nodes"
+    code = code_digest(f"tric_control.evaluation.{'offline' if args.offline else 'graph'}")
+    kept = PartialRecords(args.json, agent_digest(model), situations, args.max_steps, runs, code)
+    if not args.resume:
+        kept.remove()
+    return kept
 
 
 def _trial(text: str):

@@ -8,8 +8,11 @@ a model file, choosing the model among candidates.
                [--address HOST:PORT] [--include-failed] [--tolerant] [--overwrite]
 
 BAGS are MCAP bags written by tric-record or the recorder node, or folders of them. MODEL defaults
-to model.safetensors next to the first bag, and must not exist unless --overwrite; the
-hyper-parameters default to the paper's (Sec. 5.2) but where docs/fidelity.md says.
+to model.safetensors next to the first bag, and must not exist unless --overwrite; it is claimed
+for this run before any work (another run naming it is refused, naming this one's PID), its room
+checked before the training, and a model file that appears there meanwhile is replaced only with
+--overwrite (else the model goes beside it, as MODEL's stem + .new). The hyper-parameters default
+to the paper's (Sec. 5.2) but where docs/fidelity.md says.
 TRIC trains S candidates with the seeds G, G + 1, ..., G + S - 1 side by side (J at once, on Ray
 by default: a local instance, or a cluster at --address), rolls each out from every
 demonstration's start situation, ranks them by how closely those rollouts ended where the
@@ -386,6 +389,7 @@ def run(argv) -> int:
                     include_failed=args.include_failed,
                     tolerant=args.tolerant,
                     notice=notice,
+                    overwrite=args.overwrite,
                 )
             finally:
                 bars.close()
@@ -408,6 +412,7 @@ def run(argv) -> int:
                     include_failed=args.include_failed,
                     tolerant=args.tolerant,
                     notice=notice,
+                    overwrite=args.overwrite,
                 )
         finally:
             bar.close()

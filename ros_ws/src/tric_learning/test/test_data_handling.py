@@ -8,6 +8,7 @@ refused, and a cached model is re-used only when made as asked; damaged bags and
 import dataclasses
 import json
 import math
+import os
 import pathlib
 import subprocess
 import sys
@@ -32,8 +33,10 @@ from tric_learning.training.dataset import Dataset
 from tric_learning.training.value import TrainingConfig, train
 from tric_learning.value_function import Scaling, ValueFunction
 from tric_sim.tools.provenance import code_digest
+from tric_sim.world import situations as S
 from tric_sim.world.robot_model import RobotModel
 from tric_sim.world.situation import Obstacle, Situation
+from tric_sim.world.situation_files import save_situations
 
 #: An obstacle block around the robot's lower arm: every configuration near home collides with it.
 BLOCKING_OBSTACLE = Obstacle("box", (0.3, 0.3, 0.3), (0.0, 0.0, 0.4))
@@ -125,9 +128,17 @@ def test_a_demonstration_without_collision_free_samples_is_named_with_its_bag(
         samples.generate(dataset, robot, 5, 0.05, 0)
 
 
-def test_a_folder_is_not_called_a_missing_model_file(tmp_path):
-    with pytest.raises(ValueError, match=f"model file {tmp_path} is a folder, not a model file"):
+def test_a_folder_a_device_or_a_pipe_is_not_called_a_missing_model_file(tmp_path):
+    """/dev/zero or a FIFO given as a model was said to "not exist"."""
+    with pytest.raises(ValueError, match=f"model file {tmp_path} is a folder, not a file"):
         ModelFile.load(tmp_path)
+    fifo = tmp_path / "fifo"
+    os.mkfifo(fifo)
+    for path in ("/dev/zero", fifo):
+        with pytest.raises(ValueError, match=f"model file {path} is not a regular file"):
+            ModelFile.load(path)
+    with pytest.raises(ValueError, match=f"model file {tmp_path / 'none'} does not exist"):
+        ModelFile.load(tmp_path / "none")
 
 
 def _rewrite_metadata(path: pathlib.Path, change) -> None:
@@ -493,7 +504,8 @@ def test_tric_record_refuses_a_folder_without_room_for_the_bags_before_any_work(
     tmp_path, monkeypatch, capsys
 ):
     """A stand-in full disk (shutil.disk_usage): tric-record answers with one line and exit 2
-    before any node starts or any bag is begun."""
+    before any node starts or any bag is begun; the room it asks for grows with --duration (before:
+    1 MB a demonstration whatever its length, so --duration 1e9 recorded without bound)."""
     import collections
 
     from tric_learning import record_cli
@@ -502,10 +514,59 @@ def test_tric_record_refuses_a_folder_without_room_for_the_bags_before_any_work(
     usage = collections.namedtuple("usage", "total used free")
     monkeypatch.setattr(output_files.shutil, "disk_usage", lambda _: usage(10**9, 10**9, 10**5))
     out = tmp_path / "bags"
-    assert record_cli.main(["sphere_train", "--out", str(out)]) == 2
-    error = capsys.readouterr().err
-    assert error == (
-        f"tric-record: --out {out} cannot be written: {tmp_path} has 0.1 MB free, "
-        "27.0 MB are needed\n"
-    )
+    needed = {}
+    for duration in ("0", "5", "60", "120"):
+        assert record_cli.main(["sphere_train", "--out", str(out), "--duration", duration]) == 2
+        error = capsys.readouterr().err
+        prefix = f"tric-record: --out {out} cannot be written: {out} has 100 kB free, "
+        assert error.startswith(prefix) and error.endswith(" MB are needed\n"), error
+        needed[duration] = float(error[len(prefix) :].split()[0])
+    assert needed["0"] == needed["5"] == 25.4  # 27 bags of 5 s at 0.125 s: 0.94 MB each
+    assert needed["5"] < needed["60"] < needed["120"]
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize(
+    "option, value, message",
+    [
+        ("--duration", "1e9", "--duration must be in [0, 120] simulated s (0: the default)"),
+        ("--duration", "inf", "--duration must be in [0, 120] simulated s (0: the default)"),
+        ("--duration", "nan", "--duration must be in [0, 120] simulated s (0: the default)"),
+        ("--period", "inf", "--period must be in (0, 10] simulated s"),
+    ],
+)
+def test_tric_record_bounds_its_durations_before_any_work(tmp_path, capsys, option, value, message):
+    """--duration 1e9 recorded without bound, --duration inf failed inside the teacher."""
+    from tric_learning import record_cli
+
+    with pytest.raises(SystemExit) as ended:
+        record_cli.main(["sphere_train", "--out", str(tmp_path / "bags"), option, value])
+    assert ended.value.code == 2
+    assert capsys.readouterr().err.endswith(f"tric-record: error: {message}\n")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_tric_record_refuses_names_that_map_to_one_bag_and_its_own_input(tmp_path, capsys):
+    """Situations named "grasp a", "grasp_a" and "grasp:a" became one bag (--overwrite) or
+    grasp_a, grasp_a_1, grasp_a_2; a situations file in the folder named as a bag was recorded
+    over. Both are refused before the first demonstration, and nothing is written."""
+    from tric_learning import record_cli
+
+    base = S.dataset("sphere_train")
+    folder = tmp_path / "bags"
+    colliding = tmp_path / "colliding.yaml"
+    names = ["grasp a", "grasp_a", "grasp:a"]
+    save_situations(colliding, [dataclasses.replace(base[k], name=n) for k, n in enumerate(names)])
+    arguments = ["--out", str(folder), "--overwrite", "--situations-file"]
+    assert record_cli.main([*arguments, str(colliding)]) == 2
+    assert capsys.readouterr().err == (
+        f"tric-record: the bags of 'grasp a' and 'grasp_a' would be one file, "
+        f"{folder}/grasp_a.mcap: rename one\n"
+    )
+    assert not folder.exists()
+    own = folder / "x.mcap"
+    save_situations(own, [dataclasses.replace(base[0], name="x")])
+    assert record_cli.main([*arguments, str(own)]) == 2
+    assert "is an input of this run" in capsys.readouterr().err
+    assert sorted(p.name for p in folder.iterdir()) == ["x.mcap"]
+    assert own.read_text().startswith("situations:")

@@ -17,6 +17,7 @@ import sys
 
 # Only what the arguments need: --help and argument errors answer before torch, pinocchio and
 # matplotlib are imported (run imports the analyses once the arguments are checked).
+from tric_sim.tools.claims import claim
 from tric_sim.tools.interrupts import run_interruptible
 from tric_sim.tools.output_files import check_output_folder
 
@@ -54,6 +55,18 @@ def run(argv) -> int:
         if args.feature_rank is not None and args.feature_rank < 1:
             raise ValueError("--feature-rank must be at least 1")
         check_output_folder(args.out, "--out folder")
+        held = claim(args.out, "--out folder", folder=True)
+    except ValueError as error:
+        print(f"{PROG}: {error}", file=sys.stderr)
+        return 2
+    with held:
+        return analyze(args)
+
+
+def analyze(args) -> int:
+    """Measure the model on the bags, write the figures into --out and print the numbers; the
+    exit status."""
+    try:
         from tric_learning.analysis import (
             DEFAULT_FEATURE_RANK,
             FALLING_STEP,

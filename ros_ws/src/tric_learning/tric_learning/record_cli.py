@@ -7,25 +7,48 @@ Runs the simulator (lockstep), the teacher and the recorder nodes in one process
 the teacher demonstrates (action /teacher/demonstrate) and the recorder writes one bag
 DIR/<situation>.mcap. DATASET is a built-in data set (sphere_train, cylinder_train, box_train, ...).
 DIR must be new or empty unless --overwrite is given (then a bag of the same name is replaced).
-Prints a table of the demonstrations' outcomes; exits non-zero if any failed. --viz serves a live
-Foxglove view of the run (tric_sim.visualizer_node) on ws://127.0.0.1:P (default 8765).
+Before the first demonstration DIR is claimed for this run (another run naming it is refused, naming
+this one's PID), its room checked for the bags (which grow with --duration, at most 120 s, and
+shrink with --period), and every bag's name: no two situations may map to one file (as DIR's file
+system compares names), and no bag may be an input (the situations file). Prints a table of the
+demonstrations' outcomes; exits non-zero if any failed. --viz serves a live Foxglove view of the run
+(tric_sim.visualizer_node) on ws://127.0.0.1:P (default 8765).
 """
 
 import argparse
+import contextlib
+import pathlib
 import sys
 import time
 
 # Only what the arguments need: --help and argument errors answer before pybullet, pinocchio and
 # rclpy are imported (main imports the nodes once the arguments are checked).
 from tric_sim.ros.dds_domains import MAX_DOMAIN_ID, private_domain_id
+from tric_sim.tools.claims import claim
+from tric_sim.tools.file_names import check_file_names, safe_stem
 from tric_sim.tools.interrupts import run_interruptible
 from tric_sim.tools.output_files import check_output_folder
 from tric_sim.viz.view_options import add_view_arguments, open_view
+from tric_sim.world.durations import DEFAULT_DURATION, MAX_DURATION
 from tric_sim.world.situation_files import load_situations
 from tric_sim.world.situations import DATASETS, dataset
 
-#: The room a demonstration's bag takes at most, bytes (the reference bags: 0.5 to 0.6 MB).
-BAG_BYTES_PER_DEMONSTRATION = 10**6
+#: The room a demonstration's bag takes at most, bytes: BAG_BYTES + BAG_BYTES_PER_S per simulated
+#: second (the states of every control period, the scene's topics) + BAG_BYTES_PER_SAMPLE per sample
+#: (features and Jacobian). Measured: 0.61 MB for 5 s at 0.125 s (estimate 0.94 MB), 1.16 MB for
+#: 10 s, 2.26 MB for 20 s, 4.83 MB for 5 s at 0.01 s (estimate 6.4 MB); a box's 8 s, 0.68 MB.
+BAG_BYTES, BAG_BYTES_PER_S, BAG_BYTES_PER_SAMPLE = 150_000, 60_000, 12_000
+#: The simulator's control period, s: a sample is taken at most once per period.
+CONTROL_PERIOD_S = 0.01
+#: The longest sampling period, simulated s.
+MAX_PERIOD_S = 10.0
+
+
+def bag_bytes(task: str, duration: float, period: float) -> int:
+    """The room a demonstration's bag takes at most, bytes (duration 0: the task's default)."""
+    duration = duration or DEFAULT_DURATION[task]
+    samples = duration / max(period, CONTROL_PERIOD_S) + 1
+    return int(BAG_BYTES + BAG_BYTES_PER_S * duration + BAG_BYTES_PER_SAMPLE * samples)
 
 
 def main(argv=None) -> int:
@@ -67,25 +90,51 @@ def run(argv) -> int:
     args = parser.parse_args(argv)
     if bool(args.dataset) == bool(args.situations_file):
         parser.error("give either DATASET or --situations-file")
-    if not args.period > 0 or args.duration < 0:
-        parser.error("--period must be positive and --duration not negative")
-    try:
-        situations = (
-            load_situations(args.situations_file) if args.situations_file else dataset(args.dataset)
-        )
-        out = check_output_folder(
-            args.out,
-            "--out",
-            must_be_empty=not args.overwrite,
-            expected_bytes=BAG_BYTES_PER_DEMONSTRATION * len(situations),
-        )
-    except ValueError as error:
-        hint = "; give --overwrite to record into it anyway" if "is not empty" in str(error) else ""
-        print(f"tric-record: {error}{hint}", file=sys.stderr)
-        return 2
+    if not 0 < args.period <= MAX_PERIOD_S:
+        parser.error(f"--period must be in (0, {MAX_PERIOD_S:g}] simulated s")
+    if not 0 <= args.duration <= MAX_DURATION:
+        parser.error(f"--duration must be in [0, {MAX_DURATION:g}] simulated s (0: the default)")
     domain_id = private_domain_id() if args.domain_id is None else args.domain_id
     if not 0 <= domain_id <= MAX_DOMAIN_ID:
         parser.error(f"--domain-id must be in [0, {MAX_DOMAIN_ID}]")
+    with contextlib.ExitStack() as claims:
+        try:
+            situations = (
+                load_situations(args.situations_file)
+                if args.situations_file
+                else dataset(args.dataset)
+            )
+            out = claim_folder(args, situations, claims)
+        except ValueError as error:
+            full = "not empty" in str(error)
+            hint = "; give --overwrite to record into it anyway" if full else ""
+            print(f"tric-record: {error}{hint}", file=sys.stderr)
+            return 2
+        return record(args, situations, out, domain_id)
+
+
+def claim_folder(args, situations, claims: contextlib.ExitStack) -> pathlib.Path:
+    """The --out folder, checked and claimed for this run (tric_sim.tools.claims, held until claims
+    closes) before any work: one that can be written, empty unless --overwrite, with room for the
+    bags (bag_bytes), and a bag name for each situation that no other situation's maps to and
+    that is not an input (tric_sim.tools.file_names); ValueError naming the problem."""
+    from tric_learning.bags import BAG_SUFFIX
+
+    out = check_output_folder(args.out, "--out")
+    claims.enter_context(claim(out, "--out folder", folder=True))
+    check_output_folder(
+        out,
+        "--out",
+        must_be_empty=not args.overwrite,
+        expected_bytes=sum(bag_bytes(s.task, args.duration, args.period) for s in situations),
+    )
+    bags = {situation.name: safe_stem(situation.name) + BAG_SUFFIX for situation in situations}
+    check_file_names(out, bags, "bag", inputs=(args.situations_file,))
+    return out
+
+
+def record(args, situations, out: pathlib.Path, domain_id: int) -> int:
+    """Record the demonstrations into out and print their table; the exit status."""
     from tric_learning.demonstrations import demonstrate_all
 
     print(f"tric-record: nodes in DDS domain {domain_id}", file=sys.stderr)

@@ -17,9 +17,11 @@ status of every tick.
 Parameters (checked at startup: a bad one ends the node with exit status 2): output_dir
 ("recordings": a folder that can be written, created if missing), sample_period_s (0.125, > 0),
 sources (["teacher"]: the episode sources to record), outcome_timeout_s (30, > 0), overwrite (false:
-an episode whose bag name is taken is written to <name>_1.mcap, ...; true: its new bag replaces the
-old one when it is finished), status_topic ("": none; "/controller/status" to record a controller's
-episodes with their status).
+an episode whose bag name is taken is written to <name>_1.mcap, ..., and a bag that appears under
+its name while it records is kept too; true: its new bag replaces the old one when it is finished),
+status_topic ("": none; "/controller/status" to record a controller's episodes with their status).
+A bag's .part is held under an exclusive lock while it is written (another recorder writing the
+same one is refused: the episode is not recorded, naming that recorder's PID).
 """
 
 import pathlib
@@ -40,6 +42,7 @@ from tric_sim.ros import messages
 from tric_sim.ros.graph import EVENT_QOS, run_node
 from tric_sim.ros.parameters import POSITIVE, declare
 from tric_sim.ros.topic_poller import TopicPoller
+from tric_sim.tools.file_names import safe_stem
 from tric_sim.tools.output_files import check_output_folder
 from tric_sim.world.robot_model import RobotModel
 
@@ -234,7 +237,7 @@ class RecorderNode(Node):
     def _free_path(self, name: str) -> pathlib.Path:
         """The bag path for an episode name: <name>.mcap, or with overwrite false and that name
         taken, the first free <name>_<k>.mcap."""
-        safe = "".join(c if c.isalnum() or c in "-_." else "_" for c in name) or "episode"
+        safe = safe_stem(name)
         path, k = self.output_dir / f"{safe}{bags.BAG_SUFFIX}", 1
         while not self.overwrite and (
             path.exists() or path.with_name(path.name + bags.PART_SUFFIX).exists()

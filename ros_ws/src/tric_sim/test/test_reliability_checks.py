@@ -246,12 +246,32 @@ def test_a_write_that_fails_names_the_path_and_keeps_the_file_before(tmp_path, m
 def test_output_files_refuse_too_little_free_space_and_keep_temporary_names_short(tmp_path):
     from tric_sim.tools import output_files
 
-    with pytest.raises(ValueError, match="MB are needed"):
+    with pytest.raises(ValueError, match=r"has [0-9.]+ [kMGT]B free, 1000000 TB are needed"):
         output_files.check_output_file(tmp_path / "x.json", expected_bytes=10**18)
-    longest = "n" * (255 - len(".json")) + ".json"  # the longest name the file system takes
+    # the longest name whose siblings (its .partial, its lock) the file system takes
+    longest = "n" * (255 - len(".json.partial")) + ".json"
     assert output_files.check_output_file(tmp_path / longest).name == longest
     output_files.write_text_atomic(tmp_path / longest, "fits")
     assert (tmp_path / longest).read_text() == "fits"
+    for length in range(len(longest) + 1, 256):  # tric-eval --json with 250 to 255 characters
+        with pytest.raises(ValueError, match=r"longer than the 255 bytes the file system takes"):
+            output_files.check_output_file(tmp_path / ("n" * (length - 5) + ".json"))
+
+
+def test_sizes_are_written_in_the_unit_that_reads_best():
+    """Free room and needs read as people read them (before: "0.0 MB free, 0.0 MB are
+    needed" for 20 kB and 43 kB)."""
+    from tric_sim.tools.output_files import size_text
+
+    assert [size_text(n) for n in (0, 999, 20_000, 43_008, 1_234_567, 150_000_000, 3 * 10**12)] == [
+        "0 bytes",
+        "999 bytes",
+        "20.0 kB",
+        "43.0 kB",
+        "1.2 MB",
+        "150 MB",
+        "3.0 TB",
+    ]
 
 
 def test_output_folders_and_files_under_a_name_too_long_are_refused_before_work(tmp_path):
@@ -301,7 +321,7 @@ def test_an_output_folder_without_the_room_expected_is_refused(tmp_path, monkeyp
 
     usage = collections.namedtuple("usage", "total used free")
     monkeypatch.setattr(output_files.shutil, "disk_usage", lambda _: usage(10**9, 10**9, 0))
-    with pytest.raises(ValueError, match="has 0.0 MB free, 1.0 MB are needed"):
+    with pytest.raises(ValueError, match="has 0 bytes free, 1.0 MB are needed"):
         output_files.check_output_folder(tmp_path / "new", "--out", expected_bytes=10**6)
     assert output_files.check_output_folder(tmp_path / "new", "--out") == tmp_path / "new"
     assert list(tmp_path.iterdir()) == []

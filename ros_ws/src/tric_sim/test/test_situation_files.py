@@ -145,3 +145,65 @@ def test_unknown_names_are_quoted_at_most_80_characters():
     for look_up in (S.dataset, S.find_situation):
         with pytest.raises(ValueError, match=r"'x{80}\.\.\. \(100000 chars\)'"):
             look_up(LONG)
+
+
+def _sphere_entry(name="s", **changes) -> dict:
+    entry = S.sphere(name, (0.55, 0.0, 0.05)).to_dict()
+    entry.update(changes)
+    return entry
+
+
+@pytest.mark.parametrize(
+    "entry, problem",
+    [
+        (
+            _sphere_entry(object_position=[10**400, 0, 0.2]),
+            "situation 's': object_position holds a number too large for a float",
+        ),
+        (
+            _sphere_entry(
+                obstacles=[{"shape": "box", "dimensions": [10**400, 1, 1], "position": [1, 0, 0]}]
+            ),
+            "situation 's': an obstacle's dimensions holds a number too large for a float",
+        ),
+        (
+            _sphere_entry(perturbations=[{"kind": "push", "start_s": 10**400}]),
+            "situation 's': bad perturbation entry",
+        ),
+        (
+            _sphere_entry(initial_joint_positions=[3.1] + [0.0] * 6 + [0.1] * 7),
+            "situation 's': initial_joint_positions: arm_1_joint = 3.1000 rad is outside its "
+            "limits [-2.9671, 2.9671]",
+        ),
+    ],
+)
+def test_a_situations_file_is_checked_whole_when_read(tmp_path, entry, problem):
+    """Numbers too large for a float (a 400-digit integer: an OverflowError traceback before) and
+    a start outside the joint limits (found before only when its episode started, after the
+    situations before it had run) are refused when the file is read, naming the file and the
+    situation."""
+    path = tmp_path / "situations.yaml"
+    good = [_sphere_entry("good_1"), _sphere_entry("good_2")]
+    path.write_text(yaml.safe_dump({"situations": [*good, entry]}))
+    with pytest.raises(ValueError) as refused:
+        load_situations(path)
+    assert str(refused.value).startswith(f"situations file {path}: {problem}")
+    assert len(str(refused.value).splitlines()) == 1
+
+
+@pytest.mark.parametrize("suffix", [".yaml", ".json"])
+def test_a_key_repeated_within_a_situation_is_refused(tmp_path, suffix):
+    """Before: the last value silently won."""
+    path = tmp_path / ("situations" + suffix)
+    entry = json.dumps(_sphere_entry())
+    text = '{"situations": [' + entry[:-1] + ', "seed": 7}]}'
+    path.write_text(text)
+    with pytest.raises(ValueError, match=r"is not valid (YAML|JSON): the key 'seed' repeated"):
+        load_situations(path)
+
+
+def test_names_repeated_in_one_file_are_named(tmp_path):
+    path = tmp_path / "situations.yaml"
+    path.write_text(yaml.safe_dump({"situations": [_sphere_entry("a"), _sphere_entry("a")]}))
+    with pytest.raises(ValueError, match=r"situation names must be unique \(\['a'\] repeat\)"):
+        load_situations(path)

@@ -15,6 +15,7 @@ import sys
 
 # Only what the arguments need: --help and argument errors answer before pybullet, pinocchio and
 # matplotlib are imported (tric_sim.viz.situation_pictures, the rendering, is imported after).
+from tric_sim.tools.claims import claim
 from tric_sim.tools.interrupts import run_interruptible
 from tric_sim.tools.output_files import WriteFailed, check_output_folder
 from tric_sim.world.situations import find_situation
@@ -43,16 +44,18 @@ def run(argv) -> int:
     try:
         chosen = [find_situation(name, args.situations_file) for name in args.situations]
         out = check_output_folder(args.out, "--out folder")
+        held = claim(out, "--out folder", folder=True)
     except ValueError as error:
         print(f"tric-snapshot: {error}", file=sys.stderr)
         return 2
     from tric_sim.viz.situation_pictures import write_pictures
 
-    try:
-        write_pictures(chosen, out, args.size, args.strip)
-    except WriteFailed as error:
-        print(f"tric-snapshot: {error}", file=sys.stderr)
-        return 2
+    with held:
+        try:
+            write_pictures(chosen, out, args.size, args.strip)
+        except WriteFailed as error:
+            print(f"tric-snapshot: {error}", file=sys.stderr)
+            return 2
     return 0
 
 

@@ -5,7 +5,8 @@ publishes EpisodeEvent START on /episode, drives the robot with the task's teach
 controller, or the box-opening planner) by answering every /joint_states with a /joint_command of
 the same stamp, publishes END, asks the simulator for the hidden metrics (/simulator/evaluate_task,
 with the lift test for grasps), publishes them as OUTCOME and returns them. One goal at a time;
-others are rejected while one runs.
+others are rejected while one runs. A goal's duration must be in [0, MAX_DURATION] simulated s
+(tric_sim.world.durations; 0: the task's default), or the goal is aborted saying so.
 """
 
 import sys
@@ -22,7 +23,8 @@ from tric_sim.ros import messages
 from tric_sim.ros.graph import EVENT_QOS, STATE_QOS, Canceled, run_node
 from tric_sim.ros.parameters import POSITIVE, declare
 from tric_sim.ros.topic_poller import StateStream, command_msg, run_in_thread
-from tric_sim.teachers import DEFAULT_DURATION, make_teacher
+from tric_sim.teachers import make_teacher
+from tric_sim.world.durations import DEFAULT_DURATION, MAX_DURATION
 from tric_sim.world.robot_model import RobotModel
 
 
@@ -89,6 +91,13 @@ class TeacherNode(Node):
                     f"service {client.srv_name} is not available: is the simulator running?",
                 )
         episode_id = goal.episode_id or situation.name
+        if not 0.0 <= goal.duration <= MAX_DURATION:  # NaN too
+            return self._abort(
+                goal_handle,
+                result,
+                f"duration must be in [0, {MAX_DURATION:g}] simulated s (0: the task's default), "
+                f"got {goal.duration}",
+            )
         duration = goal.duration if goal.duration > 0 else DEFAULT_DURATION[situation.task]
         reset = await self.reset_client.call_async(ResetScene.Request(situation=goal.situation))
         if not reset.success:

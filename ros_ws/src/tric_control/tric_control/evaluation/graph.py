@@ -30,17 +30,16 @@ from tric_msgs.msg import EpisodeEvent
 from tric_msgs.srv import EvaluateTask, LoadModel, RenderScene, ResetScene
 from tric_sim.ros import messages
 from tric_sim.ros.dds_domains import MAX_DOMAIN_ID
+from tric_sim.ros.fields import check_integer
 from tric_sim.ros.graph import EVENT_QOS, InProcessGraph, wait
 from tric_sim.simulator_node import lockstep_simulator
 from tric_sim.teacher_node import TeacherNode
 from tric_sim.visualizer_node import VisualizerNode
 from tric_sim.viz.situation_pictures import write_png
 
-#: Wall seconds to wait for a service answer, and for an episode to end.
-SERVICE_TIMEOUT = 60.0
-EPISODE_TIMEOUT = 900.0
-#: Wall seconds to wait for the recorder to close an episode's bag (--record).
-BAG_TIMEOUT = 30.0
+#: Wall seconds to wait for a service answer, for an episode to end, and for the recorder to close
+#: an episode's bag (--record).
+SERVICE_TIMEOUT, EPISODE_TIMEOUT, BAG_TIMEOUT = 60.0, 900.0, 30.0
 
 
 class Evaluator:
@@ -59,7 +58,8 @@ class Evaluator:
         view=None,
         record=None,
     ):
-        self.task, self.model, self.max_steps = task, model, max_steps
+        self.task, self.model = task, model
+        self.max_steps = check_integer(max_steps, "uint32", "max_steps")  # the Execute goal's
         self.graph = InProcessGraph(domain_id)
         self.closed = False
         self.recorder = None
@@ -377,8 +377,7 @@ def _evaluate_here(
 def _evaluate_in_workers(
     situations, task, model, max_steps, snapshot, domain_id, jobs, bar, record, on_record, executor
 ) -> list:
-    """The situations shared out over jobs workers of executor (see _worker_evaluator), one at a
-    time."""
+    """The situations shared out over jobs workers (_worker_evaluator), one at a time."""
     base = int(os.environ.get("ROS_DOMAIN_ID", "0")) if domain_id is None else domain_id
     if not 0 <= base <= MAX_DOMAIN_ID - jobs + 1:
         raise ValueError(

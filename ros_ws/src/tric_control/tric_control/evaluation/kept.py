@@ -12,7 +12,7 @@ import pathlib
 from dataclasses import asdict
 
 from tric_control.evaluation.records import record_from_json, write_json
-from tric_sim.tools.untrusted import load_data
+from tric_sim.tools.untrusted import read_data_file
 
 #: The key's length in hex digits (of a SHA-256).
 KEY_LENGTH = 16
@@ -92,7 +92,7 @@ def _write(path: pathlib.Path, key: str, made_of: dict, kept: dict) -> None:
 def _read(path: pathlib.Path, key: str, names) -> dict:
     """{situation index: EpisodeRecord} of a file _write wrote for key; ValueError naming the file
     when it is not one, or its episodes are not of these situations."""
-    data = load_data(path.read_text(errors="replace"), str(path), json_format=True)
+    data = read_data_file(path, "kept evaluation", json_format=True)
     if not isinstance(data, dict) or data.get("key") != key or "episodes" not in data:
         raise ValueError(f"{path} is not an evaluation kept by tric-experiments: remove it")
     kept = {}

@@ -28,6 +28,7 @@ from tric_learning.model_file import ModelFile
 from tric_sim import teachers
 from tric_sim.physics import metrics
 from tric_sim.physics.simulation import PhysicsWorld
+from tric_sim.world.durations import DEFAULT_DURATION
 from tric_sim.world.proximity import Proximity
 from tric_sim.world.robot_model import RobotModel
 
@@ -89,7 +90,7 @@ class OfflineEvaluator:
         world, grasp = self.world, situation.task == "grasp"
         record = unjudged_fields(situation, self.agent)
         if self.model is None:
-            duration = teachers.DEFAULT_DURATION[situation.task]
+            duration = DEFAULT_DURATION[situation.task]
             teachers.demonstrate(
                 world,
                 self.robot,

@@ -18,7 +18,6 @@ import numpy as np
 
 from tric_sim.physics.metrics import GOOD_GRASP, LID_OPEN_ANGLE
 from tric_sim.tools.output_files import write_text_atomic
-from tric_sim.tools.untrusted import load_data
 
 
 @dataclass
@@ -229,50 +228,8 @@ def record_from_json(data: dict) -> EpisodeRecord:
     return EpisodeRecord(**values)
 
 
-def write_json(path, data: dict) -> pathlib.Path:
-    """Write data to path as strict JSON (NaN and inf as null), atomically; the path."""
-    return write_text_atomic(path, json.dumps(_json_safe(data), indent=2) + "\n")
-
-
-class PartialRecords:
-    """The episodes of a run judged so far, kept in a file beside its JSON result (path: the
-    result's path + ".partial") after each one, so that an interrupted run continues where it
-    ended (tric-eval --resume). The file names the agent and the situations; a run of another
-    agent or other situations does not resume from it."""
-
-    def __init__(self, result_path, agent: str, situations):
-        self.path = pathlib.Path(f"{result_path}.partial")
-        self.agent = agent
-        self.names = [situation.name for situation in situations]
-        self.records: dict[str, EpisodeRecord] = {}
-
-    def resume(self) -> dict:
-        """{situation name: EpisodeRecord} of the file, kept as this run's; {} without a file;
-        ValueError when it is not this run's or not a partial file."""
-        if not self.path.is_file():
-            return {}
-        data = load_data(self.path.read_text(errors="replace"), str(self.path), json_format=True)
-        if not isinstance(data, dict) or {"agent", "situations", "episodes"} - set(data):
-            raise ValueError(f"{self.path} is not a partial run of tric-eval")
-        if data["agent"] != self.agent or data["situations"] != self.names:
-            raise ValueError(
-                f"{self.path} is a run of {str(data['agent'])[:80]} on other situations or by "
-                "another agent: remove it, or give the run it was made by"
-            )
-        self.records = {r.situation: r for r in map(record_from_json, data["episodes"])}
-        return dict(self.records)
-
-    def add(self, record: EpisodeRecord) -> None:
-        """Keep record, and write the file anew (atomically)."""
-        self.records[record.situation] = record
-        write_json(
-            self.path,
-            {
-                "agent": self.agent,
-                "situations": self.names,
-                "episodes": [asdict(r) for r in self.records.values()],
-            },
-        )
-
-    def remove(self) -> None:
-        self.path.unlink(missing_ok=True)
+def write_json(path, data: dict, replace: bool = True) -> pathlib.Path:
+    """Write data to path as strict JSON (NaN and inf as null), atomically (a file that appeared at
+    path meanwhile replaced only if replace: tric_sim.tools.output_files.atomic_path); the
+    path."""
+    return write_text_atomic(path, json.dumps(_json_safe(data), indent=2) + "\n", replace)

@@ -38,15 +38,16 @@ controller nodes at once, each in a process and DDS domain of its own
 (tric_control.evaluation.graph): spawned processes here, or Ray actors (--executor ray: a local
 instance; --address or RAY_ADDRESS: a cluster whose machines have the project's environment), where
 the trainings then run as Ray tasks; models and results come back to DIR.
-Each experiment writes DIR/<name>.json and its PNG(s) and prints its table and a discussion composed
-from its numbers; DIR/REPORT.md is then rewritten from every experiment's JSON found in DIR, each
-table beside the paper's numbers and followed by its discussion, and the results page (default
-DIR/results.md; --results-page FILE: elsewhere, its figures linked relative to it): each
-experiment's discussion, the paper's numbers and its figures. --check then compares every
-experiment's results found in DIR with the design's targets, each for every group
-(tric_control.experiments.checks), prints them and exits 1 if one is missed; --check-only does
-that without running anything; --report-only rewrites the report and the results page from the
-folder's JSON without running anything.
+DIR is claimed for the run before any work (another run naming it is refused, naming this one's PID;
+--check-only only reads it). Each experiment writes DIR/<name>.json and its PNG(s) and prints its
+table and a discussion composed from its numbers; DIR/REPORT.md is then rewritten from every
+experiment's JSON found in DIR, each table beside the paper's numbers and followed by its
+discussion, and the results page (default DIR/results.md; --results-page FILE: elsewhere, its
+figures linked relative to it): each experiment's discussion, the paper's numbers and its figures.
+--check then compares every experiment's results found in DIR with the design's targets, each for
+every group (tric_control.experiments.checks), prints them and exits 1 if one is missed;
+--check-only does that without running anything; --report-only rewrites the report and the results
+page from the folder's JSON without running anything.
 """
 
 import argparse
@@ -65,6 +66,7 @@ from tric_control.evaluation.executors import (
     open_executor,
 )
 from tric_control.experiments import EXPERIMENT_MODULES, experiment
+from tric_sim.tools.claims import claim
 from tric_sim.tools.interrupts import run_interruptible
 from tric_sim.tools.output_files import WriteFailed, atomic_path, check_output_folder
 
@@ -140,15 +142,15 @@ def run(argv) -> int:
         print(f"tric-experiments: {error}", file=sys.stderr)
         return 2
     page = pathlib.Path(args.results_page) if args.results_page else out / "results.md"
-    if args.report_only:
-        write_pages(out, page)
-    if args.check_only:
+    if args.check_only and not args.report_only:
         return check_folder(out)
-    if args.report_only:
-        return 0
     try:
-        return run_experiments(args, out, page)
-    except (WriteFailed, ConnectionError) as error:
+        with claim(out, "--out folder", folder=True):
+            if args.report_only:
+                write_pages(out, page)
+                return check_folder(out) if args.check_only else 0
+            return run_experiments(args, out, page)
+    except (ValueError, WriteFailed, ConnectionError) as error:
         print(f"tric-experiments: {error}", file=sys.stderr)
         return 2
 

@@ -12,15 +12,21 @@ from tric_control.selection.candidates import candidate
 from tric_control.selection.choice import Choice, choose
 from tric_control.selection.settings import SelectionConfig
 from tric_learning.bags.loader import bag_paths, load_dataset
+from tric_learning.model_file import expected_size
 from tric_learning.training.dataset import Dataset
 from tric_learning.training.from_bags import model_output_path
 from tric_learning.training.value import TrainingConfig
+from tric_sim.tools.claims import claim
+from tric_sim.tools.output_files import check_output_file
 from tric_sim.tools.provenance import code_digest
 from tric_sim.world.robot_model import RobotModel
 
 #: The module whose code (and all it imports: the training, the rollouts' controller and physics,
 #: the scores and the choice) makes a chosen model.
 SELECTION_CODE = "tric_control.selection.select_model"
+#: A bound on the bytes of a model file's selection provenance per candidate and demonstration (its
+#: rollout's outcome and error), for the room checked before the candidates train.
+PROVENANCE_BYTES = 400
 
 
 @dataclass
@@ -107,32 +113,44 @@ def select_from_bags(
     tric_learning.bags.loader.load_dataset for include_failed, tolerant and notice), choose a model
     on them (select_model) and write it to output_path (tric_learning.training.from_bags
     .model_output_path, checked before any work: ValueError and nothing written for a bad bag,
-    value or path). progress(stage, done, total, candidate): stage "loading" (bags read of
-    total), "candidates" (as select_model's progress), then "saving" (0 of 1, then 1 of 1)."""
+    value or path). The model path is claimed for this run (tric_sim.tools.claims) before anything
+    is read and its room checked before the candidates train; a model file that appeared there
+    meanwhile is replaced only if overwrite (else the model goes beside it). progress(stage, done,
+    total, candidate): stage "loading" (bags read of total), "candidates" (as select_model's
+    progress), then "saving" (0 of 1, then 1 of 1)."""
     config.validate()
     selection.validate()
     report = progress or (lambda *_: None)
     files = bag_paths(paths, tolerant, notice)
     path = model_output_path(output_path, files[0], inputs=files, overwrite=overwrite)
-    report("loading", 0, len(files), None)
-    dataset = load_dataset(
-        files,
-        robot,
-        lambda done, total: report("loading", done, total, None),
-        include_failed=include_failed,
-        tolerant=tolerant,
-        notice=notice,
-    )
-    chosen = select_model(
-        dataset,
-        config,
-        selection,
-        executor,
-        jobs,
-        lambda done, total, candidate: report("candidates", done, total, candidate),
-    )
-    report("saving", 0, 1, None)
-    chosen.choice.model.save(path)
-    chosen.path = path
-    report("saving", 1, 1, None)
+    with claim(path, "the model path"):
+        report("loading", 0, len(files), None)
+        dataset = load_dataset(
+            files,
+            robot,
+            lambda done, total: report("loading", done, total, None),
+            include_failed=include_failed,
+            tolerant=tolerant,
+            notice=notice,
+        )
+        check_output_file(
+            path,
+            what="the model path",
+            expected_bytes=expected_size(
+                dataset.definition.size, config.hidden_units * selection.members
+            )
+            + PROVENANCE_BYTES * selection.candidates * len(dataset.demos),
+        )
+        chosen = select_model(
+            dataset,
+            config,
+            selection,
+            executor,
+            jobs,
+            lambda done, total, candidate: report("candidates", done, total, candidate),
+        )
+        report("saving", 0, 1, None)
+        chosen.choice.model.save(path, replace=overwrite)
+        chosen.path = path
+        report("saving", 1, 1, None)
     return chosen

@@ -150,7 +150,7 @@ def rollouts_key(training: dict, controller: dict, max_steps: int) -> dict:
     """Everything that makes a candidate's rollouts: its model's key, the controller's settings
     (JSON), the step budget and the digests of the rollouts' and the episodes' code."""
     return {
-        "model": key_name(training),
+        "model": training,
         "controller": controller,
         "max_steps": max_steps,
         "rollout_code": code_digest("tric_control.selection.rollouts"),

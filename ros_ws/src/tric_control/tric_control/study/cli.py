@@ -33,14 +33,16 @@ reported (tric-experiments). Candidates are kept in DIR/candidates, the chosen m
 DIR/models, and every finished cell (variant x task x group) is merged into DIR/study.json as it
 ends, each keyed on all that made it (the options, the bags' digest, the code's digests:
 tric_control.study.runs), so a study can be extended run by run, an interrupted one continues from
-its finished cells, cells share the candidates they have in common, and nothing stale is re-used.
-A cell that fails is named with its error; the others are kept. Candidates (--jobs at once) and
-episodes run in spawned processes here, or on Ray (the default: a local instance; --address or
-RAY_ADDRESS: a cluster, the models and results coming back to DIR). Prints one row per cell, and
-per variant the mean, min and max over the groups.
+its finished cells, cells share the candidates they have in common, and nothing stale is re-used
+(each row measured again is named with what changed). DIR is claimed for the run, and every model's
+file name checked, before any work. A cell that fails is named with its error; the others are kept.
+Candidates (--jobs at once) and episodes run in spawned processes here, or on Ray (the default: a
+local instance; --address or RAY_ADDRESS: a cluster, the models and results coming back to DIR).
+Prints one row per cell, and per variant the mean, min and max over the groups.
 """
 
 import argparse
+import contextlib
 import os
 import sys
 
@@ -54,7 +56,16 @@ from tric_control.evaluation.executors import (
     chosen_executor,
     open_executor,
 )
-from tric_control.study.variants import DEFAULT_TASKS, MODEL_MEASURES, TASKS, parse_variant
+from tric_control.study.staleness import stale_line
+from tric_control.study.variants import (
+    DEFAULT_TASKS,
+    MODEL_MEASURES,
+    TASKS,
+    model_file_names,
+    parse_variant,
+)
+from tric_sim.tools.claims import claim
+from tric_sim.tools.file_names import check_file_names
 from tric_sim.tools.interrupts import run_interruptible
 from tric_sim.tools.output_files import WriteFailed, check_output_file, check_output_folder
 
@@ -162,19 +173,22 @@ def run(argv) -> int:
         if not 1 <= args.jobs <= 64:
             raise ValueError("--jobs must be in [1, 64]")
         choice = chosen_executor(args)
-        out = check_output_folder(args.out, "--out folder")
-        check_output_file(out / "study.json", what="study file")
-        from tric_control.study.runs import Cell, Study
+        with contextlib.ExitStack() as claims:
+            out = claim_folder(args, variants, claims)
+            from tric_control.study.runs import Cell, Study
 
-        cells = [
-            Cell(name, changes, task, seed)
-            for name, changes in variants
-            for task in args.tasks
-            for seed in args.seeds
-        ]
-        with open_executor(choice, num_cpus=args.jobs) as executor:
-            study = Study(out, args.jobs, executor, args.every_candidate)
-            rows = study.run(cells, lambda row: print(format_row(row), flush=True))
+            cells = [
+                Cell(name, changes, task, seed)
+                for name, changes in variants
+                for task in args.tasks
+                for seed in args.seeds
+            ]
+            with open_executor(choice, num_cpus=args.jobs) as executor:
+                study = Study(out, args.jobs, executor, args.every_candidate)
+                stale = study.stale_rows(cells)
+                if stale:
+                    print(f"tric-study: {stale_line(stale)}", file=sys.stderr, flush=True)
+                rows = study.run(cells, lambda row: print(format_row(row), flush=True))
     except (ValueError, WriteFailed, ConnectionError) as error:
         print(f"tric-study: {error}", file=sys.stderr)
         return 2
@@ -191,6 +205,19 @@ def run(argv) -> int:
         print("\n" + "\n".join(report_lines(selection_report(measured))))
     print(f"\nwrote {study.path}")
     return 1 if failed else 0
+
+
+def claim_folder(args, variants, claims: contextlib.ExitStack):
+    """The --out folder, checked and claimed for this run (tric_sim.tools.claims, held until claims
+    closes) before any work, with its study.json and the name of every model the study may write
+    in models/ (no variant given twice, no two models one file, none too long:
+    tric_sim.tools.file_names); ValueError naming the problem."""
+    out = check_output_folder(args.out, "--out folder")
+    claims.enter_context(claim(out, "--out folder", folder=True))
+    check_output_file(out / "study.json", what="study file")
+    names = model_file_names(variants, args.tasks, args.seeds)
+    check_file_names(out / "models", names, "model")
+    return out
 
 
 if __name__ == "__main__":

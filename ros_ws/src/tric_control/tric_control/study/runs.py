@@ -16,7 +16,6 @@ is named with its error, and the others are kept."""
 
 import dataclasses
 import hashlib
-import json
 import math
 import pathlib
 import time
@@ -35,10 +34,12 @@ from tric_control.study.candidates import (
     training_key,
 )
 from tric_control.study.measures import controller_options, measure_set
+from tric_control.study.staleness import key_changes
 from tric_control.study.variants import (
     CONTROLLER_OPTIONS,
     MODEL_MEASURES,
     TASKS,
+    model_file_name,
     selection_part,
     training_part,
 )
@@ -47,6 +48,7 @@ from tric_learning.bags.loader import bag_paths, load_dataset
 from tric_learning.model_file import tensor_digest
 from tric_learning.training.value import TrainingConfig
 from tric_sim.tools.provenance import code_digest
+from tric_sim.tools.untrusted import read_data_file
 from tric_sim.world.robot_model import RobotModel
 from tric_sim.world.situations import dataset
 
@@ -108,7 +110,7 @@ class Study:
         self.every_candidate = every_candidate
         self.robot = RobotModel()
         self.path = out / "study.json"
-        self.results = json.loads(self.path.read_text()) if self.path.is_file() else {}
+        self.results = self._read()
         self.failed: dict[str, str] = {}
         self.cleared: set[str] = set()
         self.store = CandidateStore(out / "candidates")
@@ -144,7 +146,7 @@ class Study:
         """Everything that makes the cell's row: its candidates' keys, its selection, the sets and
         the analysis code."""
         return {
-            "candidates": [key_name(self.rollouts_key(cell, seed)) for seed in cell.seeds],
+            "candidates": [self.rollouts_key(cell, seed) for seed in cell.seeds],
             "selection": cell.selection.to_dict(),
             "every_candidate": self.every_candidate,
             "sets": list(TASKS[cell.task][1]),
@@ -155,6 +157,17 @@ class Study:
         """The cell's row in study.json if it was made with the cell's key, else None."""
         row = self.results.get("rows", {}).get(cell.name)
         return row if row is not None and row.get("key") == self.cell_key(cell) else None
+
+    def stale_rows(self, cells) -> list:
+        """["NAME (why)"] of the cells whose row in study.json was made with another key (they are
+        measured again)."""
+        rows = self.results.get("rows", {})
+        stale = []
+        for cell in cells:
+            row = rows.get(cell.name)
+            if isinstance(row, dict) and self.finished_row(cell) is None:
+                stale.append(f"{cell.name} ({key_changes(row.get('key'), self.cell_key(cell))})")
+        return stale
 
     def run(self, cells, on_row=None) -> dict:
         """Run every cell that has no finished row of its key: the missing candidates are trained
@@ -214,7 +227,7 @@ class Study:
         demos = self.demonstrations(cell.bags)
         config = TrainingConfig(**training_part(cell.changes), seed=cell.seed)
         choice = choose(candidates, demos, config, cell.selection)
-        path = self.out / "models" / f"{cell.variant}_{cell.bags}_s{cell.seed}.safetensors"
+        path = self.out / "models" / model_file_name(cell.variant, cell.bags, cell.seed)
         choice.model.save(path)
         model = model_file.value_function(choice.model)
         numbers = analysis.key_numbers(model, demos, 20)
@@ -295,10 +308,23 @@ class Study:
         self.save()
         return {"variant": cell.variant, "task": cell.task, "seed": cell.seed, "error": message}
 
+    def _read(self) -> dict:
+        """The study file's results ({} without a file); ValueError naming the file when it is
+        not a study's (read with tric_sim.tools.untrusted's limits)."""
+        if not self.path.is_file():
+            return {}
+        results = read_data_file(self.path, "study file", json_format=True)
+        parts = ("rows", "evaluations", "failed")
+        if not isinstance(results, dict) or any(
+            not isinstance(results.get(part, {}), dict) for part in parts
+        ):
+            raise ValueError(f"study file {self.path} is not a study's results: move it away")
+        return results
+
     def save(self):
         """Merge this study's rows, measured sets and failed cells into the file (another study
         may have written it since)."""
-        merged = json.loads(self.path.read_text()) if self.path.is_file() else {}
+        merged = self._read()
         for part in ("rows", "evaluations"):
             merged.setdefault(part, {}).update(self.results.get(part, {}))
         failed = {**merged.get("failed", {}), **self.failed}

@@ -68,13 +68,44 @@ PROCEDURE_OPTIONS = {"hard_negative_rounds": int}
 SELECTION_OPTIONS = {"candidates": int, "members": int, "score": str}
 
 
+#: The longest variant name, characters: a model's file is named after it, with the bags' name and
+#: the seed, within the file systems' 255 bytes.
+MAX_NAME_LENGTH = 100
+
+
+def model_file_name(variant: str, bags: str, seed: int) -> str:
+    """The file name of a study's model of variant trained on bags/<bags> with seed, in its
+    models/ folder."""
+    return f"{variant}_{bags}_s{seed}.safetensors"
+
+
+def model_file_names(variants: list, tasks, seeds) -> dict:
+    """{"VARIANT/BAGS/SEED": file name} of every model a study of the (name, changes) variants on
+    tasks and seeds may write; ValueError naming a variant given twice."""
+    names = [name for name, _ in variants]
+    repeated = sorted({name for name in names if names.count(name) > 1})
+    if repeated:
+        raise ValueError(f"variant {repeated[0]!r} is given twice: give each a name of its own")
+    return {
+        f"{name}/{TASKS[task][0]}/{seed}": model_file_name(name, TASKS[task][0], seed)
+        for name in names
+        for task in tasks
+        for seed in seeds
+    }
+
+
 def parse_variant(text: str):
     """(name, {field: value}) from NAME=FIELD=VALUE,FIELD=VALUE (TrainingConfig fields,
     CONTROLLER_OPTIONS, PROCEDURE_OPTIONS and SELECTION_OPTIONS); ValueError naming a bad
     part."""
     name, _, options = text.partition("=")
     if not name or not name.replace("_", "").replace("-", "").isalnum():
-        raise ValueError(f"variant '{text}': the name must be letters, digits, - and _")
+        raise ValueError(f"variant '{text[:80]}': the name must be letters, digits, - and _")
+    if len(name) > MAX_NAME_LENGTH:
+        raise ValueError(
+            f"variant '{name[:40]}...': the name is {len(name)} characters long, over "
+            f"{MAX_NAME_LENGTH} (its models' files are named after it)"
+        )
     fields = {f.name: f for f in dataclasses.fields(TrainingConfig)}
     changes = {}
     for option in filter(None, options.split(",")):

@@ -3,6 +3,7 @@ them."""
 
 from __future__ import annotations
 
+import errno
 import operator
 import os
 from collections.abc import Mapping
@@ -22,6 +23,8 @@ from tric_learning.bags.definitions import (
     message_definition,
     ros_type_name,
 )
+from tric_sim.tools.claims import open_exclusive
+from tric_sim.tools.output_files import rename_without_replacing
 
 BAG_SUFFIX = ".mcap"
 #: Suffix of a bag while it is being written ("<name>.mcap.part").
@@ -101,6 +104,7 @@ class BagWriter:
         if self.path.exists() and not (overwrite and self.path.is_file()):
             raise FileExistsError(f"bag {self.path} exists already; refusing to overwrite it")
         self.part_path = self.path.with_name(self.path.name + PART_SUFFIX)
+        self._overwrite = overwrite
         self._state = "open"
         self._custom_data: dict[str, str] = {}
         for key, value in (custom_data or {}).items():
@@ -110,7 +114,7 @@ class BagWriter:
         self._start_ns: int | None = None
         self._end_ns: int | None = None
         self.path.parent.mkdir(parents=True, exist_ok=True)
-        self._file = open(self.part_path, "wb")
+        self._file = open_exclusive(self.part_path, "bag")  # FileExistsError: another writer's
         self._mcap = McapWriter(self._file, chunk_size=chunk_size, compression=CompressionType.ZSTD)
         self._mcap.start(profile="ros2", library=f"tric_learning.bags; {LIBRARY_IDENTIFIER}")
         self._write_rosbag2_metadata()
@@ -221,7 +225,9 @@ class BagWriter:
 
     def close(self) -> Path:
         """Writes the final rosbag2 metadata and the MCAP summary, syncs the file to disk and
-        renames it to path, which it returns. Closing again returns path."""
+        renames it to path, which it returns; without overwrite, a bag that appeared at path
+        meanwhile is kept, and this one renamed to the first free <stem>_<k>.mcap (path is then
+        that). Closing again returns path."""
         if self._state == "closed":
             return self.path
         self._check_open()
@@ -229,8 +235,11 @@ class BagWriter:
         self._mcap.finish()
         self._file.flush()
         os.fsync(self._file.fileno())
+        if self._overwrite:  # renamed while its lock is held: no other writer has the .part
+            os.replace(self.part_path, self.path)
+        else:
+            self.path = _rename_to_free_name(self.part_path, self.path)
         self._file.close()
-        os.replace(self.part_path, self.path)
         directory = os.open(self.path.parent, os.O_RDONLY)
         try:
             os.fsync(directory)  # make the rename itself durable
@@ -306,3 +315,16 @@ class BagWriter:
             "ros_distro": ROS_DISTRO,
         }
         self._mcap.add_metadata("rosbag2", {"serialized_metadata": _to_yaml(information)})
+
+
+def _rename_to_free_name(source: Path, path: Path) -> Path:
+    """Rename source to path, or if a file is there to the first free <stem>_<k><suffix>, without
+    ever replacing a file; the name it took."""
+    for k in range(10_000):
+        target = path if k == 0 else path.with_name(f"{path.stem}_{k}{path.suffix}")
+        try:
+            rename_without_replacing(source, target)
+        except FileExistsError:
+            continue
+        return target
+    raise FileExistsError(errno.EEXIST, f"no free name for the bag {path}")

@@ -184,6 +184,7 @@ def train_dpl_from_bags(
     include_failed: bool = False,
     tolerant: bool = False,
     notice=None,
+    overwrite: bool = True,
 ) -> BagTraining:
     """As training.train_from_bags (the same arguments, then the kind), for a DPL kind: every input
     is checked before anything is written (a bad bag, value, kind or path raises ValueError and
@@ -201,6 +202,8 @@ def train_dpl_from_bags(
         include_failed=include_failed,
         tolerant=tolerant,
         notice=notice,
+        hidden_units=config.hidden_units,
+        overwrite=overwrite,
     )
 
 

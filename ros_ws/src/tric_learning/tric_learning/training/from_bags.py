@@ -6,7 +6,9 @@ import pathlib
 from dataclasses import dataclass
 
 from tric_learning.bags.loader import bag_paths, load_dataset
+from tric_learning.model_file import expected_size
 from tric_learning.training.dataset import Dataset
+from tric_sim.tools.claims import claim
 from tric_sim.tools.output_files import check_output_file
 from tric_sim.world.robot_model import RobotModel
 
@@ -48,26 +50,38 @@ def train_on_bags(
     include_failed: bool = False,
     tolerant: bool = False,
     notice=None,
+    hidden_units: int = 0,
+    overwrite: bool = True,
 ) -> BagTraining:
     """Load the demonstrations in the bags at paths (files or folders, see bag_dataset.load_dataset
     for include_failed, tolerant and notice), train on them with fit(dataset, report) -> result and
-    write to_model_file(result, dataset) to output_path (see model_output_path). A bad bag or path
-    raises ValueError and leaves no file. progress(stage, fraction, losses) is handed on to fit as
-    report, with the stages "loading" before and "saving" after it."""
+    write to_model_file(result, dataset) to output_path (see model_output_path). The model path is
+    claimed for this run (tric_sim.tools.claims) before anything is read, and the room its file
+    takes (model_file.expected_size, hidden_units: the model's) checked
+    before the training; a bad bag or path raises ValueError and leaves no file. A model file that
+    appeared at the path meanwhile is replaced only if overwrite (else the model goes beside it:
+    tric_sim.tools.output_files.atomic_path). progress(stage, fraction, losses) is handed on to fit
+    as report, with the stages "loading" before and "saving" after it."""
     files = bag_paths(paths, tolerant, notice)
     path = model_output_path(output_path, files[0])
-    report = progress or (lambda *_: None)
-    report("loading", 0.0, None)
-    dataset = load_dataset(
-        files,
-        robot,
-        lambda done, total: report("loading", done / total, None),
-        include_failed=include_failed,
-        tolerant=tolerant,
-        notice=notice,
-    )
-    result = fit(dataset, report)
-    report("saving", 0.0, result.losses)
-    to_model_file(result, dataset).save(path)
-    report("saving", 1.0, result.losses)
+    with claim(path, "the model path"):
+        report = progress or (lambda *_: None)
+        report("loading", 0.0, None)
+        dataset = load_dataset(
+            files,
+            robot,
+            lambda done, total: report("loading", done / total, None),
+            include_failed=include_failed,
+            tolerant=tolerant,
+            notice=notice,
+        )
+        check_output_file(
+            path,
+            what="the model path",
+            expected_bytes=expected_size(dataset.definition.size, hidden_units),
+        )
+        result = fit(dataset, report)
+        report("saving", 0.0, result.losses)
+        to_model_file(result, dataset).save(path, replace=overwrite)
+        report("saving", 1.0, result.losses)
     return BagTraining(path, dataset, result)

@@ -186,12 +186,14 @@ def train_from_bags(
     include_failed: bool = False,
     tolerant: bool = False,
     notice=None,
+    overwrite: bool = True,
 ) -> BagTraining:
     """Load the demonstrations in the bags at paths (files or folders, see bag_dataset.load_dataset
     for include_failed, tolerant and notice), train on them and write the model file to output_path
-    (see bag_training.model_output_path). Every input is checked before anything is written: a bad
-    bag, value or path raises ValueError and leaves no file. progress(stage, fraction, losses) as in
-    train(), with the stages "loading" and "saving" before and after it."""
+    (from_bags.train_on_bags: the path claimed, its room checked before the training, a file that
+    appeared there meanwhile replaced only if overwrite). Every input is checked before anything is
+    written: a bad bag, value or path raises ValueError and leaves no file. progress(stage,
+    fraction, losses) as in train(), with the stages "loading" and "saving" before and after it."""
     config.validate()
     return train_on_bags(
         paths,
@@ -203,6 +205,8 @@ def train_from_bags(
         include_failed=include_failed,
         tolerant=tolerant,
         notice=notice,
+        hidden_units=config.hidden_units,
+        overwrite=overwrite,
     )
 
 

@@ -10,9 +10,6 @@ from tric_sim.teachers.grasp import GraspTeacher
 from tric_sim.world.robot_model import RobotModel
 from tric_sim.world.situation import Situation
 
-#: Demonstration lengths by task, simulated s (the paper: 5 s grasps; 80 plan steps of 0.1 s).
-DEFAULT_DURATION = {"grasp": 5.0, "open_box": 8.0}
-
 
 def make_teacher(robot: RobotModel, situation: Situation, q_start, period: float = 0.01):
     """The teacher of the situation's task (a box teacher plans here, which takes seconds)."""

@@ -1,6 +1,7 @@
 """Input from files a user hands over, treated as hostile: YAML and JSON read and parsed with limits
-on size, nesting depth and aliases (read_data_file, load_data), and input quoted in error messages
-at most QUOTE_LIMIT characters at a time (quoted)."""
+on size, nesting depth and aliases, and a key repeated within one mapping refused rather than
+silently taking the last value (read_data_file, load_data); input quoted in error messages at most
+QUOTE_LIMIT characters at a time (quoted)."""
 
 import json
 import pathlib
@@ -53,11 +54,55 @@ class _LimitedLoader(yaml.SafeLoader):
         finally:
             self._depth -= 1
 
+    def construct_mapping(self, node, deep=False):
+        seen = set()
+        for key_node, _ in node.value:
+            key = self.construct_object(key_node, deep=True)
+            try:
+                repeated = key in seen
+                seen.add(key)
+            except TypeError:  # an unhashable key: PyYAML's own error follows
+                continue
+            if repeated:
+                raise yaml.constructor.ConstructorError(
+                    None, None, f"the key {quoted(key, 40)!r} repeated", key_node.start_mark
+                )
+        return super().construct_mapping(node, deep)
 
-def read_data_file(path, what: str):
-    """The data of a YAML file (JSON for a .json suffix), read by load_data's rules, or ValueError
-    naming what and path: unreadable, larger than MAX_BYTES (read no further), not UTF-8, or
-    refused by load_data."""
+
+class RepeatedKey(ValueError):
+    """A JSON object with a key repeated."""
+
+
+def _unique_keys(pairs) -> dict:
+    """A JSON object's dict, RepeatedKey if a key repeats (json.loads' object_pairs_hook)."""
+    data = {}
+    for key, value in pairs:
+        if key in data:
+            raise RepeatedKey(f"the key {quoted(key, 40)!r} repeated")
+        data[key] = value
+    return data
+
+
+def check_input_file(path, what: str) -> pathlib.Path:
+    """path as a Path if it names a regular file, else ValueError naming what: it does not exist,
+    is a folder, or is another kind of file (a device such as /dev/zero, a pipe or a socket, read
+    without end or not at all)."""
+    path = pathlib.Path(path)
+    where = f"{what} {quoted(str(path), 100)}"
+    if path.is_file():
+        return path
+    if path.is_dir():
+        raise ValueError(f"{where} is a folder, not a file")
+    if path.exists():
+        raise ValueError(f"{where} is not a regular file (a device, a pipe or a socket)")
+    raise ValueError(f"{where} does not exist")
+
+
+def read_data_file(path, what: str, json_format: bool | None = None):
+    """The data of a YAML file (JSON for a .json suffix, or as json_format says), read by
+    load_data's rules, or ValueError naming what and path: unreadable, larger than MAX_BYTES (read
+    no further), not UTF-8, or refused by load_data."""
     path = pathlib.Path(path)
     source = f"{what} {path}"
     try:
@@ -71,7 +116,9 @@ def read_data_file(path, what: str):
         text = raw.decode("utf-8")
     except UnicodeDecodeError as error:
         raise ValueError(f"{source} is not UTF-8 text (byte {error.start})") from None
-    return load_data(text, source, json_format=path.suffix == ".json")
+    if json_format is None:
+        json_format = path.suffix == ".json"
+    return load_data(text, source, json_format=json_format)
 
 
 def load_data(text: str, source: str, json_format: bool = False):
@@ -81,8 +128,12 @@ def load_data(text: str, source: str, json_format: bool = False):
     if len(text.encode("utf-8", "surrogatepass")) > MAX_BYTES:
         raise ValueError(f"{source} is larger than {MAX_BYTES // 2**20} MiB")
     try:
-        data = json.loads(text) if json_format else yaml.load(text, Loader=_LimitedLoader)
-    except json.JSONDecodeError as error:
+        data = (
+            json.loads(text, object_pairs_hook=_unique_keys)
+            if json_format
+            else yaml.load(text, Loader=_LimitedLoader)
+        )
+    except (json.JSONDecodeError, RepeatedKey) as error:
         raise ValueError(f"{source} is not valid JSON: {quoted(str(error))}") from None
     except yaml.YAMLError as error:
         mark = getattr(error, "problem_mark", None)  # YAML's own message spans lines: say it in one

@@ -12,17 +12,15 @@ import matplotlib.pyplot as plt  # noqa: E402
 from tric_sim.physics.simulation import PhysicsWorld  # noqa: E402
 from tric_sim.teachers import demonstrate  # noqa: E402
 from tric_sim.tools.output_files import atomic_path  # noqa: E402
+from tric_sim.world.durations import DEFAULT_DURATION  # noqa: E402
 from tric_sim.world.robot_model import RobotModel  # noqa: E402
-
-#: Demonstration lengths of the strips by task, simulated s (as the teacher node's defaults).
-STRIP_DURATION = {"grasp": 5.0, "open_box": 8.0}
 
 
 def demonstration_strip(
     world: PhysicsWorld, robot: RobotModel, situation, frames: int, size
 ) -> plt.Figure:
     """A figure of `frames` evenly spaced moments of the teacher's demonstration of situation."""
-    duration = STRIP_DURATION[situation.task]
+    duration = DEFAULT_DURATION[situation.task]  # the teacher node's
     periods = int(round(duration / world.control_period))
     wanted = {int(round(k * (periods - 1) / (frames - 1))): k for k in range(frames)}
     images: list = [None] * frames  # (seconds, image) of each frame, once captured

@@ -54,7 +54,7 @@ class Perturbation:
         size = n_joints if self.kind == "push" else 3
         try:
             offset = np.asarray(self.offset, dtype=float)
-        except (TypeError, ValueError):
+        except (TypeError, ValueError, OverflowError):
             raise ValueError(
                 f"{where}: a {self.kind}'s offset must be numbers, got {quoted(self.offset, 80)}"
             ) from None
@@ -116,8 +116,10 @@ class Perturbation:
                 offset=tuple(float(v) for v in data.get("offset", ())),
                 duration_s=float(data.get("duration_s", 0.0)),
             )
-        except (TypeError, ValueError):
-            raise ValueError(f"bad perturbation entry {quoted(data, 80)}: not numbers") from None
+        except (TypeError, ValueError, OverflowError):
+            raise ValueError(
+                f"bad perturbation entry {quoted(data, 80)}: not numbers, or too large"
+            ) from None
 
 
 def target_displacement(perturbations) -> np.ndarray:

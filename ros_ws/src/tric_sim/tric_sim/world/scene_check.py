@@ -1,4 +1,5 @@
-"""Whether a situation can physically be: the robot in its initial configuration clear of the table
+"""Whether a situation can physically be: the robot in its initial configuration within its joint
+limits, clear of the table
 (its links but the base, mounted on it, reaching into it by no more than TABLE_TOLERANCE) and of
 itself (the self-collision pairs of RobotModel), its object (or the box's lid) not reaching into the
 table by more than TABLE_TOLERANCE, and its object, lid and obstacles clear of the robot, measured
@@ -15,7 +16,8 @@ TABLE_TOLERANCE = 1e-3
 
 def check_scene(situation: Situation, robot) -> Situation:
     """situation, or ValueError naming the pair if it cannot physically be, in the robot's initial
-    configuration (initial_joint_positions, else the robot's home): a robot link (not the base)
+    configuration (initial_joint_positions, else the robot's home): a joint outside its limits, a
+    robot link (not the base)
     reaching into the table by more than TABLE_TOLERANCE, two robot links of a self-collision pair
     intersecting, its object (or the box's lid) reaching into the table by more than
     TABLE_TOLERANCE, or its object, lid or an obstacle intersecting the robot (any link, its base
@@ -29,7 +31,9 @@ def check_scene(situation: Situation, robot) -> Situation:
     from tric_sim.world.shapes import coal_shape
 
     where = f"situation '{situation.name}'"
-    q = np.asarray(situation.initial_joint_positions or robot.home, dtype=float)
+    q = robot.check_configuration(
+        situation.initial_joint_positions or robot.home, f"{where}: initial_joint_positions"
+    )
     data, geometry_data = robot.model.createData(), pin.GeometryData(robot.collision_model)
     pin.updateGeometryPlacements(robot.model, data, robot.collision_model, geometry_data, q)
     robot_parts = [

@@ -147,16 +147,16 @@ class Situation:
             values["perturbations"] = tuple(
                 Perturbation.from_dict(p) for p in _entries(data.get("perturbations", ()))
             )
-            for key in (
-                "object_dimensions",
-                "object_position",
-                "object_orientation",
-                "initial_joint_positions",
-            ):
-                if key in values:
-                    values[key] = tuple(float(v) for v in values[key])
         except (TypeError, ValueError) as error:
             raise ValueError(f"situation '{name}': {quoted(str(error), 120)}") from None
+        for key in (
+            "object_dimensions",
+            "object_position",
+            "object_orientation",
+            "initial_joint_positions",
+        ):
+            if key in values:
+                values[key] = _numbers(values[key], f"situation '{name}': {key}")
         return cls(**values).validate()
 
 
@@ -204,10 +204,21 @@ def _obstacle_from_dict(data) -> Obstacle:
         )
     return Obstacle(
         shape=data["shape"],
-        dimensions=tuple(float(v) for v in data["dimensions"]),
-        position=tuple(float(v) for v in data["position"]),
-        orientation=tuple(float(v) for v in data.get("orientation", IDENTITY)),
+        dimensions=_numbers(data["dimensions"], "an obstacle's dimensions"),
+        position=_numbers(data["position"], "an obstacle's position"),
+        orientation=_numbers(data.get("orientation", IDENTITY), "an obstacle's orientation"),
     )
+
+
+def _numbers(values, what: str) -> tuple:
+    """values (a list of numbers) as a tuple of floats; ValueError naming what when they are not
+    numbers, or one is too large for a float (a 400-digit integer)."""
+    try:
+        return tuple(float(v) for v in values)
+    except OverflowError:
+        raise ValueError(f"{what} holds a number too large for a float") from None
+    except (TypeError, ValueError):
+        raise ValueError(f"{what} must be numbers, got {quoted(values, 80)}") from None
 
 
 def _plain(value):
@@ -223,7 +234,7 @@ def _plain(value):
 def _check_vector(values, size, what, positive=False):
     try:
         array = np.asarray(values, dtype=float)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):
         raise ValueError(f"{what} must be {size} number(s), got {quoted(values, 80)}") from None
     if array.shape != (size,):
         raise ValueError(f"{what} must have {size} value(s), got {array.size}")
