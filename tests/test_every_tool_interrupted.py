@@ -76,11 +76,12 @@ KEPT = {
 
 @pytest.fixture(scope="module")
 def model(tmp_path_factory):
-    """A model of the reference sphere bags for tric-analyze (a short training)."""
+    """A model of the reference sphere bags for tric-analyze (a short training, one candidate)."""
     path = tmp_path_factory.mktemp("model") / "m.safetensors"
     trained = subprocess.run(
         [str(INSTALL / "tric_control" / "lib" / "tric_control" / "tric-train")]
-        + [str(REFERENCE_BAGS / "sphere"), "--out", str(path), "--iterations", "3", "--quiet"],
+        + [str(REFERENCE_BAGS / "sphere"), "--out", str(path), "--iterations", "3", "--quiet"]
+        + ["--candidates", "1", "--executor", "processes"],
         capture_output=True,
         text=True,
         timeout=HANG_S,

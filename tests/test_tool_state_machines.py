@@ -20,6 +20,7 @@ import pathlib
 import shutil
 import tempfile
 
+import numpy as np
 from demo_bags import sphere, write_demo_bag
 from hypothesis import HealthCheck, settings
 from hypothesis import strategies as st
@@ -29,11 +30,15 @@ from conftest import REFERENCE_BAGS
 from tric_control import evaluate_cli, train_cli
 from tric_control.evaluation import offline
 from tric_control.evaluation.records import EpisodeRecord, unjudged_fields
+from tric_control.selection.candidates import Candidate
+from tric_control.selection.rollouts import Rollout
+from tric_control.study import candidates as study_candidates
 from tric_control.study import cli as study_cli
 from tric_control.study import runs as study_runs
-from tric_learning import demonstrations, record_cli
+from tric_learning import demonstrations, model_file, record_cli
 from tric_learning.model_file import ModelFile
 from tric_learning.training import dpl
+from tric_learning.value_function import Scaling, ValueFunction
 from tric_sim.tools import claims, output_files
 from tric_sim.tools.file_names import safe_stem
 from tric_sim.tools.interrupts import Terminated
@@ -415,9 +420,9 @@ test_tric_record_runs_again_and_again = RecordingRuns.TestCase
 
 #: Study variants to draw from: two trainings and a controller setting of the first's models.
 VARIANTS = {
-    "a": "a=max_iterations=2",
-    "b": "b=max_iterations=3",
-    "a_short": "a_short=max_iterations=2,grasp_steps=30",
+    "a": "a=candidates=1,max_iterations=2",
+    "b": "b=candidates=1,max_iterations=3",
+    "a_short": "a_short=candidates=1,max_iterations=2,grasp_steps=30",
 }
 
 
@@ -435,25 +440,38 @@ class StudyRuns(Machine):
         self.cwd = os.getcwd()
         os.chdir(REFERENCE_BAGS.parent)  # tric-study reads bags/ of the working directory
         self.patch(study_runs, "code_digest", lambda *modules: f"code {self.code}")
-        self.patch(study_runs, "train_study_model", self.train)
+        self.patch(study_candidates, "code_digest", lambda *modules: f"code {self.code}")
+        self.patch(study_candidates, "study_candidate", self.candidate)
         self.patch(study_runs, "evaluate_offline", self.episodes)
 
     @staticmethod
-    def train(config: dict, bags: str) -> dict:
-        """The stand-in of a study's training: model bytes decided by the config."""
-        content = json.dumps(config, sort_keys=True).encode()
-        numbers = {key: 0.5 for key in study_runs.MODEL_MEASURES}
-        record = {"config": config, "train_s": 0.0, "iterations": 1, "losses": {}, **numbers}
-        return {
-            "model": content,
-            "record": {
-                **record,
-                "features_95": 1,
-                "selected_features": 1,
-                "kept_features": 1,
-                "file_sha1": hashlib.sha1(content).hexdigest(),
-            },
+    def candidate(dataset, config, max_steps, options, rounds, kept=None) -> Candidate:
+        """The stand-in of a study's candidate: a value function of weights decided by the config,
+        on the demonstrations' scaling, and rollouts that end where the demonstrations end."""
+        rng = np.random.default_rng(int(digest_number(config.to_dict()) * 2**32))
+        scaling = Scaling.fit(np.concatenate([demo.y for demo in dataset.demos]), 0.995)
+        size = len(scaling.kept)
+        function = ValueFunction(
+            scaling, rng.normal(0, 1, (2, size)), rng.normal(0, 1, 2), rng.normal(0, 1, size)
+        )
+        info = {
+            "hyperparameters": config.to_dict(),
+            "losses": {"total": 0.0, "n": 0.0, "g": 0.0, "w": 0.0},
+            "delta": 0.01,
+            "rho": 1.0,
         }
+        content = (
+            model_file.ModelFile(
+                "tric", dataset.definition, model_file.value_function_arrays(function), info
+            )
+            .save(pathlib.Path(tempfile.mkdtemp()) / "m.safetensors")
+            .read_bytes()
+        )
+        rollouts = [
+            Rollout(demo.name, demo.q[-1], demo.y[-1], 1.0, 0.0, max_steps, "step_budget", {})
+            for demo in dataset.demos
+        ]
+        return Candidate(config.seed, content, {"losses": info["losses"]}, rollouts, 0.0, 0.0)
 
     def episodes(self, situations, model, max_steps, desc="", **_):
         """The stand-in of a set's offline episodes."""
@@ -489,7 +507,7 @@ class StudyRuns(Machine):
         errors = io.StringIO()
         with contextlib.redirect_stderr(errors), contextlib.redirect_stdout(io.StringIO()):
             status = study_cli.main(arguments)
-        expected = [f"{variant} s{seed} sphere_val" for variant, seed in todo]
+        expected = [f"{variant} g{seed} sphere_val" for variant, seed in todo]
         if interrupted:
             assert status == STATUS[ending] and self.measured == expected[: stop + 1]
         else:
@@ -500,7 +518,8 @@ class StudyRuns(Machine):
         if self.rows:
             rows = json.loads((self.out / "study.json").read_text())["rows"]
             assert {
-                (row["variant"], row["seed"]): row["key"]["episode_code"] for row in rows.values()
+                (row["variant"], row["seed"]): row["key"]["candidates"][0]["episode_code"]
+                for row in rows.values()
             } == {cell: f"code {code}" for cell, code in self.rows.items()}
 
     @rule()

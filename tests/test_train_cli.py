@@ -97,24 +97,25 @@ def test_tric_train_names_what_it_includes_with_include_failed_and_tolerant(
 def test_tric_train_checks_the_model_s_room_before_training(
     robot, good_bag, tmp_path, monkeypatch, capsys
 ):
-    """A disk with 20 kB free for a model of about 43 kB: refused once the bags are read, before
-    the training (before: 21 s of training, then a traceback)."""
+    """A disk with 20 kB free for a model of about 43 kB (its bound 104 kB, and 2 kB more for the
+    selection's provenance: 5 candidates rolled out from 1 demonstration): refused once the bags
+    are read, before the training (before: 21 s of training, then a traceback)."""
     import collections
 
-    from tric_learning.training import value
+    from tric_control.selection import candidates
     from tric_sim.tools import output_files
 
     def never(*_, **__):
         raise AssertionError("the training ran")
 
-    monkeypatch.setattr(value, "train", never)
+    monkeypatch.setattr(candidates, "train", never)
     usage = collections.namedtuple("usage", "total used free")
     monkeypatch.setattr(output_files.shutil, "disk_usage", lambda _: usage(10**9, 10**9, 20_000))
     out = tmp_path / "m.safetensors"
     assert train_cli.main([str(good_bag), "--out", str(out), "--quiet"]) == 2
     assert capsys.readouterr().err == (
         f"tric-train: the model path {out} cannot be written: {tmp_path} has 20.0 kB free, "
-        "104 kB are needed\n"
+        "106 kB are needed\n"
     )
     assert list(tmp_path.iterdir()) == []
 

@@ -149,18 +149,50 @@ def test_variant_names_are_checked_before_any_work(tmp_path, capsys, monkeypatch
 def test_stale_rows_are_named_with_what_changed():
     from tric_control.study.staleness import key_changes, stale_line
 
-    key = {
-        "model": {"bags_digest": "b", "training_code": "t", "alpha_g": 3.0, "seed": 0},
+    model = {"data_digest": "b", "training_code": "t", "alpha_g": 3.0, "seed": 0}
+    candidate = {
+        "model": model,
         "controller": {},
         "max_steps": 800,
-        "sets": ["sphere_val"],
+        "rollout_code": "r",
         "episode_code": "e",
     }
+    key = {
+        "candidates": [candidate, {**candidate, "model": {**model, "seed": 1}}],
+        "selection": {"candidates": 2, "members": 1, "score": "landmarks"},
+        "every_candidate": False,
+        "sets": ["sphere_val"],
+        "choice_code": "c",
+    }
     assert key_changes(key, key) == ""
-    changed = {**key, "episode_code": "f", "model": {**key["model"], "bags_digest": "c"}}
-    assert key_changes(changed, key) == "the bags changed, the episodes' code changed"
-    retrained = {**key, "model": {**key["model"], "alpha_g": 1.0}}
+
+    def each(**changes):
+        return [{**c, **changes} for c in key["candidates"]]
+
+    changed = {
+        **key,
+        "candidates": [
+            {**c, "episode_code": "f", "model": {**c["model"], "data_digest": "c"}}
+            for c in key["candidates"]
+        ],
+    }
+    assert key_changes(changed, key) == "the episodes' code changed, the bags changed"
+    retrained = {
+        **key,
+        "candidates": [{**c, "model": {**c["model"], "alpha_g": 1.0}} for c in key["candidates"]],
+    }
     assert key_changes(retrained, key) == "the training options changed"
+    rechosen = {**key, "selection": {**key["selection"], "score": "judge"}}
+    assert key_changes(rechosen, key) == "the selection changed"
+    assert key_changes({**key, "candidates": each(max_steps=500)}, key) == (
+        "the step budget changed"
+    )
+    assert key_changes({**key, "candidates": key["candidates"][:1]}, key) == (
+        "the number of candidates changed"
+    )
+    assert key_changes({"candidates": [{"model": "x"}]}, key).startswith(
+        "its candidates' keys are missing"
+    )
     assert key_changes(None, key) == "kept without a key"
     assert (
         stale_line(["a/sphere/0 (x)"])

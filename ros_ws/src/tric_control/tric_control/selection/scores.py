@@ -88,13 +88,10 @@ def per_rollout_errors(name: str, rollouts: list, dataset: Dataset, model=None) 
         errors = [-float(_judged_success(r)) for r in rollouts]
     else:
         raise ValueError(f"unknown selection score '{name}'")
-    errors = np.array(errors, dtype=float)
-    failed = np.array([r.failed for r in rollouts]) | ~np.isfinite(errors)
-    if name != "successes":
-        errors[failed] = math.inf
-    else:
-        errors[failed] = 0.0
-    return errors
+    values = np.array(errors, dtype=float)
+    failed = np.array([r.failed for r in rollouts]) | ~np.isfinite(values)
+    values[failed] = 0.0 if name == "successes" else math.inf
+    return values
 
 
 def score(name: str, rollouts: list, dataset: Dataset, model=None) -> float:

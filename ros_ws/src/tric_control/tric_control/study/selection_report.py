@@ -46,14 +46,17 @@ def selection_report(rows: list) -> dict:
                 float(spearmanr(*zip(*finite)).correlation) if len(finite) > 2 else math.nan
             )
         sizes = range(1, min(len(group) for group in candidates) + 1)
-        best_of, blind, hindsight, picks = {}, {}, {}, {}
+        best_of: dict = {}
+        blind: dict = {}
+        hindsight: dict = {}
+        picks: dict = {}
         for size in sizes:
             firsts = [group[:size] for group in candidates]
             blind[size] = [float(np.mean([v for _, v in group])) for group in firsts]
             hindsight[size] = [min(v for _, v in group) for group in firsts]
             best_of[size], picks[size] = {}, {}
             for name in SCORES:
-                chosen = [min(group, key=lambda c, n=name: _rank(c[0][n]))[1] for group in firsts]
+                chosen = [_best(group, name)[1] for group in firsts]
                 best_of[size][name] = chosen
                 picks[size][name] = sum(c == h for c, h in zip(chosen, hindsight[size]))
         report[(variant, task)] = {
@@ -66,6 +69,11 @@ def selection_report(rows: list) -> dict:
             "picks_best": picks,
         }
     return report
+
+
+def _best(group: list, name: str) -> tuple:
+    """The (scores, validation result) of group whose score name ranks first."""
+    return min(group, key=lambda candidate: _rank(candidate[0][name]))
 
 
 def _rank(score) -> float:
