@@ -200,3 +200,18 @@ def test_finger_targets_are_fingertip_steps_in_the_box_frame(robot):
     ]
     with pytest.raises(ValueError, match="dpl_finger needs the 'box' landmark"):
         dpl.finger_rows(FeatureDefinition.for_task("grasp", robot))
+
+
+def test_the_finger_space_policy_reads_its_own_finger_space_only():
+    """dpl_finger's state is its finger space: its input scaling keeps only the fingertip-in-box
+    features (each fitted over its own range), whatever the other features do; dpl_joint's keeps
+    the task features as TRIC's does."""
+    rng = np.random.default_rng(0)
+    y = rng.uniform(0, 1, (50, 10))
+    y[:, 4] = 2 * y[:, 1]  # a feature that copies another: dropped by the correlation test
+    rows = np.array([3, 5, 7])
+    finger = dpl.input_scaling(y, 0.995, rows)
+    assert finger.kept.tolist() == [3, 5, 7] and finger.size == 10
+    np.testing.assert_allclose(finger.low, y[:, rows].min(axis=0))
+    np.testing.assert_allclose(finger.high, y[:, rows].max(axis=0))
+    assert dpl.input_scaling(y, 0.995).kept.tolist() == [0, 1, 2, 3, 5, 6, 7, 8, 9]

@@ -1,14 +1,19 @@
 """The DPL baseline (direct policy learning, paper Sec. 2 Eq. 2 and Sec. 5.3.2). ROS-free.
 
-A network with K sigmoid units regresses the demonstrated step from the task features x = y (the
-feature map and bags TRIC trains on), each input rescaled as TRIC's (value_function.Scaling):
+A network with K sigmoid units regresses the demonstrated step from a state x (each input rescaled
+as TRIC's, value_function.Scaling):
 
     pi(y) = W2 z + b2,    z = sigmoid(W1 u + b1),    u = Scaling(y)
 
-with W1 (K, s), b1 (K,), W2 (m, K), b2 (m,). Two kinds of targets, one per demonstration step t:
-- "dpl_joint": the joint step u_t = q_{t+1} - q_t (m = n joints, rad);
-- "dpl_finger" (box opening, Sec. 5.3.5): the step of the fingertip landmarks' positions in the box
-  frame, y_{t+1} - y_t on the features p[box->fingertip_k].xyz (m = 3 per fingertip, metres).
+with W1 (K, s), b1 (K,), W2 (m, K), b2 (m,). Two kinds, with their states and targets, one per
+demonstration step t:
+- "dpl_joint": x = y, the task features (the feature map and bags TRIC trains on: the paper's
+  state for the spheres, Sec. 5.3.2); the joint step u_t = q_{t+1} - q_t (m = n joints, rad);
+- "dpl_finger" (box opening, Sec. 5.3.5): the finger space, the fingertip landmarks' positions in
+  the box frame (the features p[box->fingertip_k].xyz), as the state and as the control: the step
+  y_{t+1} - y_t on those features (m = 3 per fingertip, metres). With every feature as its state
+  it opened 0 to 1 of 25 validation boxes, with its finger space 11 to 13
+  (docs/decisions/dpl-settings.md).
 
 Training minimizes the least-squares loss of Eq. 2 plus a small L2 penalty on W1 and W2, with
 PyTorch's L-BFGS (strong-Wolfe line search, full batch, float64), deterministic for a given seed,
@@ -123,6 +128,16 @@ def training_pairs(dataset: Dataset, kind: str):
     return np.concatenate(inputs), np.concatenate(targets)
 
 
+def input_scaling(y: np.ndarray, correlation_threshold: float, rows=None) -> Scaling:
+    """The policy's input scaling fitted on features y (S, d): every feature (rows None, TRIC's
+    scaling), or only the features rows (dpl_finger's state: its own finger space)."""
+    if rows is None:
+        return Scaling.fit(y, correlation_threshold)
+    rows = np.asarray(rows)
+    subset = Scaling.fit(y[:, rows], correlation_threshold)
+    return Scaling(rows[subset.kept], subset.low, subset.high, y.shape[1])
+
+
 def sample_period(dataset: Dataset) -> float:
     """The demonstrations' mean sample period, s (samples fall on control ticks, so single periods
     jitter by a tick around it)."""
@@ -149,8 +164,10 @@ def train_dpl(
     )
     inputs, targets = training_pairs(dataset, kind)
     start = time.perf_counter()
-    scaling = Scaling.fit(
-        np.concatenate([demo.y for demo in dataset.demos]), config.correlation_threshold
+    scaling = input_scaling(
+        np.concatenate([demo.y for demo in dataset.demos]),
+        config.correlation_threshold,
+        finger_rows(dataset.definition) if kind == "dpl_finger" else None,
     )
     target_rms = float(np.sqrt(np.mean(targets**2)))
     if not target_rms > 0:
