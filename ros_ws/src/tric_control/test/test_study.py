@@ -5,6 +5,7 @@ import pytest
 from tric_control.study import cli as study
 from tric_control.study import measures as study_measures
 from tric_control.study import variants as study_variants
+from tric_sim.world.robot_model import RobotModel
 from tric_sim.world.scene import TASK_CONTACTS
 
 
@@ -75,6 +76,14 @@ def test_selection_settings_are_variant_options_checked_as_a_training_checks_the
         study_variants.parse_variant("s=candidates=2,members=3")
     with pytest.raises(ValueError, match="variant 's': the selection score must be one of"):
         study_variants.parse_variant("s=score=luck")
+
+
+def test_rho_scale_is_a_controller_option_passed_to_the_objective():
+    name, changes = study_variants.parse_variant("r=rho_scale=3")
+    assert changes == {"rho_scale": 3.0} and study_variants.training_part(changes) == {}
+    assert study_measures.controller_options(changes, "sphere", RobotModel()) == {"rho_scale": 3.0}
+    with pytest.raises(ValueError, match="rho_scale must be in"):
+        study_variants.parse_variant("r=rho_scale=0")
 
 
 def test_controller_settings_are_variant_options_that_do_not_change_the_training():

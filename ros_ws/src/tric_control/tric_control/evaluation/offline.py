@@ -42,7 +42,8 @@ class OfflineEvaluator:
         max_steps: control ticks per episode at most (0: the task's DEFAULT_MAX_STEPS, as the
             controller node's).
         period: the control period, s.
-        controller_options: keyword arguments of MotionRateController (e.g. max_lead), for studies.
+        controller_options: keyword arguments of MotionRateController (e.g. max_lead), for studies,
+            and "rho_scale": make_objective's.
     """
 
     def __init__(
@@ -55,6 +56,7 @@ class OfflineEvaluator:
     ):
         self.task, self.model, self.period = task, model, period
         self.controller_options = dict(controller_options or {})
+        rho_scale = self.controller_options.pop("rho_scale", 1.0)
         self.max_steps = max_steps or DEFAULT_MAX_STEPS[task]
         self.robot = RobotModel()
         self.objective = None
@@ -62,7 +64,7 @@ class OfflineEvaluator:
         self.objects = ()
         if model is not None:
             model_file = ModelFile.load(model, FeatureDefinition.for_task(task, self.robot))
-            self.objective = make_objective(model_file, self.robot, period)
+            self.objective = make_objective(model_file, self.robot, period, rho_scale)
             self.kind = model_file.kind
             self.objects = tuple(
                 source.partition("/")[2]

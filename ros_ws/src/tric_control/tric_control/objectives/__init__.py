@@ -33,11 +33,16 @@ RUNNABLE_KINDS = ("tric", "dpl_joint", "dpl_finger")
 CONTROL_PERIOD = 0.01
 
 
-def make_objective(model_file: ModelFile, robot: RobotModel, period: float = CONTROL_PERIOD):
+def make_objective(
+    model_file: ModelFile, robot: RobotModel, period: float = CONTROL_PERIOD, rho_scale: float = 1.0
+):
     """The controller objective of model_file on robot for a control period (s), or ValueError
-    saying why it cannot be run."""
+    saying why it cannot be run. rho_scale: TRIC's rho is the model's times this (studies of the
+    gain, docs/decisions/rho.md)."""
+    if not (math.isfinite(rho_scale) and rho_scale > 0):
+        raise ValueError(f"rho_scale must be finite and positive, got {rho_scale!r}")
     if model_file.kind == "tric":
-        return _tric_objective(model_file, robot)
+        return _tric_objective(model_file, robot, rho_scale)
     if model_file.kind in dpl.DPL_KINDS:
         return _dpl_objective(model_file, robot, period)
     raise ValueError(
@@ -46,9 +51,9 @@ def make_objective(model_file: ModelFile, robot: RobotModel, period: float = CON
     )
 
 
-def _tric_objective(model_file: ModelFile, robot: RobotModel) -> ValueObjective:
+def _tric_objective(model_file: ModelFile, robot: RobotModel, rho_scale: float) -> ValueObjective:
     """TRIC (Eq. 8-10): rho (g^T dq + delta)^2 with the model's value function f and its delta,
-    rho."""
+    rho (times rho_scale)."""
     numbers = {}
     for name in ("delta", "rho"):
         value: Any = model_file.info.get(name)  # anything the file holds
@@ -65,7 +70,7 @@ def _tric_objective(model_file: ModelFile, robot: RobotModel) -> ValueObjective:
         FeatureMap(model_file.definition, robot),
         value_function(model_file),
         numbers["delta"],
-        numbers["rho"],
+        numbers["rho"] * rho_scale,
     )
 
 

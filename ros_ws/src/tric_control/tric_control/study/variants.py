@@ -48,8 +48,9 @@ MODEL_MEASURES = (
 
 #: Controller settings a variant may change, with their types: the hand's lead, the step budgets,
 #: the task's contact rules (tric_sim.world.scene.TASK_CONTACTS): how deep the hand may press into a
-#: grasp target and its cushion (m), how deep into the lid (m) and whether only from beneath; and
-#: whether the domain damper (tric_control.limits.DomainDamper) is among the limits.
+#: grasp target and its cushion (m), how deep into the lid (m) and whether only from beneath;
+#: whether the domain damper (tric_control.limits.DomainDamper) is among the limits; and a factor
+#: on the model's rho (tric_control.objectives.make_objective).
 CONTROLLER_OPTIONS = {
     "hand_lead": float,
     "grasp_steps": int,
@@ -59,6 +60,7 @@ CONTROLLER_OPTIONS = {
     "lid_depth": float,
     "lid_beneath_only": bool,
     "domain_damper": bool,
+    "rho_scale": float,
 }
 #: Training procedures beyond TrainingConfig: rounds of hard negatives
 #: (tric_control.study.hard_negatives).
@@ -145,6 +147,8 @@ def parse_variant(text: str):
         raise ValueError(f"variant '{name}': contact depths and cushions must be in [0, 0.05] m")
     if changes.get("hard_negative_rounds", 0) < 0:
         raise ValueError(f"variant '{name}': hard_negative_rounds must be >= 0")
+    if not 0.001 <= changes.get("rho_scale", 1.0) <= 1000:
+        raise ValueError(f"variant '{name}': rho_scale must be in [0.001, 1000]")
     return name, changes
 
 
