@@ -340,7 +340,7 @@ def test_tric_train_writes_a_loadable_model(cli_run):
     [
         (["{tmp}/missing.mcap"], "tric-train: {tmp}/missing.mcap does not exist"),
         (["{bags}", "--sigma", "0"], "tric-train: sigma must be in (0, 1] rad"),
-        (["{bags}", "--members", "21"], "tric-train: members must be in [1, candidates (5)]"),
+        (["{bags}", "--members", "21"], "tric-train: members must be in [1, candidates (8)]"),
         (["{bags}", "--candidates", "0"], "tric-train: candidates must be in [1, 64]"),
         (
             ["{bags}", "--out", "{tmp}/model.json"],

@@ -9,7 +9,7 @@ from dataclasses import asdict, dataclass
 SCORES = ("landmarks", "features", "joints", "value", "judge", "successes")
 JUDGE_SCORES = ("judge", "successes")
 #: The selection a training makes unless told otherwise (docs/decisions/model-selection.md).
-DEFAULT_CANDIDATES = 5
+DEFAULT_CANDIDATES = 8
 DEFAULT_MEMBERS = 1
 DEFAULT_SCORE = "landmarks"
 #: PyTorch's threads in every candidate's training: the same model on every executor and core
