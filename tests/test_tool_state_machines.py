@@ -442,6 +442,8 @@ class StudyRuns(Machine):
         self.patch(study_runs, "code_digest", lambda *modules: f"code {self.code}")
         self.patch(study_candidates, "code_digest", lambda *modules: f"code {self.code}")
         self.patch(study_candidates, "study_candidate", self.candidate)
+        ends = {"end_samples_above": 1.0, "end_gradient_ratio": 0.0}
+        self.patch(study_runs, "end_measures", lambda *_: ends)
         self.patch(study_runs, "evaluate_offline", self.episodes)
 
     @staticmethod

@@ -9,6 +9,7 @@ import pytest
 from tric_control.episode_runner import STALE_PERIODS, EpisodeRunner
 from tric_control.motion_rate import Tick
 from tric_sim.world.robot_model import RobotModel
+from tric_sim.world.scene import TASK_GRIPS
 
 PERIOD = 0.01
 
@@ -150,6 +151,44 @@ def test_the_episode_ends_on_convergence_or_the_step_budget(robot):
     assert budget.step(q, {}).outcome is None
     assert budget.step(q, {}).outcome == ("step_budget", "step budget of 2 spent")
     assert budget.stats.final_value == -2.0
+
+
+def test_the_grip_closes_the_hand_within_its_limits_once_at_rest_and_never_before(robot):
+    """A grasp's grip (the task's data): the commands are the controller's until it comes to rest;
+    then, its controller no longer stepped, the flexion joints close by the squeeze past where they
+    rested over the grip's ticks (the others stay), within the joint limits (a joint at its upper
+    limit stays there), and the episode ends "converged"; a budget that runs out while gripping
+    ends it "step_budget"."""
+    grip = TASK_GRIPS["grasp"]
+    assert TASK_GRIPS["open_box"] is None
+    ticks = int(math.ceil(grip.duration_s / PERIOD))
+    q = robot.home.copy()
+    flexion = [robot.joint_names.index(j) for j in grip.joints]
+    q[flexion[0]] = robot.upper[flexion[0]]  # a finger already at its limit
+    controller = ScriptedController([q], converge_at=4)
+    runner = EpisodeRunner(robot, controller, max_steps=100, period=PERIOD, grip=grip)
+    steps = [runner.step(q, {}) for _ in range(4)]
+    assert [s.gripping for s in steps] == [False] * 4 and steps[-1].outcome is None
+    assert all(np.array_equal(s.command, q) for s in steps)  # no squeeze before rest
+    assert runner.stats.rest_step == 4
+    gripping = []
+    while not gripping or gripping[-1].outcome is None:
+        gripping.append(runner.step(q, {}))
+    assert controller.ticks == 4  # not stepped while gripping
+    assert all(s.gripping and s.tick is None for s in gripping) and len(gripping) == ticks
+    assert gripping[-1].outcome[0] == "converged" and "gripped" in gripping[-1].outcome[1]
+    others = np.setdiff1d(np.arange(robot.n_joints), flexion)
+    for k, s in enumerate(gripping, 1):
+        assert np.all(s.command <= robot.upper) and np.all(s.command >= robot.lower)
+        assert np.array_equal(s.command[others], q[others])
+        expected = np.minimum(q[flexion] + grip.squeeze * k / ticks, robot.upper[flexion])
+        np.testing.assert_allclose(s.command[flexion], expected, atol=1e-12)
+    assert gripping[-1].command[flexion[0]] == robot.upper[flexion[0]]
+    short = EpisodeRunner(
+        robot, ScriptedController([q], converge_at=2), max_steps=5, period=PERIOD, grip=grip
+    )
+    outcomes = [short.step(q, {}).outcome for _ in range(5)]
+    assert outcomes[:4] == [None] * 4 and outcomes[4][0] == "step_budget"
 
 
 def test_bad_input_is_refused_with_a_reason(robot):

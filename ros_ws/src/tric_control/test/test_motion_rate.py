@@ -25,6 +25,7 @@ from tric_control.motion_rate import (
 from tric_control.objectives import Objective, ValueObjective, make_objective
 from tric_learning.features import FeatureDefinition, FeatureMap
 from tric_learning.model_file import ModelFile, value_function_arrays
+from tric_learning.training.rest import RestRule
 from tric_learning.value_function import Scaling, ValueFunction
 from tric_sim.world import situations
 from tric_sim.world.proximity import Closest, Proximity
@@ -420,3 +421,40 @@ def test_a_limit_of_one_s_own_is_stacked_with_the_others(robot):
         named |= "keep_below:0" in tick.active
     assert 0.29 < q[0] <= 0.3 and named
     assert np.allclose(q[1:], (robot.upper - JOINT_MARGIN)[1:], atol=1e-6)
+
+
+def test_a_value_with_a_minimum_brings_the_controller_to_rest_there_and_only_there(robot):
+    """f(u) = u - sigmoid(10 (u + 0.1)) of the palm's scaled distance to the sphere u has its
+    minimum at u* (about 0.11, the palm 33 cm from it; from the start, 39 cm, f falls towards it):
+    the controller descends f to u*, and its rest rule (the joints slower than 0.01 rad/s and f not
+    falling over 0.25 s) holds there and at no tick before, while u is still on its way."""
+    definition = FeatureDefinition.for_task("grasp", robot)
+    situation = situations.sphere("sphere", (0.55, 0.0, 0.45))
+    poses = {"object": (situation.object_position, situation.object_orientation)}
+    kept = np.array([definition.feature_names.index("d[palm,object]")])
+    value_function = ValueFunction(
+        Scaling(kept, np.array([0.25]), np.array([1.0]), definition.size),
+        np.array([[10.0]]),
+        np.array([-1.0]),
+        np.array([1.0]),
+        np.array([1.0]),
+    )
+    grid = np.linspace(-0.05, 1.0, 50001)
+    f = grid - 1.0 / (1.0 + np.exp(-(10.0 * grid + 1.0)))
+    u_star = grid[np.argmin(f)]
+    rule = RestRule(speed=0.01, fall=0.0)
+    objective = ValueObjective(
+        FeatureMap(definition, robot), value_function, 0.002, rho=100.0, rest=rule
+    )
+    controller = MotionRateController(robot, Proximity(robot, situation), objective)
+    features = FeatureMap(definition, robot)
+    index = definition.feature_names.index("d[palm,object]")
+    q, ticks, us = robot.home.copy(), [], []
+    while len(ticks) < 3000 and not (ticks and ticks[-1].converged):
+        ticks.append(controller.tick(q, poses))
+        q = ticks[-1].target
+        us.append((features(q, poses)[index] - 0.25) / 0.75)
+    assert ticks[-1].converged, f"not at rest after {len(ticks)} ticks (u {us[-1]:.3f})"
+    assert abs(us[-1] - u_star) < 0.02, (us[-1], u_star)
+    assert us[0] - u_star > 0.05  # it had a way to go
+    assert not any(tick.converged for tick in ticks[:-1])

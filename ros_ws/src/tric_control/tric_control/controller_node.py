@@ -73,6 +73,7 @@ from tric_sim.ros.parameters import AT_LEAST_ONE, POSITIVE, Range, declare
 from tric_sim.ros.topic_poller import command_msg
 from tric_sim.world.proximity import Proximity
 from tric_sim.world.robot_model import RobotModel
+from tric_sim.world.scene import TASK_GRIPS
 
 MODES = ("lockstep", "realtime")
 FEEDBACK_EVERY = 10
@@ -259,6 +260,7 @@ class ControllerNode(Node):
             self.period,
             model.objects,
             lambda what: self.get_logger().warning(what, throttle_duration_sec=1.0),
+            TASK_GRIPS[self.task],
         )
         episode = Episode(
             goal_handle, goal.episode_id or scene.situation.name, model, scene, runner
@@ -307,7 +309,7 @@ class ControllerNode(Node):
             episode.start_ns = stamp_ns
             self._event(EpisodeEvent.START, episode)
         decided = episode.runner.step(q, poses, stamp_ns, now_ns)
-        held = decided.tick is None
+        held = decided.tick is None and not decided.gripping
         self.command_pub.publish(
             command_msg(
                 self.robot.joint_names,
@@ -323,6 +325,9 @@ class ControllerNode(Node):
             self._status(ControllerStatus.HOLDING, status_ns, episode)
             return None
         episode.last_ns = stamp_ns
+        if decided.gripping:  # the task's grip, once at rest: the controller is not stepped
+            self._status(ControllerStatus.GRIPPING, status_ns, episode)
+            return decided.outcome
         tick, steps = decided.tick, episode.steps
         if steps % FEEDBACK_EVERY == 0:
             episode.goal_handle.publish_feedback(

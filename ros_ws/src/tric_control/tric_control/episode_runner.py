@@ -10,8 +10,11 @@ realtime, tric_control.controller_node) and the offline evaluation on PhysicsWor
   controller respects both already; a violation is clipped, counted and reported);
 - a stale state (older than STALE_PERIODS control periods) or missing object poses: a hold, the last
   measured positions approached within the velocity bound; the controller is not stepped;
-- the episode ends when the controller converges (the robot came to rest) or the step budget is
-  spent.
+- once the controller comes to rest (its model's rest rule), the task's grip, if it has one
+  (tric_sim.world.scene.TASK_GRIPS: a grasp closes the fingers by the teacher's squeeze past where
+  they rest), is ramped in over its duration without stepping the controller, and the episode
+  ends "converged"; it ends "step_budget" when the budget is spent first (the grip's ticks count
+  in it).
 
 It also keeps the episode's statistics (values of the objective, closest approach, joint-limit
 margin, tick times). Units: rad, m, s; stamps in ns.
@@ -26,19 +29,24 @@ import numpy as np
 
 from tric_control.motion_rate import MotionRateController, Tick
 from tric_sim.world.robot_model import RobotModel
+from tric_sim.world.scene import Grip
 
 #: A state older than this many control periods is stale: the runner holds instead of stepping.
 STALE_PERIODS = 3
 #: An episode's step budget when none is given, by task, ticks at 100 Hz: 8 s for a grasp (the
 #: paper's take 5 s), 20 s for a box (its demonstrations last 8 s; docs/decisions/loss-balance.md).
 DEFAULT_MAX_STEPS = {"grasp": 800, "open_box": 2000}
+#: The paper's protocol (Sec. 5.2.3): delta makes about 500 ticks from a demonstration's start to
+#: its end, and a grasp is judged after 500 steps of 10 ms (tric-eval --protocol paper).
+PAPER_STEPS = 500
 
 
 @dataclass
 class EpisodeStats:
     """Running statistics of an episode. Values of the controller's objective (f for TRIC), the
     smallest collision distance the controller saw (m), the smallest distance of a measured joint to
-    its limit (rad), each tick's computing time (ms), safety clips."""
+    its limit (rad), each tick's computing time (ms), safety clips, and the tick at which the
+    controller came to rest (None: it has not)."""
 
     steps: int = 0
     holds: int = 0
@@ -48,6 +56,7 @@ class EpisodeStats:
     min_joint_margin: float = math.inf
     tick_ms: list = field(default_factory=list)
     violations: int = 0
+    rest_step: int | None = None
 
     @property
     def mean_tick_ms(self) -> float:
@@ -61,15 +70,16 @@ class EpisodeStats:
 @dataclass
 class Step:
     """What the runner decided for one state: the command (n,) to send; the controller's tick (None
-    when holding); why it held ("" when it stepped); the command's distance from the previous one,
-    rad; the tick's computing time, ms; and (outcome, message) when the episode is over, else
-    None."""
+    when holding or gripping); why it held ("" when it stepped); the command's distance from the
+    previous one, rad; the tick's computing time, ms; whether the task's grip is closing; and
+    (outcome, message) when the episode is over, else None."""
 
     command: np.ndarray
     tick: Tick | None = None
     held: str = ""
     step_norm: float = 0.0
     tick_ms: float = 0.0
+    gripping: bool = False
     outcome: tuple | None = None
 
 
@@ -83,6 +93,7 @@ class EpisodeRunner:
         period: the control period, s.
         required_objects: names whose poses each tick needs (the model's landmarks).
         on_violation: called with a description each time a command had to be clipped.
+        grip: the task's grip once at rest (tric_sim.world.scene.Grip), or None.
     """
 
     def __init__(
@@ -93,6 +104,7 @@ class EpisodeRunner:
         period: float,
         required_objects=(),
         on_violation=None,
+        grip=None,
     ):
         if max_steps < 1:
             raise ValueError(f"the step budget must be at least 1 tick, got {max_steps}")
@@ -111,6 +123,13 @@ class EpisodeRunner:
         self.stats = EpisodeStats()
         # the last command sent (n,), None before the first state
         self.previous: np.ndarray | None = None
+        self.grip = grip
+        self._grip_joints = (
+            np.array([robot.joint_names.index(j) for j in grip.joints]) if grip else None
+        )
+        self._grip_ticks = max(int(math.ceil(grip.duration_s / period)), 1) if grip else 0
+        # the command the grip closes from, once at rest
+        self._rest_command: np.ndarray | None = None
 
     @property
     def started(self) -> bool:
@@ -144,6 +163,8 @@ class EpisodeRunner:
             return self.hold(
                 q, "stale joint states" if stale else f"no pose of {', '.join(missing)}"
             )
+        if self._rest_command is not None:
+            return self._gripping()
         started = time.perf_counter()
         try:
             tick = self.controller.tick(q, object_poses)
@@ -168,12 +189,41 @@ class EpisodeRunner:
         stats.tick_ms.append(tick_ms)
         outcome = None
         if tick.converged:
-            outcome = ("converged", f"converged after {stats.steps} steps")
-        elif stats.steps >= self.max_steps:
+            stats.rest_step = stats.steps
+            if self.grip is None:
+                outcome = ("converged", f"converged after {stats.steps} steps")
+            else:
+                self._rest_command = command.copy()
+        if outcome is None and stats.steps >= self.max_steps:
             outcome = ("step_budget", f"step budget of {self.max_steps} spent")
         return Step(
             command=command, tick=tick, step_norm=step_norm, tick_ms=tick_ms, outcome=outcome
         )
+
+    def _gripping(self) -> Step:
+        """One tick of the grip: its joints' commands a share more of the squeeze past where they
+        came to rest (within their limits and the velocity bound), the controller not stepped;
+        the episode ends once the squeeze is in, or the budget is spent."""
+        stats = self.stats
+        stats.steps += 1
+        done = stats.steps - cast(int, stats.rest_step)
+        target = cast(np.ndarray, self._rest_command).copy()
+        joints = cast(np.ndarray, self._grip_joints)
+        grip = cast(Grip, self.grip)
+        target[joints] += grip.squeeze * min(done / self._grip_ticks, 1.0)
+        command = self.safe_command(np.minimum(target, self.robot.upper), count=False)
+        self.controller.reference = command.copy()
+        step_norm = float(np.linalg.norm(command - cast(np.ndarray, self.previous)))
+        self.previous = command
+        outcome = None
+        if done >= self._grip_ticks:
+            outcome = (
+                "converged",
+                f"at rest after {stats.rest_step} steps, then gripped for {done}",
+            )
+        elif stats.steps >= self.max_steps:
+            outcome = ("step_budget", f"step budget of {self.max_steps} spent while gripping")
+        return Step(command=command, step_norm=step_norm, gripping=True, outcome=outcome)
 
     def hold(self, q, reason: str) -> Step:
         """Command the measured positions q (approached within the velocity bound), without stepping

@@ -1,7 +1,8 @@
 """tric-eval: run a model (or the teacher) on situations through the real nodes, and judge it.
 
     tric-eval (--model MODEL | --teacher) (DATASET | --situations-file FILE) [--json OUT
-              [--overwrite]] [--max-steps N] [--snapshots DIR] [--domain-id N] [--jobs N]
+              [--overwrite]] [--max-steps N | --protocol paper] [--snapshots DIR]
+              [--domain-id N] [--jobs N]
               [--executor processes|ray] [--address HOST:PORT] [--offline] [--record DIR]
               [--viz [--viz-port P]] [--perturb KIND:SIZE[@SECONDS] ...]
 
@@ -101,7 +102,16 @@ def run(argv) -> int:
         "--max-steps",
         type=int,
         default=0,
-        help="control ticks per episode at most (default: the controller's, 800)",
+        help="control ticks per episode at most (default: the controller's, 800 for a grasp, 2000 "
+        "for a box; an episode ends sooner at rest)",
+    )
+    parser.add_argument(
+        "--protocol",
+        choices=("ours", "paper"),
+        default="ours",
+        help="paper: every episode 500 ticks at most, the paper's (Sec. 5.2.3: delta makes 500 "
+        "ticks from a demonstration's start to its end); ours: the controller's budgets "
+        "(default %(default)s)",
     )
     parser.add_argument("--snapshots", help="write a PNG of each final state into this folder")
     parser.add_argument(
@@ -144,6 +154,12 @@ def run(argv) -> int:
         parser.error("--resume continues a run that keeps its episodes: give its --json file")
     if not 0 <= args.max_steps <= MAX_STEPS:
         parser.error(f"--max-steps must be in [0, {MAX_STEPS}] (0: the controller's default)")
+    if args.protocol == "paper":
+        if args.max_steps:
+            parser.error("--protocol paper sets the budget: not with --max-steps")
+        from tric_control.episode_runner import PAPER_STEPS
+
+        args.max_steps = PAPER_STEPS
     domain_id = private_domain_id() if args.domain_id is None else args.domain_id
     if not 1 <= args.jobs <= 64:
         parser.error("--jobs must be in [1, 64]")

@@ -68,8 +68,9 @@ MAX_HAND_LEAD = 0.03
 #: differences between solver instances (1e-16), far finer than a tick's step (up to 1e-2); see
 #: StepQP.
 STEP_QUANTUM = 2.0**-26
-#: Convergence: the robot has come to rest, its joints having moved less than CONVERGED_MOTION (rad,
-#: in norm) over the last CONVERGED_WINDOW ticks.
+#: Convergence without a rest rule (a DPL policy, a model made before models carried one): the
+#: robot has come to rest, its joints having moved less than CONVERGED_MOTION (rad, in norm) over
+#: the last CONVERGED_WINDOW ticks.
 CONVERGED_WINDOW = 100
 CONVERGED_MOTION = 0.01
 
@@ -318,11 +319,7 @@ class MotionRateController:
             active += limit.active(state, step, binding[rows_of])
         self.values.append(model.value)
         self.history.append(q)
-        if len(self.history) > CONVERGED_WINDOW:
-            motion = q - self.history[-CONVERGED_WINDOW - 1]
-            converged = motion @ motion < CONVERGED_MOTION**2
-        else:
-            converged = False
+        converged = self._at_rest()
         return Tick(
             target=self.reference.copy(),
             value=model.value,
@@ -332,6 +329,24 @@ class MotionRateController:
             active=active,
             converged=converged,
         )
+
+    def _at_rest(self) -> bool:
+        """Whether the robot has come to rest: by the objective's rest rule (the model's, taken
+        from its demonstrations' ends: over its window the joints slower than its speed and f
+        falling slower than its fall), else by moving less than CONVERGED_MOTION over the last
+        CONVERGED_WINDOW ticks."""
+        rule = getattr(self.objective, "rest", None)
+        if rule is None:
+            if len(self.history) <= CONVERGED_WINDOW:
+                return False
+            motion = self.history[-1] - self.history[-CONVERGED_WINDOW - 1]
+            return bool(motion @ motion < CONVERGED_MOTION**2)
+        window = max(int(round(rule.window_s / self.period)), 1)
+        if len(self.history) <= window:
+            return False
+        span = window * self.period
+        speed = float(np.linalg.norm(self.history[-1] - self.history[-window - 1])) / span
+        return rule.holds(speed, (self.values[-window - 1] - self.values[-1]) / span)
 
 
 def _overrides(limit: Limit, method: str) -> bool:

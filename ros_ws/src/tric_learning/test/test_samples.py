@@ -245,3 +245,44 @@ def test_a_worker_that_dies_leaves_its_demos_to_the_calling_process(
 def test_bad_counts_and_sigmas_are_refused(robot, dataset, count, sigma):
     with pytest.raises(ValueError, match="noisy sample count must be >= 1 and sigma > 0"):
         samples.generate(dataset, robot, count, sigma, SEED)
+
+
+def test_the_hold_adds_samples_around_each_demonstration_s_end(robot, dataset, drawn):
+    """hold: the samples of every step are those without it, bit for bit (a stream of their own),
+    and each demo's last step gains up to M more, drawn around its last state q_{T-1} (not q_{T-2}),
+    contrasted with y_{T-1}, seeing the objects where they are at its end, weighted by their
+    distance to q_{T-1}; collision-free and inside the limits as every sample."""
+    plain, _ = drawn
+    monkeypatch = pytest.MonkeyPatch()
+    monkeypatch.setattr(samples, "FeatureMap", SeenFeatureMap)
+    SeenFeatureMap.seen = []
+    try:
+        held = samples.generate(dataset, robot, COUNT, SIGMA, SEED, workers=1, hold=True)
+    finally:
+        monkeypatch.undo()
+    qs = np.concatenate(SeenFeatureMap.seen)
+    offsets = samples.step_offsets(dataset)
+    lasts = offsets[1:] - 1
+    extra = np.isin(held.step, lasts)
+    # the other steps' samples are unchanged
+    keep = ~np.isin(plain.step, lasts)
+    np.testing.assert_array_equal(held.y[~extra], plain.y[keep])
+    np.testing.assert_array_equal(held.weight[~extra], plain.weight[keep])
+    features = FeatureMap(dataset.definition, robot)
+    for i, demo in enumerate(dataset.demos):
+        last = offsets[i + 1] - 1
+        mine = np.flatnonzero(held.step == last)
+        before = np.sum(plain.step == last)
+        assert held.kept_per_step[last] == len(mine) and COUNT // 2 <= len(mine) - before <= COUNT
+        around_end = mine[before:]  # stable order: the step's own samples first, then the hold's
+        distances = np.linalg.norm(qs[around_end] - demo.q[-1], axis=1)
+        np.testing.assert_allclose(held.weight[around_end], distances, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(
+            held.y[around_end],
+            features.batch(qs[around_end], demo.object_poses[-1]),
+            rtol=0,
+            atol=1e-12,
+        )
+        # centred on q_{T-1}: the mean offset is small against sigma
+        assert np.all(np.abs(np.mean(qs[around_end] - demo.q[-1], axis=0)) < SIGMA)
+        assert np.all(qs[around_end] >= robot.lower) and np.all(qs[around_end] <= robot.upper)

@@ -11,6 +11,8 @@ import pytest
 
 from tric_learning.analysis import gradient_measures, ranked_features
 from tric_learning.recording import record_offline
+from tric_learning.training import rest
+from tric_learning.training.rest import RestRule
 from tric_learning.training.samples import d_curve
 from tric_learning.training.value import (
     TrainingConfig,
@@ -219,3 +221,25 @@ def test_top_features_include_hand_to_object_distances(grid_dataset, grid_traini
     distances = {f"d[object,{hand}]" for hand in HAND} | {f"d[{hand},object]" for hand in HAND}
     assert distances & set(top), top
     assert 0 < grid_training.selected_features <= len(grid_training.model.scaling.kept)
+
+
+def test_the_rest_rule_comes_from_the_demonstrations_ends_and_one_from_their_middle_is_refused(
+    grid_dataset, grid_training
+):
+    """The trained model's rest rule: the median of the demonstrations' last joint speed and of
+    f's fall over their last sample; it holds nowhere along them while they are still on their way.
+    A rule taken from a demonstration's middle would declare rest there: refused, named."""
+    model, demos = grid_training.model, grid_dataset
+    rule = RestRule.from_dict(grid_training.rest)
+    ends = [rest.demo_rates(model, demo) for demo in demos.demos]
+    assert rule.speed == pytest.approx(max(np.median([s[-1] for s, _, _ in ends]), 1e-6))
+    assert rule.fall == pytest.approx(max(np.median([f[-1] for _, f, _ in ends]), 0.0))
+    rest.check_rest_rule(rule, model, demos)
+    speeds, falls, _ = rest.demo_rates(model, demos.demos[0])
+    middle = len(speeds) // 2
+    early = RestRule(speed=1.01 * speeds[middle], fall=max(1.01 * falls[middle], 0.0))
+    with pytest.raises(ValueError, match="rest comes too early"):
+        rest.check_rest_rule(early, model, demos)
+    for bad in ({"speed": 0.0, "fall": 0.0, "window_s": 0.25}, {"speed": 1.0}, None):
+        with pytest.raises(ValueError):
+            RestRule.from_dict(bad)

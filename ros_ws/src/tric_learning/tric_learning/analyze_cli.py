@@ -84,6 +84,7 @@ def analyze(args) -> int:
             SIGMA,
             TICKS,
             attraction_numbers,
+            end_measures,
             rollouts_from_demo_ends,
         )
         from tric_learning.bags.loader import load_dataset
@@ -129,6 +130,12 @@ def analyze(args) -> int:
         f"{attracted['at_rest']:.0%} came to rest within {TICKS} ticks; they went below f(y_T) "
         f"by {attracted['undershoot_median']:.3f} of the demos' fall (median; at most "
         f"{attracted['undershoot_max']:.3f})"
+    )
+    ends = end_measures(model, dataset, robot)
+    print(
+        f"the demonstrations' ends: f above f(y_T) at {ends['end_samples_above']:.0%} of the noisy "
+        f"samples around q_T; |grad_q f| at y_T {ends['end_gradient_ratio']:.2f} times its median "
+        "along the demonstration (a minimum: every sample above, a gradient near 0)"
     )
     print(
         "top features: "

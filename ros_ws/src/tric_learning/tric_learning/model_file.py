@@ -229,6 +229,7 @@ def from_training(result, dataset) -> ModelFile:
             "rho": result.rho,
             "selected_features": result.selected_features,
             "mean_samples_per_step": result.mean_samples_per_step,
+            "rest": result.rest,
             "kept_features": names.tolist(),
             "scores": model.scores().tolist(),
         },

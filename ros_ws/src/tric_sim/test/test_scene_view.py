@@ -162,4 +162,7 @@ def test_status_fields_are_json(view):
     assert fields["stamp_ns"] == 3_000_000_000 and fields["active_constraints"] == [
         "collision:palm_link/table"
     ]
-    assert set(fields) == set(scene_messages.STATUS_FIELDS) | {"stamp_ns"}
+    assert set(fields) == set(scene_messages.STATUS_FIELDS) | {"stamp_ns", "phase"}
+    assert fields["phase"] == "descending f"
+    status.state = ControllerStatus.GRIPPING
+    assert scene_messages.status_fields(status)["phase"] == "at rest, gripping"

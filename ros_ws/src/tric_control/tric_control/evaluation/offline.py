@@ -31,6 +31,7 @@ from tric_sim.physics.simulation import PhysicsWorld
 from tric_sim.world.durations import DEFAULT_DURATION
 from tric_sim.world.proximity import Proximity
 from tric_sim.world.robot_model import RobotModel
+from tric_sim.world.scene import TASK_GRIPS
 
 
 class OfflineEvaluator:
@@ -43,7 +44,8 @@ class OfflineEvaluator:
             controller node's).
         period: the control period, s.
         controller_options: keyword arguments of MotionRateController (e.g. max_lead), for studies,
-            and "rho_scale": make_objective's.
+            "rho_scale": make_objective's, and "grip": False leaves out the task's grip once at
+            rest (tric_sim.world.scene.TASK_GRIPS).
     """
 
     def __init__(
@@ -57,6 +59,7 @@ class OfflineEvaluator:
         self.task, self.model, self.period = task, model, period
         self.controller_options = dict(controller_options or {})
         rho_scale = self.controller_options.pop("rho_scale", 1.0)
+        self.grip = TASK_GRIPS[task] if self.controller_options.pop("grip", True) else None
         self.max_steps = max_steps or DEFAULT_MAX_STEPS[task]
         self.robot = RobotModel()
         self.objective = None
@@ -113,7 +116,12 @@ class OfflineEvaluator:
                 **self.controller_options,
             )
             runner = EpisodeRunner(
-                self.robot, controller, self.max_steps, self.period, self.objects
+                self.robot,
+                controller,
+                self.max_steps,
+                self.period,
+                self.objects,
+                grip=self.grip,
             )
             ended = None  # (outcome, message) once the runner ends the episode
             try:

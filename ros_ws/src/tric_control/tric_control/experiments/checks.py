@@ -16,6 +16,7 @@ from tric_control.experiments.targets import (
     CYLINDER_TARGETS,
     FALLING_TARGET,
     MARGIN_TO_TEACHER,
+    PAPER_PROTOCOL,
     REST_TARGET,
     SLOW_COSINE_TARGET,
     WEIGHTED_COSINE_TARGET,
@@ -126,7 +127,8 @@ def table1_checks(rows: dict) -> list:
 def table3_checks(rows: dict) -> list:
     cost, good, lifted = CYLINDER_TARGETS
     checks = []
-    tric = [label for label in rows if label.startswith("TRIC K = 30")]
+    # the paper's protocol is reported beside ours, not held to the design's targets
+    tric = [label for label in rows if label.startswith("TRIC K = 30") and label != PAPER_PROTOCOL]
     for label in tric:
         seeds = _seeds(rows[label])
         checks.append(

@@ -2,10 +2,16 @@
 only) and the validation cylinders, with TRIC K = 30 also trained on a second draw of the training
 cylinders (the paper draws their angles at random, so a result must hold over draws)."""
 
+from tric_control.episode_runner import PAPER_STEPS
 from tric_control.experiments.paper import PAPER_REPORTS
-from tric_control.experiments.rows import grasp_result, grasp_rows, rest_share, spread
+from tric_control.experiments.rows import (
+    grasp_result,
+    grasp_rows,
+    rest_share,
+    spread,
+)
 from tric_control.experiments.runner import Runner
-from tric_control.experiments.targets import CYLINDER_TARGETS, REST_TARGET
+from tric_control.experiments.targets import CYLINDER_TARGETS, PAPER_PROTOCOL, REST_TARGET
 from tric_sim.world import situations
 
 #: The experiment's heading in the report and the log.
@@ -30,6 +36,7 @@ def run(runner: Runner) -> dict:
         for units in (0, 30)
     }
     models[SECOND_DRAW] = dict(name="cylinder_b_k30", bags="cylinder_b")
+    models[PAPER_PROTOCOL] = dict(**models["TRIC K = 30"], max_steps=PAPER_STEPS)
     rows = grasp_rows(runner, situations.dataset("cylinder_test"), models)
     validation = grasp_rows(
         runner,

@@ -25,6 +25,7 @@ from tric_control.objectives.value import COMPILED, ValueObjective
 from tric_learning.features import FeatureMap
 from tric_learning.model_file import ModelFile, value_function
 from tric_learning.training import dpl
+from tric_learning.training.rest import RestRule
 from tric_sim.world.robot_model import RobotModel
 
 #: Model kinds make_objective can build an objective for.
@@ -66,11 +67,13 @@ def _tric_objective(model_file: ModelFile, robot: RobotModel, rho_scale: float) 
         if not (math.isfinite(value) and value > 0):
             raise ValueError(f"the TRIC model's {name} must be finite and positive, got {value!r}")
         numbers[name] = value
+    rest = model_file.info.get("rest")  # None: a model made before models carried their rule
     return ValueObjective(
         FeatureMap(model_file.definition, robot),
         value_function(model_file),
         numbers["delta"],
         numbers["rho"] * rho_scale,
+        rest=None if rest is None else RestRule.from_dict(rest),
     )
 
 

@@ -29,6 +29,8 @@ class DplObjective:
             step_scale,
             rows,
         )
+        #: A policy has no rest rule: the controller's own applies.
+        self.rest = None
 
     def __call__(self, q, object_poses) -> Objective:
         if self.rows is None:

@@ -33,7 +33,9 @@ class ValueObjective:
     True requires it, False uses the numpy code (the reference the kernel is tested against),
     None (default) the kernel where it is built and feature_map and value_function are a
     tric_learning FeatureMap and ValueFunction. The two agree to rounding (1e-12), not bit for
-    bit; COMPILED says whether the kernel is built.
+    bit; COMPILED says whether the kernel is built. rest: the model's rest rule
+    (tric_learning.training.rest.RestRule), or None (the controller's own, for models made before
+    models carried one).
     """
 
     def __init__(
@@ -44,6 +46,7 @@ class ValueObjective:
         rho: float,
         feature_names=None,
         compiled: bool | None = None,
+        rest=None,
     ):
         if not (delta > 0 and rho > 0):
             raise ValueError("delta and rho must be positive")
@@ -53,6 +56,7 @@ class ValueObjective:
             delta,
             rho,
         )
+        self.rest = rest
         scaling = value_function.scaling
         names = feature_names or feature_map.definition.feature_names
         self.kept_names = [names[k] for k in scaling.kept]

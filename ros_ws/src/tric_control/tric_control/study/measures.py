@@ -52,8 +52,9 @@ def controller_options(changes: dict, task: str, robot: RobotModel) -> dict:
         options["max_lead"] = lead
     if "domain_damper" in changes:
         options["domain_damper"] = changes["domain_damper"]
-    if "rho_scale" in changes:
-        options["rho_scale"] = changes["rho_scale"]
+    for option in ("rho_scale", "grip"):
+        if option in changes:
+            options[option] = changes[option]
     contacts = contact_rules(changes, "open_box" if task == "box" else "grasp")
     if contacts is not None:
         options["contacts"] = contacts

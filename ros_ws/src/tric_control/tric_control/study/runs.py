@@ -44,6 +44,7 @@ from tric_control.study.variants import (
     training_part,
 )
 from tric_learning import analysis, model_file
+from tric_learning.analysis.attraction import end_measures
 from tric_learning.bags.loader import bag_paths, load_dataset
 from tric_learning.model_file import tensor_digest
 from tric_learning.training.value import TrainingConfig
@@ -150,7 +151,11 @@ class Study:
             "selection": cell.selection.to_dict(),
             "every_candidate": self.every_candidate,
             "sets": list(TASKS[cell.task][1]),
-            "choice_code": code_digest("tric_control.selection.choice", "tric_learning.analysis"),
+            "choice_code": code_digest(
+                "tric_control.selection.choice",
+                "tric_learning.analysis",
+                "tric_learning.analysis.attraction",
+            ),
         }
 
     def finished_row(self, cell: Cell):
@@ -230,7 +235,10 @@ class Study:
         path = self.out / "models" / model_file_name(cell.variant, cell.bags, cell.seed)
         choice.model.save(path)
         model = model_file.value_function(choice.model)
-        numbers = analysis.key_numbers(model, demos, 20)
+        numbers = {
+            **analysis.key_numbers(model, demos, 20),
+            **end_measures(model, demos, self.robot),
+        }
         row: dict = {
             "variant": cell.variant,
             "task": cell.task,

@@ -35,7 +35,8 @@ DEFAULT_TASKS = ("sphere", "cylinder", "cylinder_b", "box", "obstacle")
 
 
 #: The analysis' numbers of a model on its own demonstrations that a study records
-#: (tric_learning.analysis.key_numbers: gradient_measures and features_carrying).
+#: (tric_learning.analysis.key_numbers: gradient_measures and features_carrying; and
+#: tric_learning.analysis.attraction.end_measures: whether f has its minimum at their ends).
 MODEL_MEASURES = (
     "cosine_weighted",
     "cosine_moving",
@@ -43,14 +44,17 @@ MODEL_MEASURES = (
     "falls",
     "falls_moving",
     "features_95",
+    "end_samples_above",
+    "end_gradient_ratio",
 )
 
 
 #: Controller settings a variant may change, with their types: the hand's lead, the step budgets,
 #: the task's contact rules (tric_sim.world.scene.TASK_CONTACTS): how deep the hand may press into a
 #: grasp target and its cushion (m), how deep into the lid (m) and whether only from beneath;
-#: whether the domain damper (tric_control.limits.DomainDamper) is among the limits; and a factor
-#: on the model's rho (tric_control.objectives.make_objective).
+#: whether the domain damper (tric_control.limits.DomainDamper) is among the limits; a factor on
+#: the model's rho (tric_control.objectives.make_objective); and whether the task's grip closes the
+#: hand once at rest (tric_sim.world.scene.TASK_GRIPS).
 CONTROLLER_OPTIONS = {
     "hand_lead": float,
     "grasp_steps": int,
@@ -61,6 +65,7 @@ CONTROLLER_OPTIONS = {
     "lid_beneath_only": bool,
     "domain_damper": bool,
     "rho_scale": float,
+    "grip": bool,
 }
 #: Training procedures beyond TrainingConfig: rounds of hard negatives
 #: (tric_control.study.hard_negatives).

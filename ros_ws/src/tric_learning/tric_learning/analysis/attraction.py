@@ -14,6 +14,10 @@ criterion: it moved less than REST_MOTION rad over REST_WINDOW ticks) or the tic
 A rollout comes back when it is at rest nearer y_T than it started, in the scaled features u (the
 space f sees): within RETURN_SHARE of its start's distance. It reports too how far below f(y_T) the
 rollout went, in units of the demonstration's own fall f(y_0) - f(y_T): a minimum at y_T means none.
+And whether f has its minimum at the demonstrations' ends at all (end_measures): the share of
+noisy samples around each q_T (as L_n draws them: collision-free, within the limits) where f is
+above f(y_T), and f's gradient norm at y_T against its median along the demonstration (a minimum:
+every sample above, a gradient near zero).
 ROS-free; units rad, s.
 """
 
@@ -23,8 +27,10 @@ import numpy as np
 
 from tric_learning.features import FeatureMap
 from tric_learning.training.dataset import Dataset
-from tric_learning.training.samples import truncated_gaussian
+from tric_learning.training.hyperparameters import SAMPLE_CONTACT_TOLERANCE
+from tric_learning.training.samples import draws_around, truncated_gaussian
 from tric_learning.value_function import ValueFunction
+from tric_sim.world.collision import SceneCollision
 from tric_sim.world.robot_model import RobotModel
 
 #: The controller's convergence criterion (tric_control.motion_rate: CONVERGED_WINDOW and
@@ -149,4 +155,46 @@ def attraction_numbers(rollouts: list) -> dict:
         "end_distance_median": float(np.median([r.end_distance for r in rollouts])),
         "undershoot_median": float(np.nanmedian(undershoots)),
         "undershoot_max": float(np.nanmax(undershoots)),
+    }
+
+
+def end_measures(
+    model: ValueFunction,
+    dataset: Dataset,
+    robot: RobotModel,
+    count: int = 60,
+    sigma: float = SIGMA,
+    seed: int = 0,
+) -> dict:
+    """Whether f has its minimum where the demonstrations end: "end_samples_above", the share of
+    count noisy samples around each demonstration's last state (Gaussian of sigma per joint within
+    the limits, collision-free with the demonstration's end scene), over all demonstrations, where
+    f is above f(y_T); "end_gradient_ratio", the median over the demonstrations of
+    |grad_q (f o phi)| at y_T over its median along the demonstration."""
+    features = FeatureMap(dataset.definition, robot)
+    rng = np.random.default_rng(seed)
+    above, total, ratios = 0, 0, []
+    for demo in dataset.demos:
+        collision = SceneCollision(robot, demo.situation, SAMPLE_CONTACT_TOLERANCE)
+        poses = demo.object_poses[-1]
+        drawn = draws_around(
+            rng,
+            demo.q[-1],
+            count,
+            sigma,
+            robot,
+            lambda q, check=collision, scene=poses: check.collision_free(q, scene),
+        )
+        if len(drawn):
+            values = model.value(features.batch(drawn, poses))
+            above += int(np.sum(values > model.value(demo.y[-1])))
+            total += len(drawn)
+        norms = [
+            np.linalg.norm(model.gradient(y)[1] @ jacobian)
+            for y, jacobian in zip(demo.y, demo.jacobians)
+        ]
+        ratios.append(norms[-1] / max(float(np.median(norms)), 1e-12))
+    return {
+        "end_samples_above": above / total if total else float("nan"),
+        "end_gradient_ratio": float(np.median(ratios)),
     }

@@ -71,6 +71,10 @@ class TrainingConfig:
     #: 1 ("none", Eq. 11).
     lg_min_step: float = 0.0
     lg_weighting: str = "length"
+    #: The hold: M noisy samples around each demonstration's last state, contrasted in L_n with
+    #: that state itself (training.samples.generate's hold), so that f has its minimum where the
+    #: demonstrations end.
+    hold_samples: bool = False
     #: Biases b1 in the hidden layer, z = sigmoid(W1 u + b1) (the paper's model has none).
     hidden_bias: bool = False
     #: The optimization in float64, as the paper's BFGS (the default float32 is faster).

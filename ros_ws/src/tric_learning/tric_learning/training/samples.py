@@ -9,8 +9,10 @@ the demonstrated move from it, as Eq. 12 draws it around q_{t-1} (scene_step 0 p
 where they are at t instead; docs/decisions/paper-fidelity.md). The hand may press into the bodies
 the task lets it touch by contact_tolerance (m), which admits the teacher's own grip. Each sample's
 weight is d_curve: its distance to the demo's path ahead, the polyline q_t, ..., q_{T-1} (Eq.
-14-15). Samples do not depend on the value function, so they are drawn once per training,
-reproducibly from a seed. Units: rad, m.
+14-15). With the hold, M more samples are drawn around each demo's last state q_{T-1} and
+contrasted with y_{T-1} itself (the teacher holds still at its task's end: staying is the
+demonstrated move from there), weighted by their distance to it. Samples do not depend on the value
+function, so they are drawn once per training, reproducibly from a seed. Units: rad, m.
 """
 
 import concurrent.futures
@@ -97,6 +99,7 @@ def generate(
     workers: int = 2,
     contact_tolerance: float = SAMPLE_CONTACT_TOLERANCE,
     scene_step: int = -1,
+    hold: bool = False,
 ) -> NoisySamples:
     """count (M) collision-free noisy samples per demo step t >= 1 (fewer only where MAX_ROUNDS of
     resampling could not find them); progress(done, total) is called after each demo. Demos are
@@ -104,7 +107,9 @@ def generate(
     (seed, demo index): the result does not depend on the number of workers. contact_tolerance: how
     deep (m) a sample may press into the bodies the task lets the hand touch. scene_step: the
     samples of step t see the objects of step t + scene_step (-1: those of q_{t-1}, around which
-    they are drawn; 0: the positive's)."""
+    they are drawn; 0: the positive's). hold: also count samples around each demo's last state
+    q_{T-1}, contrasted with y_{T-1} itself (the teacher holds still once its task is done: the
+    demonstrated move from its end is no move), weighted by their distance to q_{T-1}."""
     if count < 1 or not sigma > 0:
         raise ValueError("the noisy sample count must be >= 1 and sigma > 0")
     if not 0 <= contact_tolerance <= 0.1:
@@ -113,7 +118,7 @@ def generate(
         raise ValueError("the samples' scene step must be 0 or -1")
     offsets = step_offsets(dataset)
     results: list = [None] * len(dataset.demos)  # (steps, y, weight) of each demo, once drawn
-    job = (dataset, robot, count, sigma, seed, contact_tolerance, scene_step)
+    job = (dataset, robot, count, sigma, seed, contact_tolerance, scene_step, hold)
     if workers > 1 and len(dataset.demos) > 1 and "fork" in multiprocessing.get_all_start_methods():
         _sample_in_workers(job, workers, results, progress)
     for i in range(len(dataset.demos)):
@@ -206,8 +211,10 @@ def _demo_samples(
     seed: int,
     contact_tolerance: float,
     scene_step: int,
+    hold: bool = False,
 ):
-    """(steps (S,), features (S, d), weights (S,)) of one demo's noisy samples."""
+    """(steps (S,), features (S, d), weights (S,)) of one demo's noisy samples (and its hold's,
+    see generate)."""
     demo = dataset.demos[index]
     features = FeatureMap(dataset.definition, robot)
     collision = SceneCollision(robot, demo.situation, contact_tolerance)
@@ -245,6 +252,21 @@ def _demo_samples(
                 chosen_q.append(candidates[mine])
                 chosen_step.append(np.full(len(mine), step))
         t = end
+    if hold:
+        # the hold (Eq. 12-16 applied to the demonstration's end): no move from q_{T-1} is the
+        # demonstrated one, so samples around it are contrasted with y_{T-1} itself; drawn from a
+        # stream of their own, so that the other samples do not change
+        last = demo.length - 1
+        held = draws_around(
+            np.random.default_rng([seed, index, 1]),
+            demo.q[last],
+            count,
+            sigma,
+            robot,
+            lambda candidates: collision.collision_free(candidates, demo.object_poses[last]),
+        )
+        chosen_q.append(held)
+        chosen_step.append(np.full(len(held), last))
     qs, steps = np.concatenate(chosen_q), np.concatenate(chosen_step)
     if not len(qs):
         raise ValueError(
@@ -253,14 +275,40 @@ def _demo_samples(
             + f": none of its noisy samples (sigma {sigma:g} rad) is inside the joint limits and "
             "free of collisions; its robot may start in contact with the scene"
         )
+    held = np.zeros(len(steps), dtype=bool)
+    if hold:
+        held[len(steps) - len(chosen_q[-1]) :] = True
     order = np.argsort(steps, kind="stable")
-    qs, steps = qs[order], steps[order]
-    ys = features.batch(qs, [poses[s - 1] for s in steps])
+    qs, steps, held = qs[order], steps[order], held[order]
+    # a hold sample sees the objects where they are at the demonstration's end
+    scenes = [demo.object_poses[s] if h else poses[s - 1] for s, h in zip(steps, held)]
+    ys = features.batch(qs, scenes)
     weights = np.empty(len(steps))
     for step in np.unique(steps):
         mine = steps == step
         weights[mine] = d_curve(qs[mine], demo.q[step:])
     return steps, ys, weights
+
+
+def draws_around(
+    rng, centre: np.ndarray, count: int, sigma: float, robot: RobotModel, free
+) -> np.ndarray:
+    """Up to count collision-free draws (B, n) around centre (n,) (free(candidates) -> (B,) bool),
+    in at most MAX_ROUNDS rounds of at most MAX_DRAWS * count candidates."""
+    kept: list = []
+    need, acceptance = count, 1.0 / OVERSAMPLING
+    for _ in range(MAX_ROUNDS):
+        if need == 0:
+            break
+        draws = min(int(np.ceil(need / max(acceptance, 0.1))), MAX_DRAWS * count)
+        candidates = truncated_gaussian(
+            rng, np.repeat(centre[None, :], draws, axis=0), sigma, robot.lower, robot.upper
+        )
+        valid = np.flatnonzero(free(candidates))
+        acceptance = max(len(valid) / draws, 1e-3)
+        kept.append(candidates[valid[:need]])
+        need -= len(kept[-1])
+    return np.concatenate(kept) if kept else np.empty((0, len(centre)))
 
 
 def collision_extent(body) -> float:

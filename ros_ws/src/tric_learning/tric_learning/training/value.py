@@ -39,6 +39,7 @@ from tric_learning.training.dataset import Dataset
 from tric_learning.training.from_bags import BagTraining, train_on_bags
 from tric_learning.training.hyperparameters import TrainingConfig
 from tric_learning.training.problem import TrainingProblem
+from tric_learning.training.rest import rest_rule
 from tric_learning.value_function import Scaling, ValueFunction
 from tric_sim.world.robot_model import RobotModel
 
@@ -56,7 +57,8 @@ RHO_GAIN = 100.0
 @dataclass
 class TrainingResult:
     """A trained model with its record: loss terms (L_n and L_g per demonstration step, |w|_1),
-    times (s), the controller's delta and rho, counts."""
+    times (s), the controller's delta and rho, counts, and its rest rule (training.rest.RestRule's
+    dict)."""
 
     model: ValueFunction
     config: TrainingConfig
@@ -68,6 +70,7 @@ class TrainingResult:
     rho: float
     selected_features: int
     mean_samples_per_step: float
+    rest: dict
 
     @property
     def train_time_s(self) -> float:
@@ -100,6 +103,7 @@ def train(
         lambda done, total: report("sampling", done / total, None),
         contact_tolerance=config.sample_contact_tolerance,
         scene_step=config.sample_scene_step,
+        hold=config.hold_samples,
     )
     if extra_samples is not None:
         noisy = samples.joined(noisy, extra_samples)
@@ -123,6 +127,7 @@ def train(
         rho=rho,
         selected_features=selected_count(model),
         mean_samples_per_step=float(kept_per_step[_later_steps(dataset)].mean()),
+        rest=rest_rule(model, dataset).to_dict(),
     )
 
 

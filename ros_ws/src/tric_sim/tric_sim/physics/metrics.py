@@ -49,7 +49,7 @@ from tric_sim.world.robot_model import (
     DISTAL_LINKS,
     DISTAL_RADIUS,
     FINGERTIPS,
-    HAND_JOINTS,
+    FLEXION_JOINTS,
     PALM,
     PRESHAPE,
     RobotModel,
@@ -76,7 +76,6 @@ LIFT_PASS_FRACTION = 0.7
 #: they close before the release (s). Chosen on the validation sets: docs/decisions/lift-grip.md.
 GRIP_CLOSURE = 0.12
 GRIP_DURATION = 0.2
-FLEXION_JOINTS = tuple(j for j in HAND_JOINTS if not j.endswith("knuckle_joint"))
 #: A signed distance below this between the robot and an avoided body counts as a collision, m.
 COLLISION_DISTANCE = 0.0
 #: Failure classes (see the module docstring): fingers count as flexed when their flexion (proximal

@@ -51,6 +51,7 @@ STATUS_SCHEMA = {
     "properties": {
         "stamp_ns": {"type": "integer"},
         "state": {"type": "integer"},
+        "phase": {"type": "string"},
         "model_path": {"type": "string"},
         "step": {"type": "integer"},
         "value": _NUMBER,

@@ -95,9 +95,19 @@ def marker_array(primitives, stamp_ns: int) -> MarkerArray:
     return MarkerArray(markers=markers)
 
 
+#: The controller's state by name: the phase of its episode a viewer shows.
+PHASES = {
+    ControllerStatus.IDLE: "idle",
+    ControllerStatus.RUNNING: "descending f",
+    ControllerStatus.HOLDING: "holding (stale input)",
+    ControllerStatus.CONVERGED: "at rest",
+    ControllerStatus.GRIPPING: "at rest, gripping",
+}
+
+
 def status_fields(msg: ControllerStatus) -> dict:
     """A ControllerStatus as JSON-ready plain data: its fields by name (lists for arrays; NaN and
-    inf, which JSON lacks, as None) and "stamp_ns"."""
+    inf, which JSON lacks, as None), "stamp_ns" and "phase" (the state by name, PHASES)."""
     fields = {name: getattr(msg, name) for name in STATUS_FIELDS}
     for name in (
         "value",
@@ -113,6 +123,7 @@ def status_fields(msg: ControllerStatus) -> dict:
     for name in ("active_constraints", "feature_names"):
         fields[name] = [str(v) for v in fields[name]]
     fields["stamp_ns"] = time_ns(msg.header.stamp)
+    fields["phase"] = PHASES.get(msg.state, "unknown")
     return fields
 
 

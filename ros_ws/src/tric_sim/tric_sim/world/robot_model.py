@@ -48,6 +48,8 @@ HAND_JOINTS = (
     "finger_3_proximal_joint",
     "finger_3_distal_joint",
 )
+#: The hand's joints that flex its fingers (all but the knuckle that turns finger 2).
+FLEXION_JOINTS = tuple(j for j in HAND_JOINTS if not j.endswith("knuckle_joint"))
 
 #: Home configuration (rad), in the order of RobotModel.joint_names: the hand raised in front of the
 #: robot, above the objects' workspace (palm at about (0.30, 0, 0.75) m, facing forward and 45

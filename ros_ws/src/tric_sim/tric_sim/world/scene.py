@@ -11,6 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
+from tric_sim.world.robot_model import FLEXION_JOINTS
 from tric_sim.world.situation import Situation
 
 #: The table top is the plane z = 0 under the robot and the objects.
@@ -63,6 +64,22 @@ TASK_CONTACTS = {
     "grasp": {"target": Contact(depth=0.005, cushion=0.003, cushion_weight=3.0)},
     "open_box": {"lid": Contact(depth=0.015, side=(0.0, 0.0, -1.0))},
 }
+
+
+@dataclass(frozen=True)
+class Grip:
+    """A task's last phase, once the controller has come to rest: joints closed by squeeze (rad)
+    past where they rest, ramped in over duration_s (s), then held; within their limits."""
+
+    joints: tuple
+    squeeze: float
+    duration_s: float
+
+
+#: Each task's grip (None: none): a grasp closes the fingers by the grasp teacher's squeeze past
+#: where they came to rest, so that the fingers hold the object with force, not only friction
+#: (docs/decisions/rest-and-grip.md); a box keeps the hand where it came to rest, the lid held.
+TASK_GRIPS = {"grasp": Grip(FLEXION_JOINTS, 0.12, 0.3), "open_box": None}
 
 
 @dataclass(frozen=True)
