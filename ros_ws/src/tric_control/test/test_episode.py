@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from tric_control.episode_runner import STALE_PERIODS, EpisodeRunner
+from tric_control.episode_runner import LEAVE_REST_RAD, STALE_PERIODS, EpisodeRunner
 from tric_control.motion_rate import Tick
 from tric_sim.world.robot_model import RobotModel
 from tric_sim.world.scene import TASK_GRIPS
@@ -189,6 +189,30 @@ def test_the_grip_closes_the_hand_within_its_limits_once_at_rest_and_never_befor
     )
     outcomes = [short.step(q, {}).outcome for _ in range(5)]
     assert outcomes[:4] == [None] * 4 and outcomes[4][0] == "step_budget"
+
+
+def test_an_episode_that_must_go_on_holds_at_rest_and_steps_again_when_pushed(robot):
+    """min_steps (an evaluation that perturbs the world late): at rest and gripped the runner holds
+    the robot, not ending the episode before min_steps; the arm moved farther than LEAVE_REST_RAD
+    from where it rested (a push) takes the controller out of rest: it is stepped again from the
+    measured state, and the episode ends at its next rest past min_steps."""
+    grip = TASK_GRIPS["grasp"]
+    q = robot.home.copy()
+    controller = ScriptedController([q], converge_at=3)
+    runner = EpisodeRunner(robot, controller, max_steps=200, period=PERIOD, grip=grip, min_steps=60)
+    steps = [runner.step(q, {}) for _ in range(40)]
+    assert controller.ticks == 3 and all(s.outcome is None for s in steps)
+    assert steps[-1].command[robot.arm_indices].tolist() == q[robot.arm_indices].tolist()
+    pushed = q.copy()
+    pushed[robot.arm_indices[:2]] += 0.1  # 0.14 rad: farther than LEAVE_REST_RAD
+    assert np.linalg.norm(pushed - q) > LEAVE_REST_RAD
+    step = runner.step(pushed, {})
+    assert step.tick is not None and controller.ticks == 4 and runner.stats.rests_left == 1
+    controller.converge_at = 6
+    outcomes = [runner.step(pushed, {}).outcome for _ in range(60)]
+    ended = next(k for k, outcome in enumerate(outcomes) if outcome is not None)
+    assert outcomes[ended][0] == "converged" and runner.stats.steps >= 60
+    assert runner.stats.rest_step == 41 + 2  # rested again two ticks after the push
 
 
 def test_bad_input_is_refused_with_a_reason(robot):

@@ -261,6 +261,7 @@ class ControllerNode(Node):
             model.objects,
             lambda what: self.get_logger().warning(what, throttle_duration_sec=1.0),
             TASK_GRIPS[self.task],
+            int(goal.min_steps),
         )
         episode = Episode(
             goal_handle, goal.episode_id or scene.situation.name, model, scene, runner

@@ -13,8 +13,9 @@ realtime, tric_control.controller_node) and the offline evaluation on PhysicsWor
 - once the controller comes to rest (its model's rest rule), the task's grip, if it has one
   (tric_sim.world.scene.TASK_GRIPS: a grasp closes the fingers by the teacher's squeeze past where
   they rest), is ramped in over its duration without stepping the controller, and the episode
-  ends "converged"; it ends "step_budget" when the budget is spent first (the grip's ticks count
-  in it).
+  ends "converged"; an episode asked to run min_steps at least holds the robot there until then,
+  and steps the controller again when the arm is moved away (a push); the episode ends
+  "step_budget" when the budget is spent first (the grip's ticks count in it).
 
 It also keeps the episode's statistics (values of the objective, closest approach, joint-limit
 margin, tick times). Units: rad, m, s; stamps in ns.
@@ -29,13 +30,15 @@ import numpy as np
 
 from tric_control.motion_rate import MotionRateController, Tick
 from tric_sim.world.robot_model import RobotModel
-from tric_sim.world.scene import Grip
 
 #: A state older than this many control periods is stale: the runner holds instead of stepping.
 STALE_PERIODS = 3
 #: An episode's step budget when none is given, by task, ticks at 100 Hz: 8 s for a grasp (the
 #: paper's take 5 s), 20 s for a box (its demonstrations last 8 s; docs/decisions/loss-balance.md).
 DEFAULT_MAX_STEPS = {"grasp": 800, "open_box": 2000}
+#: At rest, the arm moved farther than this from where it rested (rad, norm over the arm's joints:
+#: a push) takes the controller out of rest (EpisodeRunner's min_steps).
+LEAVE_REST_RAD = 0.05
 #: The paper's protocol (Sec. 5.2.3): delta makes about 500 ticks from a demonstration's start to
 #: its end, and a grasp is judged after 500 steps of 10 ms (tric-eval --protocol paper).
 PAPER_STEPS = 500
@@ -45,8 +48,8 @@ PAPER_STEPS = 500
 class EpisodeStats:
     """Running statistics of an episode. Values of the controller's objective (f for TRIC), the
     smallest collision distance the controller saw (m), the smallest distance of a measured joint to
-    its limit (rad), each tick's computing time (ms), safety clips, and the tick at which the
-    controller came to rest (None: it has not)."""
+    its limit (rad), each tick's computing time (ms), safety clips, the tick at which the
+    controller last came to rest (None: it has not) and how often it left rest, moved."""
 
     steps: int = 0
     holds: int = 0
@@ -57,6 +60,7 @@ class EpisodeStats:
     tick_ms: list = field(default_factory=list)
     violations: int = 0
     rest_step: int | None = None
+    rests_left: int = 0
 
     @property
     def mean_tick_ms(self) -> float:
@@ -94,6 +98,10 @@ class EpisodeRunner:
         required_objects: names whose poses each tick needs (the model's landmarks).
         on_violation: called with a description each time a command had to be clipped.
         grip: the task's grip once at rest (tric_sim.world.scene.Grip), or None.
+        min_steps: the episode ends at rest only from this tick on (an evaluation that perturbs the
+            world after the controller may have come to rest asks for it); until then the runner
+            holds the robot at rest (gripped), and when something moves the arm more than
+            LEAVE_REST_RAD from where it rested, the controller steps again from there.
     """
 
     def __init__(
@@ -105,6 +113,7 @@ class EpisodeRunner:
         required_objects=(),
         on_violation=None,
         grip=None,
+        min_steps: int = 0,
     ):
         if max_steps < 1:
             raise ValueError(f"the step budget must be at least 1 tick, got {max_steps}")
@@ -124,12 +133,14 @@ class EpisodeRunner:
         # the last command sent (n,), None before the first state
         self.previous: np.ndarray | None = None
         self.grip = grip
+        self.min_steps = min_steps
         self._grip_joints = (
             np.array([robot.joint_names.index(j) for j in grip.joints]) if grip else None
         )
-        self._grip_ticks = max(int(math.ceil(grip.duration_s / period)), 1) if grip else 0
-        # the command the grip closes from, once at rest
+        self._grip_ticks = int(math.ceil(grip.duration_s / period)) if grip else 0
+        # once at rest: the command the grip closes from, and the measured joints there
         self._rest_command: np.ndarray | None = None
+        self._rest_q: np.ndarray | None = None
 
     @property
     def started(self) -> bool:
@@ -164,7 +175,15 @@ class EpisodeRunner:
                 q, "stale joint states" if stale else f"no pose of {', '.join(missing)}"
             )
         if self._rest_command is not None:
-            return self._gripping()
+            moved = (
+                q[self.robot.arm_indices] - cast(np.ndarray, self._rest_q)[self.robot.arm_indices]
+            )
+            if np.linalg.norm(moved) <= LEAVE_REST_RAD:
+                return self._at_rest()
+            # moved from where it rested (pushed): the controller steps again from here
+            self._rest_command = self._rest_q = None
+            self.stats.rests_left += 1
+            self.controller.reset(q)
         started = time.perf_counter()
         try:
             tick = self.controller.tick(q, object_poses)
@@ -190,40 +209,40 @@ class EpisodeRunner:
         outcome = None
         if tick.converged:
             stats.rest_step = stats.steps
-            if self.grip is None:
+            if self.grip is None and stats.steps >= self.min_steps:
                 outcome = ("converged", f"converged after {stats.steps} steps")
             else:
-                self._rest_command = command.copy()
+                self._rest_command, self._rest_q = command.copy(), q.copy()
         if outcome is None and stats.steps >= self.max_steps:
             outcome = ("step_budget", f"step budget of {self.max_steps} spent")
         return Step(
             command=command, tick=tick, step_norm=step_norm, tick_ms=tick_ms, outcome=outcome
         )
 
-    def _gripping(self) -> Step:
-        """One tick of the grip: its joints' commands a share more of the squeeze past where they
-        came to rest (within their limits and the velocity bound), the controller not stepped;
-        the episode ends once the squeeze is in, or the budget is spent."""
+    def _at_rest(self) -> Step:
+        """One tick at rest, the controller not stepped: the grip's joints' commands a share more
+        of the squeeze past where they came to rest (within their limits and the velocity bound),
+        then held; the episode ends once the squeeze is in and min_steps are done, or the budget
+        is spent."""
         stats = self.stats
         stats.steps += 1
         done = stats.steps - cast(int, stats.rest_step)
         target = cast(np.ndarray, self._rest_command).copy()
-        joints = cast(np.ndarray, self._grip_joints)
-        grip = cast(Grip, self.grip)
-        target[joints] += grip.squeeze * min(done / self._grip_ticks, 1.0)
+        closing = self.grip is not None and done <= self._grip_ticks
+        if self.grip is not None:
+            joints = cast(np.ndarray, self._grip_joints)
+            target[joints] += self.grip.squeeze * min(done / self._grip_ticks, 1.0)
         command = self.safe_command(np.minimum(target, self.robot.upper), count=False)
         self.controller.reference = command.copy()
         step_norm = float(np.linalg.norm(command - cast(np.ndarray, self.previous)))
         self.previous = command
         outcome = None
-        if done >= self._grip_ticks:
-            outcome = (
-                "converged",
-                f"at rest after {stats.rest_step} steps, then gripped for {done}",
-            )
+        if done >= self._grip_ticks and stats.steps >= self.min_steps:
+            grip = f", then gripped for {self._grip_ticks}" if self.grip is not None else ""
+            outcome = ("converged", f"at rest after {stats.rest_step} steps{grip}")
         elif stats.steps >= self.max_steps:
-            outcome = ("step_budget", f"step budget of {self.max_steps} spent while gripping")
-        return Step(command=command, step_norm=step_norm, gripping=True, outcome=outcome)
+            outcome = ("step_budget", f"step budget of {self.max_steps} spent at rest")
+        return Step(command=command, step_norm=step_norm, gripping=closing, outcome=outcome)
 
     def hold(self, q, reason: str) -> Step:
         """Command the measured positions q (approached within the velocity bound), without stepping

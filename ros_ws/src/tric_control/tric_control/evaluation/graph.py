@@ -17,13 +17,9 @@ from tqdm import tqdm
 
 from tric_control.controller_node import ControllerNode
 from tric_control.evaluation.executors import ProcessExecutor
-from tric_control.evaluation.records import (
-    EpisodeRecord,
-    evaluated_task,
-    unjudged_fields,
-)
+from tric_control.evaluation.records import EpisodeRecord, evaluated_task, unjudged_fields
 from tric_control.evaluation.shipped_files import local_path
-from tric_control.objectives import RUNNABLE_KINDS
+from tric_control.objectives import CONTROL_PERIOD, RUNNABLE_KINDS
 from tric_learning.recorder_node import RecorderNode
 from tric_msgs.action import Demonstrate, Execute
 from tric_msgs.msg import EpisodeEvent
@@ -36,6 +32,7 @@ from tric_sim.simulator_node import lockstep_simulator
 from tric_sim.teacher_node import TeacherNode
 from tric_sim.visualizer_node import VisualizerNode
 from tric_sim.viz.situation_pictures import write_png
+from tric_sim.world.perturbations import min_steps_for
 
 #: Wall seconds to wait for a service answer, for an episode to end, and for the recorder to close
 #: an episode's bag (--record).
@@ -189,7 +186,11 @@ class Evaluator:
                 )
             self._wait_for_scene(situation)
             result = self._run_goal(
-                Execute.Goal(max_steps=self.max_steps, episode_id=situation.name),
+                Execute.Goal(
+                    max_steps=self.max_steps,
+                    min_steps=min_steps_for(situation.perturbations, CONTROL_PERIOD),
+                    episode_id=situation.name,
+                ),
                 f"the episode on '{situation.name}'",
             )
             if result.outcome == "failed":

@@ -29,6 +29,7 @@ from tric_sim import teachers
 from tric_sim.physics import metrics
 from tric_sim.physics.simulation import PhysicsWorld
 from tric_sim.world.durations import DEFAULT_DURATION
+from tric_sim.world.perturbations import min_steps_for
 from tric_sim.world.proximity import Proximity
 from tric_sim.world.robot_model import RobotModel
 from tric_sim.world.scene import TASK_GRIPS
@@ -122,6 +123,7 @@ class OfflineEvaluator:
                 self.period,
                 self.objects,
                 grip=self.grip,
+                min_steps=min_steps_for(situation.perturbations, self.period),
             )
             ended = None  # (outcome, message) once the runner ends the episode
             try:

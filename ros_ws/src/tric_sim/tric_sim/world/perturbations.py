@@ -126,3 +126,11 @@ def target_displacement(perturbations) -> np.ndarray:
     """The grasp target's displacement (3,) m once every move_target of perturbations has acted."""
     moves = [p.offset for p in perturbations if p.kind == "move_target"]
     return np.sum(moves, axis=0) if moves else np.zeros(3)
+
+
+def min_steps_for(perturbations, period: float) -> int:
+    """The control ticks an episode must run at least for all of perturbations to have acted (0
+    for none): a controller that came to rest before them is still there, holding, when they come
+    (tric_control.episode_runner's min_steps). period: the control period, s."""
+    end = max((p.start_s + p.duration_s for p in perturbations), default=0.0)
+    return int(np.ceil(end / period)) + 1 if perturbations else 0
