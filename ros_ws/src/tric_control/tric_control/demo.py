@@ -54,9 +54,9 @@ def train(bags: pathlib.Path, model: pathlib.Path, config: TrainingConfig, jobs:
     selection = SelectionConfig()
     bar = tqdm(total=selection.candidates, desc="candidates", unit="model")
 
-    def progress(stage, done, total, candidate):
+    def progress(stage, fraction, candidate):
         if stage == "candidates":
-            bar.update(done - bar.n)
+            bar.update(round(fraction * selection.candidates) - bar.n)
             if candidate is not None and not isinstance(candidate, Exception):
                 bar.set_postfix_str(
                     f"seed {candidate.seed}: trained {candidate.train_s:.0f} s, rolled out "

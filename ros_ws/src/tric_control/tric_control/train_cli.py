@@ -265,7 +265,7 @@ def run(argv) -> int:
             return 0
         from tric_control.selection.select_model import select_from_bags
 
-        bar = CandidateBar(enabled=not args.quiet)
+        bar = CandidateBar(selection.candidates, enabled=not args.quiet)
         try:
             with open_executor(choice, num_cpus=args.jobs) as executor:
                 chosen = select_from_bags(

@@ -45,31 +45,31 @@ class StageBars:
 
 
 class CandidateBar:
-    """progress(stage, done, total, candidate) for select_from_bags: one tqdm bar over the
-    candidates, each one's times shown as it ends."""
+    """progress(stage, fraction, what) for select_from_bags: one tqdm bar over the candidates
+    (total of them), each one's times shown as it ends."""
 
-    def __init__(self, enabled: bool = True):
-        self.enabled = enabled
+    def __init__(self, total: int, enabled: bool = True):
+        self.total, self.enabled = total, enabled
         self.bar: tqdm | None = None
 
-    def __call__(self, stage: str, done: int, total: int, candidate):
+    def __call__(self, stage: str, fraction: float, what):
         if stage != "candidates":
             return
         if self.bar is None:
             self.bar = tqdm(
-                total=total,
+                total=self.total,
                 desc="candidates",
                 unit="model",
                 disable=not self.enabled,
                 file=sys.stderr,
             )
-        if candidate is not None and not isinstance(candidate, Exception):
+        if what is not None and not isinstance(what, Exception):
             self.bar.set_postfix_str(
-                f"seed {candidate.seed}: trained {candidate.train_s:.0f} s, "
-                f"{len(candidate.rollouts)} rollouts {candidate.rollout_s:.0f} s",
+                f"seed {what.seed}: trained {what.train_s:.0f} s, "
+                f"{len(what.rollouts)} rollouts {what.rollout_s:.0f} s",
                 refresh=False,
             )
-        self.bar.update(done - self.bar.n)
+        self.bar.update(round(fraction * self.total) - self.bar.n)
 
     def close(self):
         if self.bar is not None:

@@ -148,6 +148,7 @@ class TrainerNode(Node):
             self, "jobs", 0, "candidates trained at once (0: the CPUs)", Range(0, 64)
         ) or (os.cpu_count() or 1)
         self.robot = RobotModel()
+        self._candidates = 0  # of the running TRIC training
         self._busy = threading.Lock()
         self._last_report = (None, 0.0)  # (stage, monotonic time) of the last progress message
         self.progress_pub = self.create_publisher(TrainingProgress, "~/progress", 10)
@@ -253,6 +254,7 @@ class TrainerNode(Node):
 
     def _select(self, request: Train.Request, config, selection: SelectionConfig, notice):
         """The TRIC job (in the worker thread): load, choose among candidates, save."""
+        self._candidates = selection.candidates
         with open_executor(self.executor_choice, num_cpus=self.jobs) as executor:
             return select_from_bags(
                 list(request.bag_paths),
@@ -268,13 +270,15 @@ class TrainerNode(Node):
                 notice=notice,
             )
 
-    def _report_candidates(self, stage: str, done: int, total: int, candidate) -> None:
+    def _report_candidates(self, stage: str, fraction: float, what) -> None:
         """select_from_bags' progress callback (in the worker thread): each stage change and each
         finished candidate (with its losses) at once, the rest at most every progress_period_s."""
-        if stage == "candidates" and candidate is not None:
+        total = self._candidates
+        if stage == "candidates" and what is not None:
             self._last_report = (None, 0.0)
-        losses = getattr(candidate, "record", {}).get("losses")
-        self._report(total, stage, done / total if total else 0.0, losses, iteration=done)
+        losses = getattr(what, "record", {}).get("losses") if stage == "candidates" else what
+        done = round(fraction * total) if stage == "candidates" else 0
+        self._report(total, stage, fraction, losses, iteration=done)
 
     def _notice(self, notes: list, text: str) -> None:
         """What the dataset loader names (skipped, tolerantly read or included bags): logged, and

@@ -11,13 +11,9 @@ from tric_control.evaluation.executors import ProcessExecutor
 from tric_control.selection.candidates import candidate
 from tric_control.selection.choice import Choice, choose
 from tric_control.selection.settings import SelectionConfig
-from tric_learning.bags.loader import bag_paths, load_dataset
-from tric_learning.model_file import expected_size
 from tric_learning.training.dataset import Dataset
-from tric_learning.training.from_bags import model_output_path
+from tric_learning.training.from_bags import train_on_bags
 from tric_learning.training.value import TrainingConfig
-from tric_sim.tools.claims import claim
-from tric_sim.tools.output_files import check_output_file
 from tric_sim.tools.provenance import code_digest
 from tric_sim.world.robot_model import RobotModel
 
@@ -39,6 +35,11 @@ class Selection:
     candidates: list
     wall_s: float
     path: pathlib.Path | None = None
+
+    @property
+    def losses(self) -> dict:
+        """The chosen model's loss terms."""
+        return self.choice.model.info["losses"]
 
 
 def candidate_seeds(config: TrainingConfig, selection: SelectionConfig) -> list:
@@ -109,48 +110,41 @@ def select_from_bags(
     notice=None,
     overwrite: bool = True,
 ) -> Selection:
-    """Load the demonstrations in the bags at paths (files or folders, see
-    tric_learning.bags.loader.load_dataset for include_failed, tolerant and notice), choose a model
-    on them (select_model) and write it to output_path (tric_learning.training.from_bags
-    .model_output_path, checked before any work: ValueError and nothing written for a bad bag,
-    value or path). The model path is claimed for this run (tric_sim.tools.claims) before anything
-    is read and its room checked before the candidates train; a model file that appeared there
-    meanwhile is replaced only if overwrite (else the model goes beside it). progress(stage, done,
-    total, candidate): stage "loading" (bags read of total), "candidates" (as select_model's
-    progress), then "saving" (0 of 1, then 1 of 1)."""
+    """Load the demonstrations in the bags at paths, choose a model on them (select_model) and
+    write it to output_path, as tric_learning.training.from_bags.train_on_bags trains one: every
+    input checked and the model path claimed before any work, its room (with the selection's
+    provenance) checked before the candidates train, a model file that appeared there meanwhile
+    replaced only if overwrite. progress(stage, fraction, what): stage "loading" (what None),
+    "candidates" (what: the candidate that just ended, or its Exception, None before the first),
+    then "saving" (what: the chosen model's losses)."""
     config.validate()
     selection.validate()
     report = progress or (lambda *_: None)
-    files = bag_paths(paths, tolerant, notice)
-    path = model_output_path(output_path, files[0], inputs=files, overwrite=overwrite)
-    with claim(path, "the model path"):
-        report("loading", 0, len(files), None)
-        dataset = load_dataset(
-            files,
-            robot,
-            lambda done, total: report("loading", done, total, None),
-            include_failed=include_failed,
-            tolerant=tolerant,
-            notice=notice,
-        )
-        check_output_file(
-            path,
-            what="the model path",
-            expected_bytes=expected_size(
-                dataset.definition.size, config.hidden_units * selection.members
-            )
-            + PROVENANCE_BYTES * selection.candidates * len(dataset.demos),
-        )
-        chosen = select_model(
+
+    def fit(dataset, _report):
+        return select_model(
             dataset,
             config,
             selection,
             executor,
             jobs,
-            lambda done, total, candidate: report("candidates", done, total, candidate),
+            lambda done, total, candidate: report("candidates", done / total, candidate),
         )
-        report("saving", 0, 1, None)
-        chosen.choice.model.save(path, replace=overwrite)
-        chosen.path = path
-        report("saving", 1, 1, None)
+
+    trained = train_on_bags(
+        paths,
+        output_path,
+        robot,
+        report,
+        fit,
+        lambda chosen, _dataset: chosen.choice.model,
+        include_failed=include_failed,
+        tolerant=tolerant,
+        notice=notice,
+        hidden_units=config.hidden_units * selection.members,
+        overwrite=overwrite,
+        bytes_per_demo=PROVENANCE_BYTES * selection.candidates,
+    )
+    chosen = trained.result
+    chosen.path = trained.path
     return chosen

@@ -52,12 +52,14 @@ def train_on_bags(
     notice=None,
     hidden_units: int = 0,
     overwrite: bool = True,
+    bytes_per_demo: int = 0,
 ) -> BagTraining:
     """Load the demonstrations in the bags at paths (files or folders, see bag_dataset.load_dataset
     for include_failed, tolerant and notice), train on them with fit(dataset, report) -> result and
     write to_model_file(result, dataset) to output_path (see model_output_path). The model path is
     claimed for this run (tric_sim.tools.claims) before anything is read, and the room its file
-    takes (model_file.expected_size, hidden_units: the model's) checked
+    takes (model_file.expected_size, hidden_units: the model's; bytes_per_demo more for each
+    demonstration, the metadata that grows with them) checked
     before the training; a bad bag or path raises ValueError and leaves no file. A model file that
     appeared at the path meanwhile is replaced only if overwrite (else the model goes beside it:
     tric_sim.tools.output_files.atomic_path). progress(stage, fraction, losses) is handed on to fit
@@ -78,7 +80,8 @@ def train_on_bags(
         check_output_file(
             path,
             what="the model path",
-            expected_bytes=expected_size(dataset.definition.size, hidden_units),
+            expected_bytes=expected_size(dataset.definition.size, hidden_units)
+            + bytes_per_demo * len(dataset.demos),
         )
         result = fit(dataset, report)
         report("saving", 0.0, result.losses)
