@@ -7,6 +7,7 @@ from rclpy.parameter import Parameter
 from conftest import run_action, run_periods, wait_for
 from tric_msgs.action import Demonstrate
 from tric_msgs.msg import EpisodeEvent
+from tric_sim import teacher_node
 from tric_sim.ros import messages
 from tric_sim.simulator_node import SimulatorNode
 from tric_sim.teacher_node import TeacherNode
@@ -81,3 +82,18 @@ def test_a_demonstration_too_long_or_not_finite_is_refused(ros_context, spin):
         assert result.message.startswith("duration must be in [0, 120] simulated s"), result.message
     run_periods(client)
     assert not events
+
+
+def test_a_teacher_without_a_simulator_waits_for_it_then_aborts_naming_it(
+    ros_context, spin, monkeypatch
+):
+    """The simulator's services are waited for (a graph that just started may not have found them
+    yet), SERVICE_WAIT_S at most (0.3 s here), then the goal is aborted naming the service."""
+    monkeypatch.setattr(teacher_node, "SERVICE_WAIT_S", 0.3)
+    client = Node("test_client", context=ros_context)
+    spin(TeacherNode(context=ros_context), client)
+    status, result, _ = demonstrate(client, situations.sphere_grid()[4])
+    assert status == GoalStatus.STATUS_ABORTED and not result.success
+    assert result.message == (
+        "service /simulator/reset_scene is not available after 0.3 s: is the simulator running?"
+    )

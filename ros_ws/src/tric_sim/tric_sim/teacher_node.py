@@ -27,6 +27,9 @@ from tric_sim.teachers import make_teacher
 from tric_sim.world.durations import DEFAULT_DURATION, MAX_DURATION
 from tric_sim.world.robot_model import RobotModel
 
+#: How long a goal waits for the simulator's services to be discovered before it is aborted, s.
+SERVICE_WAIT_S = 10.0
+
 
 class TeacherNode(Node):
     """Serves ~/demonstrate (tric_msgs/action/Demonstrate); see the module docstring."""
@@ -84,11 +87,15 @@ class TeacherNode(Node):
         except ValueError as error:
             return self._abort(goal_handle, result, f"bad situation: {error}")
         for client in (self.reset_client, self.evaluate_client):
-            if not client.service_is_ready():
+            # a graph that just started may not have discovered the simulator yet: a loaded
+            # machine took more than the first goal (tric-experiments' table2 lost every
+            # demonstration to it once)
+            if not client.wait_for_service(timeout_sec=SERVICE_WAIT_S):
                 return self._abort(
                     goal_handle,
                     result,
-                    f"service {client.srv_name} is not available: is the simulator running?",
+                    f"service {client.srv_name} is not available after {SERVICE_WAIT_S:g} s: is "
+                    "the simulator running?",
                 )
         episode_id = goal.episode_id or situation.name
         if not 0.0 <= goal.duration <= MAX_DURATION:  # NaN too

@@ -102,33 +102,49 @@ class CandidateStore:
         (training key, rollouts key, TrainingConfig, max_steps, controller options, hard-negative
         rounds): the kept ones read, the others made on executor, jobs at once (one call each,
         trained unless their model is kept, then rolled out; the dataset sent once) and kept as
-        each ends."""
+        each ends. A model wanted with several rollouts is trained once: its other rollouts are
+        made after it."""
         made: dict = {}
-        todo = []
+        now, later, training_now = [], [], set()
         for training, rollouts, config, max_steps, options, rounds in wanted:
             name = (config.seed, key_name(rollouts))
             if name in made:
                 continue
             made[name] = self.get(bags, config.seed, training, rollouts)
-            if made[name] is None:
-                kept = self.model(bags, config.seed, training)
-                todo.append((training, rollouts, (config, max_steps, options, rounds, kept)))
-        if todo:
-            print(f"making {len(todo)} candidates on {bags} ({executor.kind})", flush=True)
-        calls = [call for _, _, call in todo]
+            if made[name] is not None:
+                continue
+            entry = (training, rollouts, (config, max_steps, options, rounds))
+            kept = self.model(bags, config.seed, training)
+            if kept is None and key_name(training) in training_now:
+                later.append(entry)
+                continue
+            if kept is None:
+                training_now.add(key_name(training))
+            now.append((*entry, kept))
+        self._run(bags, dataset, now, executor, jobs, made)
+        again = [(*entry, self.model(bags, entry[2][0].seed, entry[0])) for entry in later]
+        self._run(bags, dataset, again, executor, jobs, made)
+        return made
+
+    def _run(self, bags: str, dataset, todo: list, executor, jobs: int, made: dict) -> None:
+        """Make the candidates of todo ([(training key, rollouts key, call, kept model)]) on
+        executor into made, each kept as it ends."""
+        if not todo:
+            return
+        print(f"making {len(todo)} candidates on {bags} ({executor.kind})", flush=True)
+        calls = [(*call, kept) for _, _, call, kept in todo]
         for k, result in executor.run_calls(study_candidate, calls, jobs, (dataset,)):
-            training, rollouts, call = todo[k]
+            training, rollouts, call, kept = todo[k]
             made[(call[0].seed, key_name(rollouts))] = result
             if isinstance(result, Exception):
                 continue
             self.put(bags, training, rollouts, result)
             print(
                 f"candidate {bags} s{result.seed}: "
-                + ("model kept" if call[-1] else f"trained in {result.train_s:.1f} s")
+                + ("model kept" if kept else f"trained in {result.train_s:.1f} s")
                 + f", rolled out in {result.rollout_s:.1f} s",
                 flush=True,
             )
-        return made
 
 
 def training_key(config, data_digest: str, rounds: int = 0, max_steps: int = 0) -> dict:
