@@ -4,6 +4,8 @@ bound, and the command on a results folder."""
 import json
 import math
 
+import numpy as np
+
 from tric_control.experiments import cli
 from tric_control.experiments.checks import check_results, check_table
 
@@ -175,3 +177,33 @@ def test_report_only_writes_the_report_and_a_results_page_elsewhere(tmp_path):
     text = page.read_text()
     assert "TRIC grasps 5/5/5." in text and "The paper: no collision." in text
     assert "![fig8](../run/fig8.png)" in text  # the figure linked relative to the page
+
+
+def test_the_push_trace_tells_rest_the_push_and_rest_again():
+    """exp5's trace text on a hand-made trace: at rest and gripped at 2 s, pushed at 3 s (f rises
+    from 0.8 to 1.5 and falls back), at rest again at 4.5 s; and on one that never rests again."""
+    from tric_control.experiments.exp5 import trace_text
+
+    t = np.round(np.arange(0.0, 6.0, 0.01), 2)
+    phase = ["descending"] * 200 + ["gripping"] * 30 + ["at rest"] * 71
+    phase += ["descending"] * 149 + ["gripping"] * 30 + ["at rest"] * 120
+    f = np.where(t <= 3.0, 1.0 - 0.1 * t, 1.5 - 0.5 * (t - 3.0))
+    f = np.where(np.array(phase) == "descending", f, np.nan)
+    trace = {
+        "t": t.tolist(),
+        "f": f.tolist(),
+        "phase": phase,
+        "push_at_s": 3.0,
+        "rested_at_s": 2.0,
+        "situation": "s",
+        "success": True,
+        "outcome": "converged",
+    }
+    text = trace_text(trace)
+    assert "it came to rest and gripped at 2.00 s" in text
+    assert "pushed at 3.00 s, f rises from 0.8 to 1.5" in text
+    assert "back below 0.8 1.40 s after the push" in text
+    assert "it comes to rest and grips again at 4.50 s" in text
+    never = {**trace, "phase": phase[:301] + ["descending"] * 299, "rested_at_s": None}
+    assert "did not come to rest before the push" in trace_text(never)
+    assert "does not come to rest again before its budget" in trace_text(never)

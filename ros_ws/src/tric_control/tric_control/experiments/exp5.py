@@ -52,8 +52,12 @@ AGENTS: dict[str, dict[str, dict[str, Any]]] = {
         "DPL joint space": dict(name="box_dpl_joint", bags="box", kind="dpl_joint"),
     },
 }
-#: The push of the trace figure (f and the joint speed through it): TRIC, first group.
-TRACE = ("sphere_test_00", Trial("push", 0.4))
+#: The push of the trace figure (f and the joint speed through it): TRIC, first group, on this
+#: situation, pushed by this much half a second after it first came to rest and gripped (or at the
+#: task's usual time when it does not come to rest).
+TRACE = ("sphere_test_00", 0.4)
+#: The trace's episodes' budget, ticks: long enough to rest, be pushed, and rest again.
+TRACE_STEPS = 2500
 
 
 def run(runner: Runner) -> dict:
@@ -189,27 +193,40 @@ def _successes(cells: dict) -> str:
 
 
 def trace_text(trace: dict) -> str:
-    """What the trace of TRACE's push shows: f's rise at the push, how soon f is back below its
-    value before it, and the arm's speed over the episode's last second."""
-    t, f, speed = (np.asarray(trace[key], dtype=float) for key in ("t", "f", "speed"))
-    at = trace["push_at_s"]
-    before = f[t <= at][-1]
-    after = (t > at) & (t <= at + 0.5)
-    peak_t = t[after][np.nanargmax(f[after])]
-    back = t[(t > peak_t) & (f < before)]
-    last = speed[t > t[-1] - 1.0]
-    return (
-        f"Through the push of {trace['situation']} (TRIC, first group), f rises from "
-        f"{before:.1f} to {np.nanmax(f[after]):.1f} and is back below {before:.1f} "
-        + (f"{back[0] - at:.2f} s after the push" if back.size else "never")
-        + f"; the grasp is {'a success' if trace['success'] else 'a failure'} "
-        f"({trace['outcome']}). Over the episode's last second the arm moves at "
-        f"{np.mean(last):.2f} rad/s on average (at most {np.max(last):.2f}): "
-        + (
-            "it rests."
-            if np.max(last) < 0.05
-            else "it does not come to rest where f stops falling, as Prop. 2 would have it."
+    """What the trace of TRACE's push shows: when TRIC first came to rest and gripped, f's rise at
+    the push, how soon f is back below its value before it, and whether the controller left rest,
+    descended, and came to rest and gripped again."""
+    t, f = (np.asarray(trace[key], dtype=float) for key in ("t", "f"))
+    phases, at = trace["phase"], trace["push_at_s"]
+    before = f[t <= at][np.isfinite(f[t <= at])]
+    text = f"Through the push of {trace['situation']} (TRIC, first group): "
+    if trace["rested_at_s"] is None:
+        text += "it did not come to rest before the push (pushed at the usual time); "
+    else:
+        text += f"it came to rest and gripped at {trace['rested_at_s']:.2f} s; "
+    rests = [
+        t[k]
+        for k in range(1, len(t))
+        if phases[k] != "descending" and phases[k - 1] == "descending"
+    ]
+    again = [r for r in rests if r > at]
+    after = (t > at) & np.isfinite(f)
+    if before.size and after.any():
+        back = t[after & (f < before[-1])]
+        text += (
+            f"pushed at {at:.2f} s, f rises from {before[-1]:.1f} to {np.max(f[after]):.1f} as the "
+            "controller leaves rest, and is back below "
+            + (f"{before[-1]:.1f} {back[0] - at:.2f} s after the push" if back.size else "never")
+            + "; "
         )
+    text += (
+        f"it comes to rest and grips again at {again[0]:.2f} s"
+        if again
+        else "it does not come to rest again before its budget"
+    )
+    return (
+        text
+        + f" (the grasp {'a success' if trace['success'] else 'a failure'}, {trace['outcome']})."
     )
 
 
@@ -282,30 +299,43 @@ def discussion(rows: dict, trace: dict | None = None) -> str:
 
 
 def _trace(runner: Runner) -> dict:
-    """f, the arm's joint speed and the hand's distance from its final place through TRACE's push,
-    TRIC chosen from the first group, offline (the same controller core as the node's)."""
+    """f, the arm's joint speed and the controller's phase through TRACE's push, TRIC chosen from
+    the first group, offline (the same controller core as the node's): the situation is run once
+    to find when TRIC first comes to rest, then pushed half a second after that."""
     from tric_control.evaluation.offline import OfflineEvaluator
 
-    name, trial = TRACE
-    situation = trial.apply(situations.find_situation(name), runner.robot)
+    name, size = TRACE
+    nominal = situations.find_situation(name)
     model = runner.model(**AGENTS["grasp"]["TRIC"], seed=SEEDS[0])
-    evaluator = OfflineEvaluator("grasp", model)
-    trace: dict[str, list[float]] = {"t": [], "f": [], "speed": []}
+    evaluator = OfflineEvaluator("grasp", model, TRACE_STEPS)
+    rested: list[float] = []
+    trace: dict[str, list] = {"t": [], "f": [], "speed": [], "phase": []}
+
+    def first_rest(world, step):
+        if step is not None and step.tick is None and not rested:
+            rested.append(world.elapsed_s)
 
     def on_period(world, step):
         _, velocity = world.joint_state()
         trace["t"].append(world.elapsed_s)
         trace["f"].append(step.tick.value if step.tick is not None else math.nan)
         trace["speed"].append(float(np.linalg.norm(velocity[runner.robot.arm_indices])))
+        trace["phase"].append(
+            "descending" if step.tick is not None else "gripping" if step.gripping else "at rest"
+        )
 
     try:
+        evaluator.run(nominal, on_period=first_rest)
+        at_s = rested[0] + 0.5 if rested else None
+        situation = Trial("push", size, at_s).apply(nominal, runner.robot)
         record = evaluator.run(situation, on_period=on_period)
     finally:
         evaluator.close()
     return {
         **trace,
         "situation": situation.name,
-        "push_at_s": PERTURB_AT_S["grasp"] if trial.at_s is None else trial.at_s,
+        "rested_at_s": rested[0] if rested else None,
+        "push_at_s": PERTURB_AT_S["grasp"] if at_s is None else at_s,
         "success": bool(record.success),
         "outcome": record.outcome,
     }
@@ -336,12 +366,26 @@ def _success_figure(rows: dict):
 
 def _trace_figure(trace: dict):
     figure, axis = plt.subplots(figsize=(6.0, 3.2))
-    axis.plot(trace["t"], trace["f"], color="tab:blue")
+    t = np.asarray(trace["t"])
+    axis.plot(t, trace["f"], color="tab:blue")
     axis.set_xlabel("simulated time (s)")
     axis.set_ylabel("f (TRIC's value)", color="tab:blue")
     axis.axvline(trace["push_at_s"], color="gray", linestyle="--", linewidth=0.8)
+    phases = np.asarray(trace["phase"])
+    for phase, colour in (("gripping", "tab:green"), ("at rest", "tab:gray")):
+        axis.fill_between(
+            t,
+            0,
+            1,
+            where=phases == phase,
+            color=colour,
+            alpha=0.15,
+            transform=axis.get_xaxis_transform(),
+            label=phase,
+        )
+    axis.legend(fontsize=7, loc="upper right")
     speed = axis.twinx()
-    speed.plot(trace["t"], trace["speed"], color="tab:orange", linewidth=0.8)
+    speed.plot(t, trace["speed"], color="tab:orange", linewidth=0.8)
     speed.set_ylabel("arm joint speed (rad/s)", color="tab:orange")
     axis.set_title(
         f"{trace['situation']}: f and speed through the push "
