@@ -223,20 +223,29 @@ def test_top_features_include_hand_to_object_distances(grid_dataset, grid_traini
     assert 0 < grid_training.selected_features <= len(grid_training.model.scaling.kept)
 
 
-def test_the_rest_rule_comes_from_the_demonstrations_ends_and_one_from_their_middle_is_refused(
+def test_the_rest_rule_comes_from_the_demonstrations_and_one_from_their_middle_is_refused(
     grid_dataset, grid_training
 ):
-    """The trained model's rest rule: the median of the demonstrations' last joint speed and of
-    f's fall over their last sample; it holds nowhere along them while they are still on their way.
-    A rule taken from a demonstration's middle would declare rest there: refused, named."""
+    """The trained model's rest rule: slower than the teacher ever moves over a window on its way,
+    f falling at under REST_FALL_SHARE of its pace along the demonstrations; it holds nowhere along
+    them while they are still on their way. A rule taken from a demonstration's middle would
+    declare rest there: refused, named."""
     model, demos = grid_training.model, grid_dataset
     rule = RestRule.from_dict(grid_training.rest)
-    ends = [rest.demo_rates(model, demo) for demo in demos.demos]
-    assert rule.speed == pytest.approx(max(np.median([s[-1] for s, _, _ in ends]), 1e-6))
-    assert rule.fall == pytest.approx(max(np.median([f[-1] for _, f, _ in ends]), 0.0))
+    rates = [rest.window_rates(model, demo) for demo in demos.demos]
+    slowest = min(float(np.min(speed[left > rest.REST_MARGIN])) for speed, _, left in rates)
+    assert rule.speed == pytest.approx(slowest)
+    assert rule.window_s == rest.REST_WINDOW_S
+    paces = [
+        (values[0] - values[-1]) / ((demo.stamps_ns[-1] - demo.stamps_ns[0]) * 1e-9)
+        for demo in demos.demos
+        for values in [model.value(demo.y)]
+    ]
+    assert rule.fall == pytest.approx(rest.REST_FALL_SHARE * max(np.median(paces), 0.0))
+    assert rule.fall > 0, "f falls along the demonstrations of a trained model"
     rest.check_rest_rule(rule, model, demos)
-    speeds, falls, _ = rest.demo_rates(model, demos.demos[0])
-    middle = len(speeds) // 2
+    speeds, falls, left = rates[0]
+    middle = int(np.argmax(left < 0.5))  # half of its way still ahead
     early = RestRule(speed=1.01 * speeds[middle], fall=max(1.01 * falls[middle], 0.0))
     with pytest.raises(ValueError, match="rest comes too early"):
         rest.check_rest_rule(early, model, demos)

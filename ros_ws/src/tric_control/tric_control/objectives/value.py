@@ -35,7 +35,7 @@ class ValueObjective:
     tric_learning FeatureMap and ValueFunction. The two agree to rounding (1e-12), not bit for
     bit; COMPILED says whether the kernel is built. rest: the model's rest rule
     (tric_learning.training.rest.RestRule), or None (the controller's own, for models made before
-    models carried one).
+    models carried one or trained on demonstrations too short to give one).
     """
 
     def __init__(

@@ -13,7 +13,7 @@ from tric_control.selection.settings import SelectionConfig
 from tric_learning import model_file
 from tric_learning.model_file import ModelFile, tensor_digest
 from tric_learning.training.dataset import Dataset
-from tric_learning.training.rest import rest_rule
+from tric_learning.training.rest import rest_info
 from tric_learning.training.value import (
     TrainingConfig,
     TrainingResult,
@@ -82,7 +82,7 @@ def choose(
             mean_samples_per_step=float(
                 np.mean([file.info["mean_samples_per_step"] for file in files])
             ),
-            rest=rest_rule(ensemble, dataset).to_dict(),
+            rest=rest_info(ensemble, dataset),
         )
         chosen = model_file.from_training(result, dataset)
     provenance = _provenance(rows, best, selection, config)

@@ -39,7 +39,7 @@ from tric_learning.training.dataset import Dataset
 from tric_learning.training.from_bags import BagTraining, train_on_bags
 from tric_learning.training.hyperparameters import TrainingConfig
 from tric_learning.training.problem import TrainingProblem
-from tric_learning.training.rest import rest_rule
+from tric_learning.training.rest import rest_info
 from tric_learning.value_function import Scaling, ValueFunction
 from tric_sim.world.robot_model import RobotModel
 
@@ -58,7 +58,7 @@ RHO_GAIN = 100.0
 class TrainingResult:
     """A trained model with its record: loss terms (L_n and L_g per demonstration step, |w|_1),
     times (s), the controller's delta and rho, counts, and its rest rule (training.rest.RestRule's
-    dict)."""
+    dict; None where the demonstrations are too short to give one)."""
 
     model: ValueFunction
     config: TrainingConfig
@@ -70,7 +70,7 @@ class TrainingResult:
     rho: float
     selected_features: int
     mean_samples_per_step: float
-    rest: dict
+    rest: dict | None
 
     @property
     def train_time_s(self) -> float:
@@ -127,7 +127,7 @@ def train(
         rho=rho,
         selected_features=selected_count(model),
         mean_samples_per_step=float(kept_per_step[_later_steps(dataset)].mean()),
-        rest=rest_rule(model, dataset).to_dict(),
+        rest=rest_info(model, dataset),
     )
 
 
