@@ -146,5 +146,6 @@ def select_from_bags(
         bytes_per_demo=PROVENANCE_BYTES * selection.candidates,
     )
     chosen = trained.result
+    assert isinstance(chosen, Selection), "the fit returns a Selection"
     chosen.path = trained.path
     return chosen

@@ -26,7 +26,7 @@ from tric_sim.world.robot_model import (
     PRESHAPE,
     RobotModel,
 )
-from tric_sim.world.scene import TASK_GRIPS
+from tric_sim.world.scene import GRASP_GRIP
 from tric_sim.world.shapes import object_surface
 from tric_sim.world.situation import Situation
 
@@ -40,7 +40,7 @@ APPROACH_TOLERANCE = (0.004, 0.04)
 #: go to squeeze (rad).
 CLOSING_SPEED = 1.5
 CONTACT_DISTANCE = 0.002
-SQUEEZE = TASK_GRIPS["grasp"].squeeze
+SQUEEZE = GRASP_GRIP.squeeze
 #: The reference may lead the measured arm joints by at most this (rad); when the arm is held back
 #: (contact), the reference is pulled back so the teacher stays reactive.
 MAX_REFERENCE_LEAD = 0.1

@@ -79,7 +79,8 @@ class Grip:
 #: Each task's grip (None: none): a grasp closes the fingers by the grasp teacher's squeeze past
 #: where they came to rest, so that the fingers hold the object with force, not only friction
 #: (docs/decisions/rest-and-grip.md); a box keeps the hand where it came to rest, the lid held.
-TASK_GRIPS = {"grasp": Grip(FLEXION_JOINTS, 0.12, 0.3), "open_box": None}
+GRASP_GRIP = Grip(FLEXION_JOINTS, 0.12, 0.3)
+TASK_GRIPS = {"grasp": GRASP_GRIP, "open_box": None}
 
 
 @dataclass(frozen=True)
