@@ -38,8 +38,8 @@ def make_objective(
     model_file: ModelFile, robot: RobotModel, period: float = CONTROL_PERIOD, rho_scale: float = 1.0
 ):
     """The controller objective of model_file on robot for a control period (s), or ValueError
-    saying why it cannot be run. rho_scale: TRIC's rho is the model's times this (studies of the
-    gain, docs/decisions/rho.md)."""
+    saying why it cannot be run. rho_scale: TRIC's rho is the model's times this (tric-study's
+    option for studies of the gain)."""
     if not (math.isfinite(rho_scale) and rho_scale > 0):
         raise ValueError(f"rho_scale must be finite and positive, got {rho_scale!r}")
     if model_file.kind == "tric":
