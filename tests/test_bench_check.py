@@ -14,6 +14,26 @@ def bench_runner():
     return module
 
 
+def test_the_ratios_are_derived_from_keys_of_one_run_and_only_when_all_are_there():
+    runner = bench_runner()
+    measured = {
+        "sim_lockstep_period_us": 300,
+        "sim_physics_period_us": 200,
+        "sim_ros_round_trip_us": 120,
+        "offline_period_us": 460,
+        "controller_tick_p50_ms": 0.2,
+    }
+    ratios = runner.derived(measured)
+    assert ratios == {
+        "sim_lockstep_overhead": 1.5,
+        "ros_round_trip_over_physics": 0.6,
+        "offline_over_floor": 1.15,  # 460 us over 200 us of physics and a 200 us tick
+    }
+    assert "offline_over_floor" not in runner.derived(
+        {k: v for k, v in measured.items() if k != "controller_tick_p50_ms"}
+    )
+
+
 def test_check_only_exits_by_the_targets_and_derives_the_lockstep_ratio(tmp_path, capsys):
     runner = bench_runner()
     results = {"train_default_s": 15.0, "help_max_s": 0.2, "machine_cpus": 2}
