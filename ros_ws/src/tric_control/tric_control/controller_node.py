@@ -310,7 +310,7 @@ class ControllerNode(Node):
             episode.start_ns = stamp_ns
             self._event(EpisodeEvent.START, episode)
         decided = episode.runner.step(q, poses, stamp_ns, now_ns)
-        held = decided.tick is None and not decided.gripping
+        held = bool(decided.held)  # stale input: the runner held without deciding anything
         self.command_pub.publish(
             command_msg(
                 self.robot.joint_names,
@@ -326,8 +326,9 @@ class ControllerNode(Node):
             self._status(ControllerStatus.HOLDING, status_ns, episode)
             return None
         episode.last_ns = stamp_ns
-        if decided.gripping:  # the task's grip, once at rest: the controller is not stepped
-            self._status(ControllerStatus.GRIPPING, status_ns, episode)
+        if decided.tick is None:  # at rest (the task's grip closing, then held): not stepped
+            state = ControllerStatus.GRIPPING if decided.gripping else ControllerStatus.CONVERGED
+            self._status(state, status_ns, episode)
             return decided.outcome
         tick, steps = decided.tick, episode.steps
         if steps % FEEDBACK_EVERY == 0:
