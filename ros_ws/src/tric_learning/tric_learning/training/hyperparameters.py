@@ -73,8 +73,9 @@ class TrainingConfig:
     lg_weighting: str = "length"
     #: The hold: M noisy samples around each demonstration's last state, contrasted in L_n with
     #: that state itself (training.samples.generate's hold), so that f has its minimum where the
-    #: demonstrations end.
-    hold_samples: bool = False
+    #: demonstrations end (an addition to the paper, chosen on the validation sets:
+    #: docs/decisions/rest-and-grip.md).
+    hold_samples: bool = True
     #: Biases b1 in the hidden layer, z = sigmoid(W1 u + b1) (the paper's model has none).
     hidden_bias: bool = False
     #: The optimization in float64, as the paper's BFGS (the default float32 is faster).
