@@ -1,28 +1,65 @@
-"""Offline evaluation against the nodes.
+"""Offline evaluation against the nodes, and the offline path against its floor.
 
 nodes_over_offline: the wall time of a TRIC model on the 15 sphere_test situations through the
   nodes (tric-eval: simulator, controller and client in one process, lockstep, one graph), divided
   by the same episodes offline (tric-eval --offline: the controller core on PhysicsWorld, one
   process). Target (docs/design.md): at most 1.5. offline_sphere_test_s and nodes_sphere_test_s
   give both times; offline_period_us and nodes_period_us the wall time per control period (the
-  episodes' ticks summed), which benchmarks/run.py sets against the physics and the tick
-  (offline_over_floor).
+  episodes' ticks summed, the scene's reset and the judge, lift test included, spread over them).
+offline_over_floor: the offline control loop's period over the sum of its two parts, measured in
+  the same episodes: the physics (PhysicsWorld.step) and the controller's tick
+  (MotionRateController.tick). Target: at most 1.15, what the offline path adds beyond what it
+  must do. offline_loop_period_us, offline_physics_us, offline_tick_us: the three, per period;
+  offline_judge_us and offline_reset_us: the judge (its lift test's physics included) and the
+  scene's reset, per period of the episodes, outside the loop. The parts are timed by wrapping
+  the methods for this run (a perf_counter pair costs well under a microsecond).
 Training the model (the paper's defaults on bags/sphere) is not counted.
 """
 
+import contextlib
+import functools
 import pathlib
 import sys
 import tempfile
 import time
 
+from tric_control.evaluation import offline as offline_path
 from tric_control.evaluation.graph import evaluate
 from tric_control.evaluation.offline import evaluate_offline
+from tric_control.motion_rate import MotionRateController
 from tric_learning.training.value import TrainingConfig, train_from_bags
+from tric_sim.physics.simulation import PhysicsWorld
 from tric_sim.ros.dds_domains import private_domain_id
 from tric_sim.world import situations
 from tric_sim.world.robot_model import RobotModel
 
 BAGS = pathlib.Path(__file__).resolve().parent.parent / "bags" / "sphere"
+
+
+@contextlib.contextmanager
+def timed(owner, name: str, seconds: dict, key: str):
+    """owner.name wrapped, for the block, to add the wall time of each call to seconds[key]
+    (calls made inside another timed call are counted there, not here)."""
+    untimed = getattr(owner, name)
+    seconds.setdefault(key, 0.0)
+
+    @functools.wraps(untimed)
+    def wrapper(*args, **kwargs):
+        if seconds.get("_inside"):
+            return untimed(*args, **kwargs)
+        seconds["_inside"] = True
+        start = time.perf_counter()
+        try:
+            return untimed(*args, **kwargs)
+        finally:
+            seconds[key] += time.perf_counter() - start
+            seconds["_inside"] = False
+
+    setattr(owner, name, wrapper)
+    try:
+        yield
+    finally:
+        setattr(owner, name, untimed)
 
 
 def run() -> dict:
@@ -38,12 +75,33 @@ def run() -> dict:
         start = time.perf_counter()
         nodes = evaluate(tests, model, progress=False, domain_id=private_domain_id())
         nodes_s = time.perf_counter() - start
+        parts: dict = {}
+        with (
+            timed(PhysicsWorld, "step", parts, "physics"),
+            timed(PhysicsWorld, "reset", parts, "reset"),
+            timed(MotionRateController, "tick", parts, "tick"),
+            timed(offline_path.metrics, "evaluate", parts, "judge"),
+        ):
+            start = time.perf_counter()
+            timed_records = evaluate_offline(tests, str(model), progress=False)
+            timed_s = time.perf_counter() - start
     if any(r.failed for r in offline + nodes):
         raise RuntimeError("an episode of the offline benchmark failed")
+    steps = sum(r.steps for r in offline)
+    if sum(r.steps for r in timed_records) != steps:
+        raise RuntimeError("the timed offline run took other steps than the untimed one")
+    per_period = {key: value / steps * 1e6 for key, value in parts.items() if key != "_inside"}
+    loop_us = timed_s / steps * 1e6 - per_period["judge"] - per_period["reset"]
     return {
         "offline_sphere_test_s": offline_s,
         "nodes_sphere_test_s": nodes_s,
-        "offline_period_us": round(offline_s / sum(r.steps for r in offline) * 1e6, 1),
+        "offline_period_us": round(offline_s / steps * 1e6, 1),
         "nodes_period_us": round(nodes_s / sum(r.steps for r in nodes) * 1e6, 1),
         "nodes_over_offline": round(nodes_s / offline_s, 3),
+        "offline_loop_period_us": round(loop_us, 1),
+        "offline_physics_us": round(per_period["physics"], 1),
+        "offline_tick_us": round(per_period["tick"], 1),
+        "offline_judge_us": round(per_period["judge"], 1),
+        "offline_reset_us": round(per_period["reset"], 1),
+        "offline_over_floor": round(loop_us / (per_period["physics"] + per_period["tick"]), 3),
     }

@@ -12,11 +12,21 @@ controller_jitter_p99_ms: p99 of |period - 10 ms| over the JITTER_TICKS periods 
   consecutive calls of the control timer (tric_control.loops.realtime) during the episode, ms.
   Target (issue 37): at most 1 on 2 cores. controller_jitter_p50_ms, controller_jitter_max_ms:
   its median and largest; controller_jitter_periods: how many periods were measured.
+controller_jitter_events_p99_ms (and _p50_ms, _max_ms): the same with the controller node spun by
+  rclpy's EventsExecutor (rclpy.experimental), in a process of its own that is killed if it has not
+  ended within EVENTS_LIMIT_S; events_executor_stalled: 1 when it was (no jitter keys then), else 0.
+  With rclpy 7.1.6 the controller's graph stalls under it (docs/decisions/episode-cost.md).
+
+Run alone: python benchmarks/bench_realtime.py [--executor single_threaded|events] MODEL prints the
+one executor's keys as JSON.
 """
 
+import argparse
+import json
 import os
 import pathlib
 import shutil
+import signal
 import subprocess
 import sys
 import tempfile
@@ -47,6 +57,18 @@ JITTER_TICKS = 2000
 PERIOD_S = 0.01
 #: Seconds allowed for discovery, a service answer or the episode's end beyond its length.
 WAIT_S = 30.0
+#: Wall seconds the EventsExecutor's run has, in its own process, before it is taken for stalled.
+EVENTS_LIMIT_S = 90.0
+
+
+def executor_type(name: str):
+    """The executor class of a name: "single_threaded" (what `ros2 run` spins a node with) or
+    "events" (rclpy.experimental.EventsExecutor)."""
+    if name == "events":
+        from rclpy.experimental import EventsExecutor
+
+        return EventsExecutor
+    return SingleThreadedExecutor
 
 
 def timed_control_timer(calls: list):
@@ -67,8 +89,10 @@ def call(client_node: Node, service_type, name: str, request):
     return wait(client.call_async(request), WAIT_S, name)
 
 
-def episode_periods(model: pathlib.Path, domain_id: int) -> np.ndarray:
-    """The control timer's periods (s) during one realtime episode of JITTER_TICKS ticks."""
+def episode_periods(model: pathlib.Path, domain_id: int, executor: str) -> np.ndarray:
+    """The control timer's periods (s) during one realtime episode of JITTER_TICKS ticks, the
+    controller node spun by the executor named (executor_type), the client by its own
+    SingleThreadedExecutor."""
     ros2 = shutil.which("ros2")
     if ros2 is None:
         raise RuntimeError("ros2 is not on PATH: source env.sh first")
@@ -95,12 +119,13 @@ def episode_periods(model: pathlib.Path, domain_id: int) -> np.ndarray:
             ],
         )
         client_node = Node("jitter_client", context=context)
-        executors = []
-        for node in (controller, client_node):
-            executor = SingleThreadedExecutor(context=context)
-            executor.add_node(node)
-            threading.Thread(target=executor.spin, daemon=True).start()
-            executors.append(executor)
+        executors = [
+            executor_type(executor)(context=context),
+            SingleThreadedExecutor(context=context),
+        ]
+        for spinner, node in zip(executors, (controller, client_node)):
+            spinner.add_node(node)
+            threading.Thread(target=spinner.spin, daemon=True).start()
         situation = situations.dataset("sphere_test")[0]
         reset = call(
             client_node,
@@ -132,16 +157,52 @@ def episode_periods(model: pathlib.Path, domain_id: int) -> np.ndarray:
             f"{len(ticks)} timer calls",
             file=sys.stderr,
         )
-        for executor in executors:
-            executor.shutdown()
+        for spinner in executors:
+            spinner.shutdown()
         controller.destroy_node()
         client_node.destroy_node()
     finally:
-        RealtimeLoop._on_control_timer = untimed  # type: ignore[method-assign]
-        context.try_shutdown()
         simulator.terminate()
         simulator.wait(timeout=WAIT_S)
+        RealtimeLoop._on_control_timer = untimed  # type: ignore[method-assign]
+        context.try_shutdown()
     return np.diff(np.array(ticks))[:JITTER_TICKS]
+
+
+def jitter_keys(periods: np.ndarray, infix: str = "") -> dict:
+    """The jitter keys of periods (s): controller_jitter{infix}_p99_ms and its kin."""
+    jitter_ms = np.abs(periods - PERIOD_S) * 1000.0
+    return {
+        f"controller_jitter{infix}_p99_ms": round(float(np.percentile(jitter_ms, 99)), 3),
+        f"controller_jitter{infix}_p50_ms": round(float(np.median(jitter_ms)), 3),
+        f"controller_jitter{infix}_max_ms": round(float(jitter_ms.max()), 3),
+        f"controller_jitter{infix}_periods": int(len(periods)),
+    }
+
+
+def events_keys(model: pathlib.Path) -> dict:
+    """The EventsExecutor's keys, measured in a process of its own (killed after EVENTS_LIMIT_S)."""
+    command = [sys.executable, __file__, "--executor", "events", str(model)]
+    # a session of its own, so that a stalled run is killed with its simulator
+    process = subprocess.Popen(
+        command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True
+    )
+    try:
+        stdout, stderr = process.communicate(timeout=EVENTS_LIMIT_S)
+    except subprocess.TimeoutExpired:
+        os.killpg(process.pid, signal.SIGKILL)
+        process.communicate()
+        print(
+            f"[bench] the EventsExecutor's episode did not end in {EVENTS_LIMIT_S:g} s: stalled",
+            file=sys.stderr,
+        )
+        return {"events_executor_stalled": 1}
+    if process.returncode != 0:
+        last = (stderr.strip().splitlines() or ["no output"])[-1]
+        print(f"[bench] the EventsExecutor's episode failed: {last}", file=sys.stderr)
+        return {"events_executor_stalled": 1}
+    keys = json.loads(stdout.strip().splitlines()[-1])
+    return {**jitter_keys(np.array(keys["periods"]), "_events"), "events_executor_stalled": 0}
 
 
 def run() -> dict:
@@ -150,11 +211,15 @@ def run() -> dict:
         model = train_from_bags(
             [BAGS], pathlib.Path(folder) / "sphere.safetensors", TrainingConfig(), RobotModel()
         ).path
-        periods = episode_periods(pathlib.Path(model), private_domain_id())
-    jitter_ms = np.abs(periods - PERIOD_S) * 1000.0
-    return {
-        "controller_jitter_p99_ms": round(float(np.percentile(jitter_ms, 99)), 3),
-        "controller_jitter_p50_ms": round(float(np.median(jitter_ms)), 3),
-        "controller_jitter_max_ms": round(float(jitter_ms.max()), 3),
-        "controller_jitter_periods": int(len(periods)),
-    }
+        periods = episode_periods(pathlib.Path(model), private_domain_id(), "single_threaded")
+        events = events_keys(pathlib.Path(model))
+    return {**jitter_keys(periods), **events}
+
+
+if __name__ == "__main__":
+    parser = argparse.ArgumentParser(description="one realtime episode's control periods")
+    parser.add_argument("--executor", choices=("single_threaded", "events"), required=True)
+    parser.add_argument("model", type=pathlib.Path)
+    args = parser.parse_args()
+    measured = episode_periods(args.model, private_domain_id(), args.executor)
+    print(json.dumps({"periods": measured.tolist()}))
