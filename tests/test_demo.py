@@ -118,6 +118,19 @@ def test_tric_demo_records_its_demonstrations_and_check_fails_when_tric_misses(
     assert [c["seed"] for c in candidates if c["chosen"]] == report["training"]["chosen"]
     assert report["tric"]["episodes"][0]["grasp_cost"] >= 0.25
     assert (out / "demo.png").read_bytes()[:8] == PNG
+    stages = report["stages_s"]  # where the main job's time went (benchmarks/bench_main_job.py)
+    walls = [
+        "recording",
+        "candidates_and_choice",
+        "teacher_evaluation",
+        "tric_evaluation",
+        "table_and_figures",
+    ]
+    assert all(stages[name] > 0.0 for name in walls) and stages["recording"] > 1.0
+    assert 0.0 < report["total_s"] - sum(stages[name] for name in walls) < 0.1 * report["total_s"]
+    assert stages["candidates_training_summed"] == pytest.approx(
+        sum(c["train_s"] for c in candidates)
+    )
 
 
 def test_tric_demo_refuses_bad_arguments(tmp_path, capsys):

@@ -123,19 +123,23 @@ def run_demo(args, out: pathlib.Path) -> int:
     try:
         view = open_view(args, "tric-demo")
         config = TrainingConfig(max_iterations=args.iterations).validate()
+        stage = time.monotonic()
         if args.reuse:
             bags = pathlib.Path(args.reuse)
             print(f"[1/4] reusing the demonstrations in {bags}")
         else:
             print("[1/4] recording the 27 sphere-grid demonstrations with the teacher")
             bags = record(work, domain_id, view)
+        stages = {"recording": time.monotonic() - stage}
         selection = SelectionConfig()
         print(
             f"[2/4] training {selection.candidates} TRIC candidates (TrainingConfig's defaults: K "
             "= 30, M = 60, docs/fidelity.md), each rolled out from the demonstrations' starts, and "
             "choosing one (docs/decisions/model-selection.md)"
         )
+        stage = time.monotonic()
         trained = train(bags, work / "tric_sphere.safetensors", config, args.jobs)
+        stages["candidates_and_choice"] = time.monotonic() - stage
         info = trained.choice.model.info
         print(
             f"      {trained.path}: seed {', '.join(map(str, trained.choice.chosen))} chosen by "
@@ -145,11 +149,14 @@ def run_demo(args, out: pathlib.Path) -> int:
         )
         print("[3/4] the teacher on the 15 test situations")
         tests = dataset("sphere_test")
+        stage = time.monotonic()
         teacher = evaluate(
             tests, None, domain_id=domain_id, desc="teacher", jobs=args.jobs, view=view
         )
+        stages["teacher_evaluation"] = time.monotonic() - stage
         print("[4/4] TRIC on the 15 test situations")
         snapshots = work / "snapshots"
+        stage = time.monotonic()
         tric = evaluate(
             tests,
             trained.path,
@@ -159,15 +166,19 @@ def run_demo(args, out: pathlib.Path) -> int:
             jobs=args.jobs,
             view=view,
         )
+        stages["tric_evaluation"] = time.monotonic() - stage
     finally:
         if view is not None:
             view.close()
+    stage = time.monotonic()
     print("\nTable 1: sphere grasp cost on the 15 test situations\n")
     print(comparison_table(teacher, tric))
     ts, rs = summarize(teacher), summarize(tric)
-    total = time.monotonic() - started
     best = min(tric, key=lambda r: r.grasp_cost if math.isfinite(r.grasp_cost) else math.inf)
     plot(teacher, tric, snapshots / f"{best.situation}.png", out)
+    stages["table_and_figures"] = time.monotonic() - stage
+    total = time.monotonic() - started
+    candidates = trained.choice.provenance["candidates"]
     summary = {
         "teacher_cost_mean": ts["grasp_cost_mean"],
         "tric_cost_mean": rs["grasp_cost_mean"],
@@ -176,6 +187,13 @@ def run_demo(args, out: pathlib.Path) -> int:
         "episodes": len(teacher) + len(tric),
         "train_s": trained.wall_s,
         "total_s": total,
+        # wall seconds of each stage; the candidates' training and rollouts summed over the
+        # processes they ran in (CPU-bound, so about jobs times their share of the stage's wall)
+        "stages_s": {
+            **stages,
+            "candidates_training_summed": sum(row["train_s"] for row in candidates),
+            "candidates_rollouts_summed": sum(row["rollout_s"] for row in candidates),
+        },
     }
     write_json(
         out / "demo.json",
@@ -188,8 +206,8 @@ def run_demo(args, out: pathlib.Path) -> int:
                 "selected_features": info["selected_features"],
                 "chosen": trained.choice.chosen,
                 "candidates": [
-                    {"seed": row["seed"], "score": row["score"], "chosen": row["chosen"]}
-                    for row in trained.choice.provenance["candidates"]
+                    {key: row[key] for key in ("seed", "score", "chosen", "train_s", "rollout_s")}
+                    for row in candidates
                 ],
             },
             "tric": report(tric),
