@@ -10,7 +10,8 @@ sim_physics_period_us: one control period of raw stepping (3 physics steps + dis
 ROS.
 sim_ros_round_trip_us: the floor of a lockstep period's ROS part: one JointState each way between
   two threads of one process, each waiting with a TopicPoller, nothing else (no physics, no
-  /clock or /object_poses); the median of ROUND_TRIPS.
+  /clock or /object_poses); the median of ROUND_TRIPS. sim_ros_round_trip_header_us: the same with
+  the emptiest message, a std_msgs/Header, each way: what delivery costs whatever the content.
 """
 
 import statistics
@@ -23,6 +24,7 @@ from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
+from std_msgs.msg import Header
 
 from tric_sim.physics.simulation import PhysicsWorld
 from tric_sim.ros.topic_poller import TopicPoller
@@ -87,23 +89,35 @@ def physics_period_us() -> float:
     return elapsed / 1000 * 1e6
 
 
-def ros_round_trip_us() -> float:
+def ros_round_trip_us(message_type=JointState) -> float:
+    """The median round trip, us, of a message of message_type (JointState: 20 named joints,
+    answered by a command naming them; Header: answered by itself)."""
     context = Context()
     rclpy.init(context=context)
     node = Node("round_trip", context=context)
-    state_pub = node.create_publisher(JointState, "/round_trip_state", 10)
-    command_pub = node.create_publisher(JointState, "/round_trip_command", 10)
-    states = TopicPoller(context, "round_trip_states", {"s": (JointState, "/round_trip_state", 10)})
+    state_pub = node.create_publisher(message_type, "/round_trip_state", 10)
+    command_pub = node.create_publisher(message_type, "/round_trip_command", 10)
+    states = TopicPoller(
+        context, "round_trip_states", {"s": (message_type, "/round_trip_state", 10)}
+    )
     commands = TopicPoller(
-        context, "round_trip_commands", {"c": (JointState, "/round_trip_command", 10)}
+        context, "round_trip_commands", {"c": (message_type, "/round_trip_command", 10)}
     )
     names = [f"joint_{k}" for k in range(20)]
     stop = threading.Event()
 
+    def message(k: int):
+        if message_type is Header:
+            return Header(frame_id="state")
+        return JointState(name=names, position=[float(k)] * len(names))
+
     def answer():
         while not stop.is_set():
             for state in states.poll(0.05)["s"]:
-                command_pub.publish(JointState(name=state.name, position=state.position))
+                if message_type is Header:
+                    command_pub.publish(state)
+                else:
+                    command_pub.publish(JointState(name=state.name, position=state.position))
 
     thread = threading.Thread(target=answer, daemon=True)
     thread.start()
@@ -111,7 +125,7 @@ def ros_round_trip_us() -> float:
     trips = []
     for k in range(ROUND_TRIPS):
         start = time.perf_counter()
-        state_pub.publish(JointState(name=names, position=[float(k)] * len(names)))
+        state_pub.publish(message(k))
         while not commands.poll(1.0)["c"]:
             pass
         trips.append(time.perf_counter() - start)
@@ -133,4 +147,5 @@ def run() -> dict:
         "sim_lockstep_period_us": round(10_000 / rtf),
         "sim_physics_period_us": round(physics_period_us()),
         "sim_ros_round_trip_us": round(ros_round_trip_us()),
+        "sim_ros_round_trip_header_us": round(ros_round_trip_us(Header)),
     }
