@@ -30,7 +30,7 @@ Parameters:
 - mode ("lockstep" | "realtime", default "lockstep"): see below.
 - control_rate_hz (default 100): control ticks per second; the step bound of a tick is the joints'
   velocity limits divided by this rate.
-- max_steps (default: the task's, tric_control.episode_runner.DEFAULT_MAX_STEPS: 800 for grasps,
+- max_steps (default: the task's, tric_control.episode_runner.DEFAULT_MAX_STEPS: 1200 for grasps,
   2000 for boxes): an episode's step budget when the goal gives none.
 - state_timeout_s (default 10): wall seconds without joint states before an episode aborts.
 - use_sim_time: as usual. Realtime mode's timer and staleness test run on the node clock, which must

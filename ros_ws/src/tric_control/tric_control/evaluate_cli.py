@@ -102,7 +102,7 @@ def run(argv) -> int:
         "--max-steps",
         type=int,
         default=0,
-        help="control ticks per episode at most (default: the controller's, 800 for a grasp, 2000 "
+        help="control ticks per episode at most (default: the controller's, 1200 for a grasp, 2000 "
         "for a box; an episode ends sooner at rest)",
     )
     parser.add_argument(
