@@ -3,6 +3,7 @@ demonstrations (or reuse bags), train TRIC's candidates and choose the model
 (tric_control.selection), evaluate the teacher and TRIC on the 15 test spheres through the nodes,
 and write demo.json and the figures."""
 
+import contextlib
 import json
 import math
 import pathlib
@@ -71,6 +72,14 @@ def train(bags: pathlib.Path, model: pathlib.Path, config: TrainingConfig, jobs:
         bar.close()
 
 
+@contextlib.contextmanager
+def stage_timer(stages: dict, name: str):
+    """stages[name]: the wall seconds the block took."""
+    start = time.monotonic()
+    yield
+    stages[name] = time.monotonic() - start
+
+
 def comparison_table(teacher, tric) -> str:
     """Paper Table 1 beside ours: the grasp cost of every test situation, then the means."""
     lines = [f"{'test situation':18s} {'teacher':>8s} {'TRIC':>8s} {'TRIC lift':>9s}"]
@@ -123,23 +132,22 @@ def run_demo(args, out: pathlib.Path) -> int:
     try:
         view = open_view(args, "tric-demo")
         config = TrainingConfig(max_iterations=args.iterations).validate()
-        stage = time.monotonic()
-        if args.reuse:
-            bags = pathlib.Path(args.reuse)
-            print(f"[1/4] reusing the demonstrations in {bags}")
-        else:
-            print("[1/4] recording the 27 sphere-grid demonstrations with the teacher")
-            bags = record(work, domain_id, view)
-        stages = {"recording": time.monotonic() - stage}
+        stages: dict = {}
+        with stage_timer(stages, "recording"):
+            if args.reuse:
+                bags = pathlib.Path(args.reuse)
+                print(f"[1/4] reusing the demonstrations in {bags}")
+            else:
+                print("[1/4] recording the 27 sphere-grid demonstrations with the teacher")
+                bags = record(work, domain_id, view)
         selection = SelectionConfig()
         print(
             f"[2/4] training {selection.candidates} TRIC candidates (TrainingConfig's defaults: K "
             "= 30, M = 60, docs/fidelity.md), each rolled out from the demonstrations' starts, and "
             "choosing one (docs/decisions/model-selection.md)"
         )
-        stage = time.monotonic()
-        trained = train(bags, work / "tric_sphere.safetensors", config, args.jobs)
-        stages["candidates_and_choice"] = time.monotonic() - stage
+        with stage_timer(stages, "candidates_and_choice"):
+            trained = train(bags, work / "tric_sphere.safetensors", config, args.jobs)
         info = trained.choice.model.info
         print(
             f"      {trained.path}: seed {', '.join(map(str, trained.choice.chosen))} chosen by "
@@ -149,34 +157,31 @@ def run_demo(args, out: pathlib.Path) -> int:
         )
         print("[3/4] the teacher on the 15 test situations")
         tests = dataset("sphere_test")
-        stage = time.monotonic()
-        teacher = evaluate(
-            tests, None, domain_id=domain_id, desc="teacher", jobs=args.jobs, view=view
-        )
-        stages["teacher_evaluation"] = time.monotonic() - stage
+        with stage_timer(stages, "teacher_evaluation"):
+            teacher = evaluate(
+                tests, None, domain_id=domain_id, desc="teacher", jobs=args.jobs, view=view
+            )
         print("[4/4] TRIC on the 15 test situations")
         snapshots = work / "snapshots"
-        stage = time.monotonic()
-        tric = evaluate(
-            tests,
-            trained.path,
-            snapshots=snapshots,
-            domain_id=domain_id,
-            desc="TRIC",
-            jobs=args.jobs,
-            view=view,
-        )
-        stages["tric_evaluation"] = time.monotonic() - stage
+        with stage_timer(stages, "tric_evaluation"):
+            tric = evaluate(
+                tests,
+                trained.path,
+                snapshots=snapshots,
+                domain_id=domain_id,
+                desc="TRIC",
+                jobs=args.jobs,
+                view=view,
+            )
     finally:
         if view is not None:
             view.close()
-    stage = time.monotonic()
-    print("\nTable 1: sphere grasp cost on the 15 test situations\n")
-    print(comparison_table(teacher, tric))
-    ts, rs = summarize(teacher), summarize(tric)
-    best = min(tric, key=lambda r: r.grasp_cost if math.isfinite(r.grasp_cost) else math.inf)
-    plot(teacher, tric, snapshots / f"{best.situation}.png", out)
-    stages["table_and_figures"] = time.monotonic() - stage
+    with stage_timer(stages, "table_and_figures"):
+        print("\nTable 1: sphere grasp cost on the 15 test situations\n")
+        print(comparison_table(teacher, tric))
+        ts, rs = summarize(teacher), summarize(tric)
+        best = min(tric, key=lambda r: r.grasp_cost if math.isfinite(r.grasp_cost) else math.inf)
+        plot(teacher, tric, snapshots / f"{best.situation}.png", out)
     total = time.monotonic() - started
     candidates = trained.choice.provenance["candidates"]
     summary = {
