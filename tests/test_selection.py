@@ -2,7 +2,8 @@
 model beside the same model with its value turned around or its features shuffled) the
 demonstrations alone keep the sound one; the model file lists every candidate; the best N
 averaged make f's mean of f_k / fall_k; candidates trained side by side (spawned processes, Ray)
-are those trained one by one, bit for bit."""
+are those trained one by one, bit for bit; a selection whose score does not read the lift test
+leaves it out of the rollouts, and they end in the same state."""
 
 import json
 import pathlib
@@ -21,6 +22,7 @@ from tric_learning.bags.loader import bag_paths, load_dataset
 from tric_learning.model_file import ModelFile, from_bytes, tensor_digest, value_function
 from tric_learning.training.dataset import Dataset
 from tric_learning.training.value import TrainingConfig
+from tric_sim.physics.metrics import GOOD_GRASP
 from tric_sim.world.robot_model import RobotModel
 
 
@@ -164,3 +166,30 @@ def test_candidates_side_by_side_are_those_trained_one_by_one(corners):
     assert fingerprint(runs["processes"]) == fingerprint(runs["here"])
     assert fingerprint(runs["ray"]) == fingerprint(runs["here"])
     assert runs["ray"].choice.chosen == runs["here"].choice.chosen
+    # the default score (landmarks) does not read the lift test: the rollouts leave it out
+    assert all(r.judged["lift_passed"] is None for c in runs["here"].candidates for r in c.rollouts)
+
+
+def test_rollouts_without_the_lift_test_end_in_the_same_state(planted, corners):
+    """The sound planted model rolled out again without the lift test: the same end states, steps
+    and grasp costs, lift_passed None and a success that is the grasp cost's alone; the selection
+    asks for the test only when its score reads it."""
+    sound = planted[0]
+    untested = rolled_out(corners, sound.model, sound.seed, sound.record, lift_test=False)
+    for with_test, without in zip(sound.rollouts, untested.rollouts):
+        assert (without.q.tobytes(), without.y.tobytes()) == (
+            with_test.q.tobytes(),
+            with_test.y.tobytes(),
+        )
+        assert (without.steps, without.outcome) == (with_test.steps, with_test.outcome)
+        assert without.judged["grasp_cost"] == with_test.judged["grasp_cost"]
+        assert isinstance(with_test.judged["lift_passed"], bool)
+        assert without.judged["lift_passed"] is None
+        assert without.judged["success"] == (without.judged["grasp_cost"] < GOOD_GRASP)
+    assert [
+        SelectionConfig(score=s).reads_lift_test for s in ("landmarks", "judge", "successes")
+    ] == [
+        False,
+        False,
+        True,
+    ]

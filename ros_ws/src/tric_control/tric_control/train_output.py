@@ -104,8 +104,9 @@ def summary(run) -> str:
         f"{info['selected_features']} selected",
         f"controller delta {info['delta']:.4g}, rho {info['rho']:.4g}",
         f"time       {run.wall_s:.1f} s in all",
-        "candidates (the hidden metrics' successes on the rollouts: a reference, not the score's "
-        "input unless the score is judge or successes)",
+        "candidates (the hidden metrics' successes on the rollouts, a grasp's without the lift "
+        "test unless the score is successes: a reference, not the score's input unless the score "
+        "is judge or successes)",
     ]
     for row in provenance["candidates"]:
         successes = sum(bool(r["success"]) for r in row["rollouts"])

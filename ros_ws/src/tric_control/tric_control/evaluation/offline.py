@@ -47,6 +47,8 @@ class OfflineEvaluator:
         controller_options: keyword arguments of MotionRateController (e.g. max_lead), for studies,
             "rho_scale": make_objective's, and "grip": False leaves out the task's grip once at
             rest (tric_sim.world.scene.TASK_GRIPS).
+        lift_test: whether a grasp is judged with the lift test (False: its success is the grasp
+            cost's alone and lift_passed is None; the final state is the same either way).
     """
 
     def __init__(
@@ -56,8 +58,10 @@ class OfflineEvaluator:
         max_steps: int = 0,
         period: float = CONTROL_PERIOD,
         controller_options: dict | None = None,
+        lift_test: bool = True,
     ):
         self.task, self.model, self.period = task, model, period
+        self.lift_test = lift_test
         self.controller_options = dict(controller_options or {})
         rho_scale = self.controller_options.pop("rho_scale", 1.0)
         self.grip = TASK_GRIPS[task] if self.controller_options.pop("grip", True) else None
@@ -147,7 +151,7 @@ class OfflineEvaluator:
             record["min_joint_margin"] = runner.stats.min_joint_margin
             if snapshot is not None:
                 self._snapshot(snapshot, situation)
-        judged = metrics.evaluate(world, self.robot, run_lift_test=grasp)
+        judged = metrics.evaluate(world, self.robot, run_lift_test=grasp and self.lift_test)
         record.update(
             success=bool(judged.success),
             min_distance=judged.min_distance,
@@ -155,7 +159,8 @@ class OfflineEvaluator:
             steps=int(steps),
         )
         if grasp:
-            record.update(grasp_cost=judged.grasp_cost, lift_passed=bool(judged.lift_passed))
+            lifted = bool(judged.lift_passed) if judged.lift_tested else None
+            record.update(grasp_cost=judged.grasp_cost, lift_passed=lifted)
         else:
             record["lid_angle"] = judged.lid_angle
         return EpisodeRecord(

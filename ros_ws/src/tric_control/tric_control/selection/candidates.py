@@ -39,12 +39,13 @@ def candidate(
     max_steps: int = 0,
     controller_options: dict | None = None,
     fit=None,
+    lift_test: bool = True,
 ) -> Candidate:
     """Train TRIC on dataset with config (its seed the candidate's) and roll the model out from
     every demonstration's start situation, max_steps ticks at most (0: the task's default), the
-    controller built with controller_options (OfflineEvaluator's). fit(dataset, robot, config) ->
-    a TrainingResult, a module-level function (a study's other training procedure; None:
-    training.value.train)."""
+    controller built with controller_options (OfflineEvaluator's), the grasps judged with the lift
+    test unless lift_test is False. fit(dataset, robot, config) -> a TrainingResult, a
+    module-level function (a study's other training procedure; None: training.value.train)."""
     robot = RobotModel()
     started = time.perf_counter()
     with torch_threads(CANDIDATE_THREADS):
@@ -62,7 +63,9 @@ def candidate(
         "delta": result.delta,
         "rho": result.rho,
     }
-    return rolled_out(dataset, content, config.seed, record, train_s, max_steps, controller_options)
+    return rolled_out(
+        dataset, content, config.seed, record, train_s, max_steps, controller_options, lift_test
+    )
 
 
 def rolled_out(
@@ -73,6 +76,7 @@ def rolled_out(
     train_s: float = 0.0,
     max_steps: int = 0,
     controller_options: dict | None = None,
+    lift_test: bool = True,
 ) -> Candidate:
     """The Candidate of a trained model (its model file's bytes, content; its seed and training
     record), rolled out from every demonstration's start situation of dataset (as candidate())."""
@@ -81,7 +85,11 @@ def rolled_out(
         path = pathlib.Path(folder) / f"candidate_s{seed}.safetensors"
         path.write_bytes(content)
         evaluator = OfflineEvaluator(
-            dataset.definition.task, str(path), max_steps, controller_options=controller_options
+            dataset.definition.task,
+            str(path),
+            max_steps,
+            controller_options=controller_options,
+            lift_test=lift_test,
         )
         try:
             rollouts = roll_out(evaluator, dataset)

@@ -69,7 +69,12 @@ def select_model(
     executor = executor or ProcessExecutor()
     report = progress or (lambda *_: None)
     seeds = candidate_seeds(config, selection)
-    calls = [(replace(config, seed=seed), max_steps, controller_options) for seed in seeds]
+    # the lift test costs a third of a grasp's rollout, and only the "successes" score reads it
+    lift_test = selection.reads_lift_test
+    calls = [
+        (replace(config, seed=seed), max_steps, controller_options, None, lift_test)
+        for seed in seeds
+    ]
     started = time.monotonic()
     report(0, len(calls), None)
     trained, failures, errors = [], [], []

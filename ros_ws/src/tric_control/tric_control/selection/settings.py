@@ -42,5 +42,11 @@ class SelectionConfig:
         """Whether the score reads the task's hidden metrics."""
         return self.score in JUDGE_SCORES
 
+    @property
+    def reads_lift_test(self) -> bool:
+        """Whether the score reads the grasp rollouts' lift test ("successes": a good grasp that
+        held); the selection's rollouts leave the test out otherwise."""
+        return self.score == "successes"
+
     def to_dict(self) -> dict:
         return asdict(self)

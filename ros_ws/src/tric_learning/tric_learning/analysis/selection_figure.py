@@ -25,6 +25,16 @@ def rollout_outcome(rollouts: list) -> tuple:
     return sum(costs) / len(costs), "mean grasp cost of its rollouts (hidden metric)"
 
 
+def _lift_untested(rows) -> bool:
+    """Whether the rollouts' grasps were judged without the lift test (the selection leaves it out
+    unless its score reads it)."""
+    return any(
+        r.get("grasp_cost") is not None and r.get("lift_passed") is None
+        for row in rows
+        for r in row["rollouts"]
+    )
+
+
 def plot_selection(provenance: dict, path: pathlib.Path) -> pathlib.Path:
     """Each candidate's score (x) against its rollouts' outcome (y), the successes beside each
     point, the chosen ones as stars; the failed ones (no score) at the right edge."""
@@ -61,6 +71,7 @@ def plot_selection(provenance: dict, path: pathlib.Path) -> pathlib.Path:
     axes.set_title(
         f"{len(rows)} candidates from group {provenance['group_seed']}: kept seed {chosen} "
         f"(stars); successes of their rollouts in brackets"
+        + (" (good grasps: no lift test)" if _lift_untested(rows) else "")
     )
     axes.grid(alpha=0.3)
     if finite and min(finite) > 0 and max(finite) / min(finite) > 30:
