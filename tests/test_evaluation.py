@@ -208,6 +208,35 @@ def test_parallel_evaluation_gives_the_serial_records(tmp_path):
         )
 
 
+def test_a_failed_experiment_leaves_the_others_run(tmp_path, capsys, monkeypatch):
+    """tric-experiments goes on past an experiment that fails: the next one runs and is kept, the
+    report is written, and the run exits 2 naming the failed one."""
+    import argparse
+    import types
+
+    from tric_control.experiments import cli
+
+    def failing(_runner):
+        raise RuntimeError("its demonstrations could not be recorded")
+
+    def passing(_runner):
+        return {"table": "boxes 25", "paper": "24", "discussion": "All opened."}
+
+    modules = {
+        "table2": types.SimpleNamespace(TITLE="fails", run=failing),
+        "table4": types.SimpleNamespace(TITLE="passes", run=passing),
+    }
+    monkeypatch.setattr(cli, "experiment", modules.__getitem__)
+    args = argparse.Namespace(names=["table2", "table4"], situations=30, check=False)
+    assert cli._run_each(args, tmp_path, tmp_path / "results.md", runner=None) == 2
+    assert json.loads((tmp_path / "table4.json").read_text())["table"] == "boxes 25"
+    assert not (tmp_path / "table2.json").exists()
+    assert "boxes 25" in (tmp_path / "REPORT.md").read_text()
+    err = capsys.readouterr().err
+    assert "table2: its demonstrations could not be recorded" in err
+    assert "failed: table2" in err
+
+
 def test_experiment_report_from_hand_made_results(tmp_path, capsys):
     from tric_control.experiments import cli, report
 

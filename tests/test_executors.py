@@ -112,6 +112,36 @@ def test_a_dying_ray_actor_loses_only_its_own_episode(tmp_path):
     assert (tmp_path / "once.ran").exists()
 
 
+class ClosingEvaluator:
+    """Marks its close with a file in folder, named for its worker."""
+
+    def __init__(self, worker, folder):
+        self.marker = pathlib.Path(folder) / f"closed_{worker}"
+
+    def run(self, situation, snapshot):
+        return EpisodeRecord(
+            **unjudged_fields(situation, "stand-in"), wall_time_s=0.0, outcome="step_budget"
+        )
+
+    def close(self):
+        self.marker.touch()
+
+
+def test_ray_actors_close_their_evaluators_when_the_call_ends(tmp_path):
+    """Each actor's evaluator (in the tools, a graph on a DDS domain) is closed when its
+    run_episodes call returns, while the actors and Ray live on."""
+    ray.cloudpickle.register_pickle_by_value(sys.modules[__name__])  # tests/ is not on Ray's path
+    tests = [situations.sphere(name, (0.55, 0.0, 0.05)) for name in "abcd"]
+    with executors.open_executor(executors.ExecutorChoice("ray"), num_cpus=2) as ray_executor:
+        with tqdm(total=len(tests), disable=True) as bar:
+            records = ray_executor.run_episodes(
+                tests, None, 2, bar, ClosingEvaluator, lambda: (str(tmp_path),), "stand-in"
+            )
+        assert [r.outcome for r in records] == ["step_budget"] * 4
+        assert sorted(p.name for p in tmp_path.iterdir()) == ["closed_0", "closed_1"]
+        assert ray.is_initialized()
+
+
 def test_an_address_means_ray_and_processes_refuse_one(monkeypatch):
     monkeypatch.delenv("RAY_ADDRESS", raising=False)
 

@@ -134,9 +134,12 @@ class RayExecutor:
     ) -> list:
         """As evaluation_workers.run_in_workers, on jobs Ray actors: [EpisodeRecord] in the
         situations' order, bar advanced and on_record(record) called as each ends. The actors
-        outlive the call: each keeps its process and builds its evaluator anew for each call; they
-        hold no CPU of Ray's between calls (num_cpus 0: jobs bounds them, and a training task
-        between two evaluations finds its CPU), spread over the nodes. An
+        outlive the call: each keeps its process and builds its evaluator anew for each call,
+        closing it when the call ends (a graph left open would stay on its DDS domain, where the
+        caller's own graph may run next: tric-experiments' table2 recorded its demonstrations
+        there, and two simulators answered them); they hold no CPU of Ray's between calls
+        (num_cpus 0: jobs bounds them, and a training task between two evaluations finds its
+        CPU), spread over the nodes. An
         actor that dies loses its episode to a second try on a fresh actor (the others go on); one
         whose actor dies again is a failed record that says so. Any other error ends the run and
         is raised."""
@@ -186,6 +189,7 @@ class RayExecutor:
         except BaseException:
             self._end_actors()
             raise
+        self._close_evaluators(list(self._actors.values()))
         agent = next((record.agent for record in records if record is not None), agent)
         for k in [k for k, count in deaths.items() if count > 1]:
             records[k] = EpisodeRecord(
@@ -198,15 +202,21 @@ class RayExecutor:
         return records
 
     def _end_actors(self) -> None:
-        """Close the actors' evaluators (a graph leaves its DDS domain), then end the actors."""
+        """Close the actors' evaluators, then end the actors."""
         actors = list(self._actors.values())
         self._actors.clear()
-        closing = [actor.close.remote() for actor in actors]
         try:
-            ray.wait(closing, num_returns=len(closing), timeout=CLOSE_TIMEOUT_S)
+            self._close_evaluators(actors)
         finally:
             for actor in actors:
                 ray.kill(actor)
+
+    @staticmethod
+    def _close_evaluators(actors) -> None:
+        """Close the evaluators of actors (each graph leaves its DDS domain), waiting
+        CLOSE_TIMEOUT_S at most."""
+        closing = [actor.close.remote() for actor in actors]
+        ray.wait(closing, num_returns=len(closing), timeout=CLOSE_TIMEOUT_S)
 
     def run_calls(self, function, calls: list, jobs: int, shared: tuple = ()):
         """Yield (index, function(*shared, *calls[index]) or the Exception it raised) as each call

@@ -44,6 +44,8 @@ table and a discussion composed from its numbers; DIR/REPORT.md is then rewritte
 experiment's JSON found in DIR, each table beside the paper's numbers and followed by its
 discussion, and the results page (default DIR/results.md; --results-page FILE: elsewhere, its
 figures linked relative to it): each experiment's discussion, the paper's numbers and its figures.
+An experiment that fails (a ValueError or RuntimeError) is named on stderr and the others still
+run; the run then exits 2 after writing the report.
 --check then compares every experiment's results found in DIR with the design's targets, each for
 every group (tric_control.experiments.checks), prints them and exits 1 if one is missed;
 --check-only does that without running anything; --report-only rewrites the report and the results
@@ -175,11 +177,12 @@ def run_experiments(args, out, page) -> int:
 
 def _run_each(args, out, page, runner) -> int:
     """Run the experiments args names with runner into out, then write the report and the results
-    page; the exit status."""
+    page; the exit status (2 when an experiment failed: the others still ran and were kept)."""
     import matplotlib.pyplot as plt
 
     from tric_control.evaluation.records import write_json
 
+    failed = []
     for name in args.names or list(EXPERIMENT_MODULES):
         print(f"\n=== {name}: {experiment(name).TITLE}", flush=True)
         started = time.monotonic()
@@ -187,8 +190,9 @@ def _run_each(args, out, page, runner) -> int:
             options = {"count": args.situations} if name == "fig9" else {}
             result = experiment(name).run(runner, **options)
         except (ValueError, RuntimeError) as error:
-            print(f"tric-experiments: {name}: {error}", file=sys.stderr)
-            return 2
+            print(f"tric-experiments: {name}: {error}", file=sys.stderr, flush=True)
+            failed.append(name)
+            continue
         # one matplotlib figure, for out/<name>.png; else the experiment wrote its "figures"
         if "figure" in result:
             result["figure"].tight_layout()
@@ -202,6 +206,9 @@ def _run_each(args, out, page, runner) -> int:
         print(f"discussion: {result['discussion']}")
         print(f"({name}: {result['wall_s']:.0f} s)", flush=True)
     write_pages(out, page)
+    if failed:
+        print(f"tric-experiments: failed: {', '.join(failed)}", file=sys.stderr)
+        return 2
     return check_folder(out) if args.check else 0
 
 
