@@ -6,7 +6,7 @@ ROS-free. Units: rad, m.
 The hidden metrics judge each rollout too, after its end state is taken: a reference that a
 model's provenance reports beside its score, and that the judge-based scores (never the default)
 read. A training's selection leaves a grasp's lift test out (its success is then the grasp cost's
-alone, lift_passed None) unless its score reads it: the test costs a third of a rollout, and the
+alone, lift_passed None) unless its score reads it: the test costs a sixth of a rollout, and the
 end state is taken before it."""
 
 import math

@@ -69,7 +69,7 @@ def select_model(
     executor = executor or ProcessExecutor()
     report = progress or (lambda *_: None)
     seeds = candidate_seeds(config, selection)
-    # the lift test costs a third of a grasp's rollout, and only the "successes" score reads it
+    # the lift test costs a sixth of a grasp's rollout, and only the "successes" score reads it
     lift_test = selection.reads_lift_test
     calls = [
         (replace(config, seed=seed), max_steps, controller_options, None, lift_test)
