@@ -136,10 +136,9 @@ class RayExecutor:
         situations' order, bar advanced and on_record(record) called as each ends. The actors
         outlive the call: each keeps its process and builds its evaluator anew for each call,
         closing it when the call ends (a graph left open would stay on its DDS domain, where the
-        caller's own graph may run next: tric-experiments' table2 recorded its demonstrations
-        there, and two simulators answered them); they hold no CPU of Ray's between calls
-        (num_cpus 0: jobs bounds them, and a training task between two evaluations finds its
-        CPU), spread over the nodes. An
+        caller may run a graph of its own next: docs/decisions/executors.md); they hold no CPU of
+        Ray's between calls (num_cpus 0: jobs bounds them, and a training task between two
+        evaluations finds its CPU), spread over the nodes. An
         actor that dies loses its episode to a second try on a fresh actor (the others go on); one
         whose actor dies again is a failed record that says so. Any other error ends the run and
         is raised."""
