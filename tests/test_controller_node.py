@@ -24,7 +24,10 @@ from tric_msgs.srv import LoadModel, ResetScene
 from tric_sim.ros import messages
 from tric_sim.simulator_node import SimulatorNode
 from tric_sim.world import situations
-from tric_sim.world.robot_model import HOME, RobotModel
+from tric_sim.world.robot_model import RobotModel
+
+#: The default robot's start configuration, rad.
+HOME = RobotModel().home
 
 #: Test subscriptions keep every message (the checks compare consecutive commands).
 KEEP_ALL = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)

@@ -17,7 +17,10 @@ from tric_msgs.srv import EvaluateTask, Perturb, RenderScene, ResetScene
 from tric_sim.ros import messages
 from tric_sim.simulator_node import IN_PROCESS_LOCKSTEP_TIMEOUT_S, SimulatorNode
 from tric_sim.world import situations
-from tric_sim.world.robot_model import HOME
+from tric_sim.world.robot_model import RobotModel
+
+#: The default robot's start configuration, rad.
+HOME = RobotModel().home
 
 
 class Commander(Node):

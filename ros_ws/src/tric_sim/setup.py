@@ -11,7 +11,11 @@ setup(
         ("share/" + PACKAGE, ["package.xml"]),
         (
             "share/" + PACKAGE + "/urdf",
-            ["tric_sim/description/tric_arm_hand.urdf", "tric_sim/description/tric_arm_hand.srdf"],
+            [
+                "tric_sim/description/tric_arm_hand.urdf",
+                "tric_sim/description/tric_arm_hand.srdf",
+                "tric_sim/description/tric_arm_hand.yaml",
+            ],
         ),
     ],
     install_requires=["setuptools"],
@@ -22,7 +26,7 @@ setup(
     "situations, the PyBullet simulator node, the teachers and the hidden task "
     "metrics.",
     license="Apache-2.0",
-    package_data={PACKAGE: ["description/*.urdf", "description/*.srdf"]},
+    package_data={PACKAGE: ["description/*.urdf", "description/*.srdf", "description/*.yaml"]},
     entry_points={
         "console_scripts": [
             "simulator = tric_sim.nodes:simulator",

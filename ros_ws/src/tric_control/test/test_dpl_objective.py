@@ -16,7 +16,7 @@ from tric_learning.model_file import ModelFile
 from tric_learning.training import dpl
 from tric_learning.value_function import Scaling
 from tric_sim.world.proximity import Closest
-from tric_sim.world.robot_model import HOME, RobotModel
+from tric_sim.world.robot_model import RobotModel
 
 SPHERE = {"object": (np.array([0.6, 0.0, 0.35]), np.array([0.0, 0.0, 0.0, 1.0]))}
 BOX = {
@@ -86,7 +86,7 @@ def test_finger_step_follows_the_predicted_fingertip_step(robot):
     s_min^2 = 2: the |dq|^2 term still has a say along it)."""
     model = policy_model(robot, "open_box", "dpl_finger", 0.005)
     objective = make_objective(model, robot, CONTROL_PERIOD)
-    q = HOME + 0.1
+    q = robot.home + 0.1
     y, jacobian = objective.features.with_jacobian(q, BOX)
     rows = jacobian[dpl.finger_rows(model.definition)]
     wanted = CONTROL_PERIOD / SAMPLE_PERIOD * dpl.load_policy(model).predict(y)
@@ -113,7 +113,7 @@ def test_make_objective_builds_both_kinds_and_refuses_what_it_cannot_run(robot):
         (grasp_finger, "dpl_finger needs the 'box' landmark"),
         (
             ModelFile("dpl_joint", other_robot, joint.arrays, joint.info),
-            "made for another robot description",
+            "made for another robot: 'other_arm', not 'tric_arm_hand'",
         ),
         (
             ModelFile(

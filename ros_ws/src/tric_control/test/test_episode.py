@@ -14,7 +14,7 @@ from tric_control.episode_runner import (
 )
 from tric_control.motion_rate import Tick
 from tric_sim.world.robot_model import RobotModel
-from tric_sim.world.scene import TASK_GRIPS
+from tric_sim.world.scene import task_grip
 
 PERIOD = 0.01
 
@@ -171,8 +171,8 @@ def test_the_grip_closes_the_hand_within_its_limits_once_at_rest_and_never_befor
     rested over the grip's ticks (the others stay), within the joint limits (a joint at its upper
     limit stays there), and the episode ends "converged"; a budget that runs out while gripping
     ends it "step_budget"."""
-    grip = TASK_GRIPS["grasp"]
-    assert TASK_GRIPS["open_box"] is None
+    grip = task_grip("grasp", robot.profile)
+    assert task_grip("open_box", robot.profile) is None
     ticks = int(math.ceil(grip.duration_s / PERIOD))
     q = robot.home.copy()
     flexion = [robot.joint_names.index(j) for j in grip.joints]
@@ -208,7 +208,7 @@ def test_an_episode_that_must_go_on_holds_at_rest_and_steps_again_when_pushed(ro
     the robot, not ending the episode before min_steps; the arm moved farther than LEAVE_REST_RAD
     from where it rested (a push) takes the controller out of rest: it is stepped again from the
     measured state, and the episode ends at its next rest past min_steps."""
-    grip = TASK_GRIPS["grasp"]
+    grip = task_grip("grasp", robot.profile)
     q = robot.home.copy()
     controller = ScriptedController([q], converge_at=3)
     runner = EpisodeRunner(robot, controller, max_steps=200, period=PERIOD, grip=grip, min_steps=60)

@@ -61,7 +61,7 @@ from tric_control.loops.lockstep import LockstepLoop
 from tric_control.loops.realtime import RealtimeLoop
 from tric_control.motion_rate import MotionRateController
 from tric_control.objectives import make_objective
-from tric_learning.features import TASK_LANDMARKS, FeatureDefinition
+from tric_learning.features import TASKS, FeatureDefinition
 from tric_learning.model_file import ModelFile
 from tric_msgs.action import Execute
 from tric_msgs.msg import ControllerStatus, EpisodeEvent
@@ -73,7 +73,7 @@ from tric_sim.ros.parameters import AT_LEAST_ONE, POSITIVE, Range, declare
 from tric_sim.ros.topic_poller import command_msg
 from tric_sim.world.proximity import Proximity
 from tric_sim.world.robot_model import RobotModel
-from tric_sim.world.scene import TASK_GRIPS
+from tric_sim.world.scene import task_grip
 
 MODES = ("lockstep", "realtime")
 FEEDBACK_EVERY = 10
@@ -84,9 +84,7 @@ class ControllerNode(Node):
 
     def __init__(self, **kwargs):
         super().__init__("controller", **kwargs)
-        self.task = declare(
-            self, "task", "grasp", "the task models must match", tuple(TASK_LANDMARKS)
-        )
+        self.task = declare(self, "task", "grasp", "the task models must match", TASKS)
         model_path = declare(self, "model_path", "", "a model file to load at start (empty: none)")
         self.mode = declare(
             self, "mode", "lockstep", "answer every joint state, or tick on a timer", MODES
@@ -260,7 +258,7 @@ class ControllerNode(Node):
             self.period,
             model.objects,
             lambda what: self.get_logger().warning(what, throttle_duration_sec=1.0),
-            TASK_GRIPS[self.task],
+            task_grip(self.task, self.robot.profile),
             int(goal.min_steps),
         )
         episode = Episode(

@@ -11,7 +11,7 @@ realtime, tric_control.controller_node) and the offline evaluation on PhysicsWor
 - a stale state (older than STALE_PERIODS control periods) or missing object poses: a hold, the last
   measured positions approached within the velocity bound; the controller is not stepped;
 - once the controller comes to rest (its model's rest rule), the task's grip, if it has one
-  (tric_sim.world.scene.TASK_GRIPS: a grasp closes the fingers by the teacher's squeeze past where
+  (tric_sim.world.scene.task_grip: a grasp closes the fingers by the teacher's squeeze past where
   they rest), is ramped in over its duration without stepping the controller, and the episode
   ends "converged"; an episode asked to run min_steps at least holds the robot there until then,
   and steps the controller again when the arm is moved away (a push); the episode ends

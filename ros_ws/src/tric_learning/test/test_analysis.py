@@ -15,7 +15,7 @@ from tric_learning.features import FeatureDefinition
 from tric_learning.training.dataset import Dataset, Demo
 from tric_learning.value_function import Scaling, ValueFunction
 from tric_sim.world import scene, situations
-from tric_sim.world.robot_model import PALM, RobotModel
+from tric_sim.world.robot_model import RobotModel
 
 
 @pytest.fixture(scope="module")
@@ -282,7 +282,7 @@ def sphere_at(robot, position, radius: float) -> Demo:
 
 def test_hand_distances_to_a_sphere_in_the_palm_and_far_above(robot):
     robot.forward(robot.home)
-    palm = robot.frame_placement(PALM).translation
+    palm = robot.frame_placement(robot.profile.palm).translation
     inside = analysis.hand_body_distances(robot, Dataset(None, [sphere_at(robot, palm, 0.03)]))
     assert inside[0][0, 0] < 0 and inside[1][0, 0] >= 1 and inside[2] == "target"
     above = palm + np.array([0.0, 0.0, 1.0])

@@ -15,7 +15,7 @@ from tric_learning.recording import record_offline
 from tric_learning.training import dpl
 from tric_learning.training.dataset import Dataset, Demo
 from tric_sim.world import situations
-from tric_sim.world.robot_model import HOME, RobotModel
+from tric_sim.world.robot_model import RobotModel
 
 
 @pytest.fixture(scope="module")
@@ -167,8 +167,8 @@ def test_finger_targets_are_fingertip_steps_in_the_box_frame(robot):
     yaw = 0.5
     box = (np.array([0.6, 0.1, 0.1]), np.array([0.0, 0.0, np.sin(yaw / 2), np.cos(yaw / 2)]))
     poses = {"object": box, "lid_edge": (np.array([0.5, 0.1, 0.2]), box[1])}
-    q0 = HOME.copy()
-    q1 = HOME + np.linspace(-0.05, 0.05, robot.n_joints)
+    q0 = robot.home.copy()
+    q1 = robot.home + np.linspace(-0.05, 0.05, robot.n_joints)
     configurations = [q0, q1, q1]
     y = np.array([feature_map(q, poses) for q in configurations])
     demo = Demo(

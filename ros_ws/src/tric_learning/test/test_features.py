@@ -4,6 +4,7 @@ import math
 
 import numpy as np
 import pytest
+import yaml
 
 from tric_learning.features import FeatureDefinition, FeatureMap
 from tric_sim.world.robot_model import RobotModel
@@ -132,5 +133,25 @@ def test_missing_object_and_other_robot_are_refused(robot):
         definition.joint_names,
         "another_robot:0000",
     )
-    with pytest.raises(ValueError, match="another robot"):
+    with pytest.raises(ValueError, match="another robot: 'another_robot', not 'tric_arm_hand'"):
         FeatureMap(other, robot)
+
+
+def test_a_definition_is_refused_on_a_robot_of_another_profile(robot, tmp_path):
+    """The same URDF under another profile's name is another robot: a definition (and so a model
+    or a bag) made for one is refused on the other, naming both."""
+    data = yaml.safe_load(robot.profile.path.read_text())
+    data.update(
+        name="other_arm",
+        urdf=str(robot.profile.urdf_path),
+        srdf=str(robot.profile.srdf_path),
+    )
+    path = tmp_path / "other_arm.yaml"
+    path.write_text(yaml.safe_dump(data))
+    other = RobotModel(path)
+    definition = FeatureDefinition.for_task("grasp", robot)
+    with pytest.raises(
+        ValueError, match="made for another robot: 'tric_arm_hand', not 'other_arm'"
+    ):
+        FeatureMap(definition, other)
+    assert FeatureMap(FeatureDefinition.for_task("grasp", other), other).definition.size == 224

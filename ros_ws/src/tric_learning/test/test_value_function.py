@@ -7,7 +7,7 @@ import pytest
 
 from tric_learning.features import FeatureDefinition, FeatureMap
 from tric_learning.value_function import Scaling, ValueFunction
-from tric_sim.world.robot_model import HOME, RobotModel
+from tric_sim.world.robot_model import RobotModel
 
 
 @pytest.fixture(scope="module")
@@ -56,10 +56,10 @@ def test_gradient_of_value_over_features_matches_finite_differences(robot):
     rng = np.random.default_rng(4)
     feature_map = FeatureMap(FeatureDefinition.for_task("grasp", robot), robot)
     poses = {"object": (np.array([0.55, 0.1, 0.85]), np.array([0.0, 0.0, 0.0, 1.0]))}
-    around = HOME + rng.normal(0, 0.2, (50, robot.n_joints))
+    around = robot.home + rng.normal(0, 0.2, (50, robot.n_joints))
     scaling = Scaling.fit(np.array([feature_map(q, poses) for q in around]), 0.995)
     model = random_value_function(rng, scaling, 6)
-    q = HOME + rng.normal(0, 0.1, robot.n_joints)
+    q = robot.home + rng.normal(0, 0.1, robot.n_joints)
     y, jacobian = feature_map.with_jacobian(q, poses)
     analytic = model.gradient(y)[1] @ jacobian
     numeric = central_difference(lambda x: float(model.value(feature_map(x, poses))), q, 1e-6)

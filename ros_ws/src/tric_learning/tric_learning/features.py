@@ -28,26 +28,40 @@ import pinocchio as pin
 
 from tric_sim.world.robot_model import RobotModel
 
-#: Landmarks of each task: (name, source).
-TASK_LANDMARKS = {
-    "grasp": (
-        ("object", "object/object"),
-        ("fingertip_1", "robot/finger_1_tip"),
-        ("fingertip_2", "robot/finger_2_tip"),
-        ("fingertip_3", "robot/finger_3_tip"),
-        ("finger_mid_1", "robot/finger_1_middle"),
-        ("finger_mid_2", "robot/finger_2_middle"),
-        ("finger_mid_3", "robot/finger_3_middle"),
-        ("palm", "robot/palm_center"),
-    ),
-    "open_box": (
+#: The tasks with a feature definition (task_landmarks).
+TASKS = ("grasp", "open_box")
+
+
+def task_landmarks(task: str, robot: RobotModel) -> tuple:
+    """The landmarks of a task, (name, source) pairs, the robot's frames taken from its profile:
+    grasp: the object, each fingertip, the middle of each finger's lower segment, the palm centre;
+    open_box: the box, the lid's lip, the fingertips that lift the lid, the robot's base. A
+    fingertip is named by its finger's number (thumb first)."""
+    if task not in TASKS:
+        raise ValueError(f"no feature definition for task '{task}' (known: {', '.join(TASKS)})")
+    profile = robot.profile
+    fingertips = profile.fingertips
+    if task == "grasp":
+        return (
+            ("object", "object/object"),
+            *((f"fingertip_{k}", f"robot/{tip}") for k, tip in enumerate(fingertips, 1)),
+            *(
+                (f"finger_mid_{k}", f"robot/{mid}")
+                for k, mid in enumerate(profile.finger_middles, 1)
+            ),
+            ("palm", f"robot/{profile.palm}"),
+        )
+    return (
         ("box", "object/object"),
         ("lid", "object/lid_edge"),
-        ("fingertip_2", "robot/finger_2_tip"),
-        ("fingertip_3", "robot/finger_3_tip"),
-        ("robot_base", "robot/base_link"),
-    ),
-}
+        *(
+            (f"fingertip_{fingertips.index(tip) + 1}", f"robot/{tip}")
+            for tip in profile.lid_fingertips
+        ),
+        ("robot_base", f"robot/{profile.base}"),
+    )
+
+
 AXES = ("x", "y", "z")
 
 
@@ -67,11 +81,7 @@ class FeatureDefinition:
     @classmethod
     def for_task(cls, task: str, robot: RobotModel) -> "FeatureDefinition":
         """The paper's definition for task ("grasp" or "open_box"): all ordered landmark pairs."""
-        if task not in TASK_LANDMARKS:
-            raise ValueError(
-                f"no feature definition for task '{task}' (known: {', '.join(TASK_LANDMARKS)})"
-            )
-        names, sources = zip(*TASK_LANDMARKS[task])
+        names, sources = zip(*task_landmarks(task, robot))
         pairs = tuple((i, j) for i in range(len(names)) for j in range(len(names)) if i != j)
         return cls(task, names, sources, pairs, tuple(robot.joint_names), robot_description(robot))
 
@@ -146,9 +156,9 @@ class FeatureDefinition:
 
 
 def robot_description(robot: RobotModel) -> str:
-    """'<robot name>:<SHA-256 of the URDF>': identifies the robot the landmarks refer to."""
+    """'<robot profile's name>:<SHA-256 of its URDF>': the robot the landmarks refer to."""
     digest = hashlib.sha256(robot.urdf_path.read_bytes()).hexdigest()
-    return f"{robot.model.name}:{digest}"
+    return f"{robot.profile.name}:{digest}"
 
 
 class FeatureMap:
@@ -160,9 +170,11 @@ class FeatureMap:
 
     def __init__(self, definition: FeatureDefinition, robot: RobotModel):
         if definition.robot_model != robot_description(robot):
+            made_for = definition.robot_model.split(":")[0]
             raise ValueError(
-                "the feature definition was made for another robot description "
-                f"({definition.robot_model.split(':')[0]} with a different URDF)"
+                f"the feature definition was made for another robot: '{made_for}', not "
+                f"'{robot.profile.name}'"
+                + (" (the same name, another URDF)" if made_for == robot.profile.name else "")
             )
         if tuple(definition.joint_names) != tuple(robot.joint_names):
             raise ValueError("the feature definition's joints differ from the robot's")

@@ -11,7 +11,7 @@ from tric_sim.physics import metrics
 from tric_sim.physics.simulation import PhysicsWorld
 from tric_sim.ros import messages
 from tric_sim.world import scene, situations
-from tric_sim.world.robot_model import PALM, RobotModel
+from tric_sim.world.robot_model import RobotModel
 
 RADIUS = 0.04
 
@@ -34,7 +34,7 @@ def sphere_from_palm(robot, q, along: float, across: float = 0.0) -> dict:
     """The cost terms of a sphere of RADIUS whose centre is along (m) in front of the palm centre
     (on its normal) and across (m) to its side."""
     robot.forward(q)
-    palm = robot.frame_placement(PALM)
+    palm = robot.frame_placement(robot.profile.palm)
     centre = palm.translation + along * palm.rotation[:, 2] + across * palm.rotation[:, 1]
     return metrics.grasp_cost_terms(robot, q, "sphere", (RADIUS,), pin.SE3(np.eye(3), centre))
 
@@ -45,11 +45,11 @@ def grasp_class(robot, q, terms, collided=False, lift_tested=True, lift_passed=F
 
 def test_flexion_against_the_open_pre_shape(robot):
     assert metrics.finger_flexion(robot, robot.home) == pytest.approx(
-        metrics.open_flexion("sphere")
+        metrics.open_flexion(robot, "sphere")
     )
     assert metrics.finger_flexion(robot, flexed(robot)) == pytest.approx(1.5)
     # wider open for cylinders
-    assert metrics.open_flexion("cylinder") < metrics.open_flexion("sphere")
+    assert metrics.open_flexion(robot, "cylinder") < metrics.open_flexion(robot, "sphere")
 
 
 def test_a_palm_far_from_the_sphere_with_open_or_closed_fingers(robot):
@@ -132,7 +132,9 @@ def hinge_putting(point_in_lid: np.ndarray, world_point: np.ndarray) -> pin.SE3:
 
 def tips(robot, q) -> np.ndarray:
     robot.forward(q)
-    return np.array([robot.frame_placement(tip).translation for tip in metrics.LID_FINGERTIPS])
+    return np.array(
+        [robot.frame_placement(tip).translation for tip in robot.profile.lid_fingertips]
+    )
 
 
 def box_class(robot, poses, lid_angle=0.0, collided=False) -> str:

@@ -19,7 +19,7 @@ from tric_sim.tools.output_files import (
     write_text_atomic,
 )
 from tric_sim.world import situations as S
-from tric_sim.world.robot_model import HOME, RobotModel
+from tric_sim.world.robot_model import RobotModel
 from tric_sim.world.scene_check import check_scene
 from tric_sim.world.situation import WORKSPACE_HIGH, WORKSPACE_LOW, Obstacle, Situation
 from tric_sim.world.situation_files import load_situations
@@ -76,8 +76,8 @@ def test_atomic_writes_replace_whole_files_or_leave_the_old_one(tmp_path):
 
 
 def _home_with(changes: dict) -> list:
-    """The robot's home configuration with some joints (index -> rad) changed."""
-    q = HOME.copy()
+    """The default robot's home configuration with some joints (index -> rad) changed."""
+    q = RobotModel().home.copy()
     for index, value in changes.items():
         q[index] = value
     return q.tolist()

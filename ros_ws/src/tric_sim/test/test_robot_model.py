@@ -6,7 +6,7 @@ import pytest
 
 from tric_sim.physics.simulation import PhysicsWorld, pb
 from tric_sim.world import scene, situations
-from tric_sim.world.robot_model import FINGER_BASES, FINGERTIPS, PALM, RobotModel
+from tric_sim.world.robot_model import RobotModel
 
 
 @pytest.fixture(scope="module")
@@ -23,7 +23,8 @@ def test_fourteen_actuated_joints_with_limits(robot):
 
 
 def test_landmark_frames_exist(robot):
-    for frame in (PALM, *FINGERTIPS, *FINGER_BASES):
+    profile = robot.profile
+    for frame in (profile.palm, *profile.fingertips, *(f.base for f in profile.fingers)):
         assert robot.model.frames[robot.frame_id(frame)].name == frame
     with pytest.raises(ValueError, match="unknown robot frame 'no_such_link'"):
         robot.frame_id("no_such_link")
@@ -97,9 +98,12 @@ def test_pybullet_and_pinocchio_link_poses_agree(robot):
 
 def test_reach_places_the_palm(robot):
     robot.forward(robot.home)
-    target = robot.frame_placement(PALM).copy()
+    target = robot.frame_placement(robot.profile.palm).copy()
     target.translation = target.translation + np.array([0.05, 0.05, -0.05])
-    q = robot.reach(robot.home, PALM, target)
+    q = robot.reach(robot.home, robot.profile.palm, target)
     robot.forward(q)
-    assert np.linalg.norm(pin.log6(robot.frame_placement(PALM).actInv(target)).vector) < 1e-4
+    assert (
+        np.linalg.norm(pin.log6(robot.frame_placement(robot.profile.palm).actInv(target)).vector)
+        < 1e-4
+    )
     robot.check_configuration(q)

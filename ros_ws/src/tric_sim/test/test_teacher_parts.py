@@ -8,7 +8,7 @@ import pytest
 from tric_sim.teachers.box import REACH_STEPS, STEP_DURATION, STEPS, BoxTeacher
 from tric_sim.teachers.pose_servo import TABLE_CLEARANCE, PoseServo
 from tric_sim.world import situations
-from tric_sim.world.robot_model import PALM, RobotModel
+from tric_sim.world.robot_model import RobotModel
 
 PERIOD = 0.01
 
@@ -20,7 +20,7 @@ def robot():
 
 def palm_pose(robot, q) -> pin.SE3:
     robot.forward(q)
-    return robot.data.oMf[robot.frame_id(PALM)].copy()
+    return robot.data.oMf[robot.frame_id(robot.profile.palm)].copy()
 
 
 def servo_to(robot, servo, q, target, periods):

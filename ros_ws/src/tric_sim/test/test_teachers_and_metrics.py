@@ -13,7 +13,7 @@ from tric_sim.physics.simulation import PhysicsWorld
 from tric_sim.teachers import demonstrate
 from tric_sim.teachers.grasp import GraspTeacher
 from tric_sim.world import situations as S
-from tric_sim.world.robot_model import FINGERTIPS, PALM, RobotModel
+from tric_sim.world.robot_model import RobotModel
 from tric_sim.world.shapes import object_surface
 
 
@@ -52,7 +52,7 @@ def test_cylinder_surface_distance_side_cap_and_inside():
 def test_grasp_cost_is_high_for_a_miss_and_for_a_misaligned_palm(robot):
     q = robot.home.copy()
     robot.forward(q)
-    palm = robot.frame_placement(PALM)
+    palm = robot.frame_placement(robot.profile.palm)
     far = pin.SE3(np.eye(3), palm.translation + palm.rotation[:, 2] * 0.4)
     terms = metrics.grasp_cost_terms(robot, q, "sphere", (0.04,), far)
     assert terms["finger_contact"] == 1.0 and terms["palm_distance"] == 1.0
@@ -97,8 +97,8 @@ def test_lift_test_grips_before_it_releases_and_holds_the_grip_while_raising(wor
     assert [kind for kind, _ in events[:released]] == ["command"] + ["step"] * round(
         metrics.GRIP_DURATION / world.control_period
     )
-    flexion = [robot.joint_names.index(j) for j in metrics.FLEXION_JOINTS]
-    assert len(flexion) == 6 and "finger_2_knuckle_joint" not in metrics.FLEXION_JOINTS
+    flexion = [robot.joint_names.index(j) for j in robot.profile.flexion_joints]
+    assert len(flexion) == 6 and "finger_2_knuckle_joint" not in robot.profile.flexion_joints
     grip = np.minimum(q[flexion] + metrics.GRIP_CLOSURE, robot.upper[flexion])
     grip[flexion.index(squeezed)] = held[squeezed]
     knuckle = robot.joint_names.index("finger_2_knuckle_joint")
@@ -147,8 +147,10 @@ def test_finger_opposition_of_a_small_sphere_moved_across_the_open_hand(robot):
     1]."""
     q = robot.home
     robot.forward(q)
-    palm = robot.frame_placement(PALM)
-    tips = np.array([palm.actInv(robot.frame_placement(tip).translation) for tip in FINGERTIPS])
+    palm = robot.frame_placement(robot.profile.palm)
+    tips = np.array(
+        [palm.actInv(robot.frame_placement(tip).translation) for tip in robot.profile.fingertips]
+    )
     radius = -tips[0, 0]
     assert np.allclose(tips[:, 2], tips[0, 2]) and tips[0, 1] == pytest.approx(0.0, abs=1e-9)
     assert np.allclose(

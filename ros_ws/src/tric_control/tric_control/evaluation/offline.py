@@ -32,7 +32,7 @@ from tric_sim.world.durations import DEFAULT_DURATION
 from tric_sim.world.perturbations import min_steps_for
 from tric_sim.world.proximity import Proximity
 from tric_sim.world.robot_model import RobotModel
-from tric_sim.world.scene import TASK_GRIPS
+from tric_sim.world.scene import task_grip
 
 
 class OfflineEvaluator:
@@ -46,7 +46,7 @@ class OfflineEvaluator:
         period: the control period, s.
         controller_options: keyword arguments of MotionRateController (e.g. max_lead), for studies,
             "rho_scale": make_objective's, and "grip": False leaves out the task's grip once at
-            rest (tric_sim.world.scene.TASK_GRIPS).
+            rest (tric_sim.world.scene.task_grip).
         lift_test: whether a grasp is judged with the lift test (False: its success is the grasp
             cost's alone and lift_passed is None; the final state is the same either way).
     """
@@ -64,9 +64,10 @@ class OfflineEvaluator:
         self.lift_test = lift_test
         self.controller_options = dict(controller_options or {})
         rho_scale = self.controller_options.pop("rho_scale", 1.0)
-        self.grip = TASK_GRIPS[task] if self.controller_options.pop("grip", True) else None
         self.max_steps = max_steps or DEFAULT_MAX_STEPS[task]
         self.robot = RobotModel()
+        gripping = self.controller_options.pop("grip", True)
+        self.grip = task_grip(task, self.robot.profile) if gripping else None
         self.objective = None
         self.kind: str = "teacher"
         self.objects = ()

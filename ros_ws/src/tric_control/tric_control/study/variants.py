@@ -54,7 +54,7 @@ MODEL_MEASURES = (
 #: grasp target and its cushion (m), how deep into the lid (m) and whether only from beneath;
 #: whether the domain damper (tric_control.limits.DomainDamper) is among the limits; a factor on
 #: the model's rho (tric_control.objectives.make_objective); and whether the task's grip closes the
-#: hand once at rest (tric_sim.world.scene.TASK_GRIPS).
+#: hand once at rest (tric_sim.world.scene.task_grip).
 CONTROLLER_OPTIONS = {
     "hand_lead": float,
     "grasp_steps": int,

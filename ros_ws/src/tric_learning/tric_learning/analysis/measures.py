@@ -207,13 +207,8 @@ def joint_principal_paths(dataset: Dataset, count: int = FIG12_DEMOS):
 
 
 def hand_geometries(robot: RobotModel) -> list:
-    """Indices of the robot's collision geometries on the hand (palm and finger links)."""
-    frames = robot.model.frames
-    return [
-        k
-        for k, geometry in enumerate(robot.collision_model.geometryObjects)
-        if frames[geometry.parentFrame].name.startswith(("finger_", "palm"))
-    ]
+    """Indices of the robot's collision geometries on the hand (its profile's hand_links)."""
+    return [int(k) for k in np.flatnonzero(robot.hand_geometries)]
 
 
 def hand_body_distances(

@@ -6,7 +6,7 @@ Grasp cost in [0, 1], lower is better, below 0.25 a good grasp. It is the mean o
 the error of a task variable a grasp expert checks, normalized to [0, 1] (1 = as bad as it gets):
 
 - finger_contact: for each finger, |distance between its distal link and the object's surface|
-  divided by FINGER_CONTACT_TOLERANCE (3 cm), clipped to 1; averaged over the three fingers.
+  divided by FINGER_CONTACT_TOLERANCE (3 cm), clipped to 1; averaged over the fingers.
 - palm_distance: how far the palm centre is from the surface beyond PALM_DISTANCE_OK (5 cm),
   divided by PALM_DISTANCE_TOLERANCE (8 cm), clipped to 1.
 - palm_alignment: angle between the palm normal and the direction from the palm centre to the
@@ -45,15 +45,7 @@ import numpy as np
 import pinocchio as pin
 
 from tric_sim.world import scene
-from tric_sim.world.robot_model import (
-    DISTAL_LINKS,
-    DISTAL_RADIUS,
-    FINGERTIPS,
-    FLEXION_JOINTS,
-    PALM,
-    PRESHAPE,
-    RobotModel,
-)
+from tric_sim.world.robot_model import RobotModel
 from tric_sim.world.shapes import object_surface
 
 #: The grasp cost's terms (see the module docstring): a finger's distance to the surface that
@@ -79,14 +71,13 @@ GRIP_DURATION = 0.2
 #: A signed distance below this between the robot and an avoided body counts as a collision, m.
 COLLISION_DISTANCE = 0.0
 #: Failure classes (see the module docstring): fingers count as flexed when their flexion (proximal
-#: + distal joint, rad, averaged over the three fingers) exceeds the open pre-shape's by this, rad
+#: + distal joint, rad, averaged over the fingers) exceeds the open pre-shape's by this, rad
 #: (a closed sphere grasp: about 1.3 beyond it, a cylinder grasp about 1.0).
 FLEXED_MARGIN = 0.3
 #: A palm_alignment term at or above this is a misaligned palm (about 41 deg off the object).
 PALM_MISALIGNED = 0.5
-#: The fingertips that lift a box's lid (the box features' landmarks), and how far around and below
-#: the lid's outline a fingertip counts as under its lip, m.
-LID_FINGERTIPS = ("finger_2_tip", "finger_3_tip")
+#: How far around and below the lid's outline a fingertip that lifts the lid (the robot profile's
+#: lid_fingertips) counts as under its lip, m.
 LIP_REACH = 0.05
 
 
@@ -114,16 +105,19 @@ def grasp_cost_terms(robot: RobotModel, q, kind: str, dimensions, placement: pin
     of the given kind and dimensions at placement (world)."""
     robot.forward(q)
     # finger_contact: distance of each distal link (a capsule) to the surface
+    profile = robot.profile
     contact_errors, contact_normals = [], []
-    for link, tip in zip(DISTAL_LINKS, FINGERTIPS):
+    for link, tip in zip(profile.distal_links, profile.fingertips):
         start = robot.frame_placement(link).translation
         end = robot.frame_placement(tip).translation
         samples = start + np.linspace(0.0, 1.0, 9)[:, None] * (end - start)
         distance, normals = object_surface(kind, dimensions, placement, samples)
         k = int(np.argmin(distance))
-        contact_errors.append(min(abs(distance[k] - DISTAL_RADIUS) / FINGER_CONTACT_TOLERANCE, 1.0))
+        contact_errors.append(
+            min(abs(distance[k] - profile.distal_radius) / FINGER_CONTACT_TOLERANCE, 1.0)
+        )
         contact_normals.append(normals[k])
-    palm = robot.frame_placement(PALM)
+    palm = robot.frame_placement(profile.palm)
     palm_position, palm_normal = palm.translation, palm.rotation[:, 2]
     distance, normal = object_surface(kind, dimensions, placement, palm_position[None, :])
     palm_error = min(max(distance[0] - PALM_DISTANCE_OK, 0.0) / PALM_DISTANCE_TOLERANCE, 1.0)
@@ -146,23 +140,16 @@ def grasp_cost_terms(robot: RobotModel, q, kind: str, dimensions, placement: pin
 
 
 def finger_flexion(robot: RobotModel, q) -> float:
-    """The fingers' mean flexion: proximal + distal joint angle, averaged over the three fingers,
-    rad."""
+    """The fingers' mean flexion: the sum of a finger's flexion joint angles, averaged over the
+    fingers, rad."""
     index = robot.joint_names.index
-    return float(
-        np.mean(
-            [
-                q[index(f"finger_{k}_proximal_joint")] + q[index(f"finger_{k}_distal_joint")]
-                for k in (1, 2, 3)
-            ]
-        )
-    )
+    return float(np.mean([sum(q[index(j)] for j in f.joints) for f in robot.profile.fingers]))
 
 
-def open_flexion(kind: str) -> float:
-    """The flexion (as finger_flexion) of the teacher's open pre-shape for an object kind, rad."""
-    _, proximal, distal = PRESHAPE[kind]
-    return proximal + distal
+def open_flexion(robot: RobotModel, kind: str) -> float:
+    """The flexion (as finger_flexion) of the hand's open pre-shape for an object kind, rad."""
+    preshape = robot.profile.preshapes[kind]
+    return float(np.mean([sum(preshape[j] for j in f.joints) for f in robot.profile.fingers]))
 
 
 def grasp_failure(
@@ -182,7 +169,7 @@ def grasp_failure(
     if np.mean(list(terms.values())) < GOOD_GRASP:
         return "slipped in the lift test" if lift_tested and not lift_passed else ""
     palm_far = terms["palm_distance"] > 0.0
-    if palm_far and finger_flexion(robot, q) > open_flexion(kind) + FLEXED_MARGIN:
+    if palm_far and finger_flexion(robot, q) > open_flexion(robot, kind) + FLEXED_MARGIN:
         return "fingers closed before the palm arrived"
     if palm_far or terms["palm_alignment"] >= PALM_MISALIGNED:
         return "palm off target"
@@ -202,7 +189,9 @@ def box_failure(
     if lid_angle > LID_OPEN_ANGLE:
         return ""
     robot.forward(q)
-    tips = np.array([robot.frame_placement(tip).translation for tip in LID_FINGERTIPS])
+    tips = np.array(
+        [robot.frame_placement(tip).translation for tip in robot.profile.lid_fingertips]
+    )
     lip = scene.se3(*object_poses["lid_edge"])
     # in the lip's frame: x towards the free edge
     local = (tips - lip.translation) @ lip.rotation
@@ -232,11 +221,11 @@ def lift_test(world, robot: RobotModel) -> float:
     q, _ = world.joint_state()
     start_height = world.object_poses()["object"][0][2]
     robot.forward(q)
-    palm = robot.frame_placement(PALM)
+    palm = robot.frame_placement(robot.profile.palm)
     raised = pin.SE3(palm.rotation, palm.translation + np.array([0.0, 0.0, LIFT_HEIGHT]))
-    q_raised = robot.reach(q, PALM, raised)
+    q_raised = robot.reach(q, robot.profile.palm, raised)
     hand_targets = world.targets.copy()
-    flexion = np.array([robot.joint_names.index(j) for j in FLEXION_JOINTS])
+    flexion = np.array([robot.joint_names.index(j) for j in robot.profile.flexion_joints])
     hand_targets[flexion] = np.maximum(
         hand_targets[flexion], np.minimum(q[flexion] + GRIP_CLOSURE, robot.upper[flexion])
     )

@@ -366,7 +366,7 @@ class PhysicsWorld:
             return []
         names = {index: link for link, index in self.link_index.items()}
         points = pb.getContactPoints(self.robot_id, uid, physicsClientId=self.client)
-        return sorted({names.get(p[3], "base_link") for p in points})
+        return sorted({names.get(p[3], self.robot.profile.base) for p in points})
 
     # --- pictures ------------------------------------------------------------------------------
 

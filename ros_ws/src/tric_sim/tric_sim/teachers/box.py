@@ -1,9 +1,9 @@
 """The box-opening teacher: a trajectory optimizer in the spirit of AICO, the paper's box teacher.
 
-It plans T = 80 steps (0.1 s each) of all 14 joints minimizing a hand-crafted two-phase cost, by
-Gauss-Newton on the stacked residuals (the normal equations are block-banded in time):
+It plans T = 80 steps (0.1 s each) of all the robot's joints minimizing a hand-crafted two-phase
+cost, by Gauss-Newton on the stacked residuals (the normal equations are block-banded in time):
 
-- phase 1, reach (steps 1..REACH_STEPS): fingertips 2 and 3 come from below to just under the lid's
+- phase 1, reach (steps 1..REACH_STEPS): the lid fingertips come from below to just under the lid's
   lip (the overhang at the box's front), passing a point a few centimetres beneath it;
 - phase 2, open (the remaining steps): the fingertips follow the lip's arc about the hinge while the
   lid turns to OPEN_ANGLE: up and towards the box centre;
@@ -38,35 +38,9 @@ LIFT_PRESS = -0.004
 #: The reach comes to the lip from outside and below: (step, outward offset beyond the contact point
 #: along the lid's x, vertical offset) of the fingertips' waypoints, m.
 REACH_WAYPOINTS = ((16, 0.10, 0.04), (28, 0.08, -0.06), (37, 0.0, -0.05))
-#: Nominal hand shape (knuckle, finger 1 proximal/distal, fingers 2 and 3 proximal/distal), rad:
-#: fingers 2 and 3 side by side and bent outwards (up, with the palm's x axis up), the thumb curled.
-NOMINAL_HAND = {
-    "finger_2_knuckle_joint": 0.0,
-    "finger_1_proximal_joint": 1.0,
-    "finger_1_distal_joint": 1.0,
-    "finger_2_proximal_joint": -0.8,
-    "finger_2_distal_joint": 0.2,
-    "finger_3_proximal_joint": -0.8,
-    "finger_3_distal_joint": 0.2,
-}
-#: Robot points kept clear of the box body, the table and (while reaching) the lid: frame, offset in
-#: the frame (m), radius (m).
-COLLISION_POINTS = (
-    ("finger_1_tip", 0.0, 0.014),
-    ("finger_2_tip", 0.0, 0.014),
-    ("finger_3_tip", 0.0, 0.014),
-    ("finger_1_distal_link", 0.0, 0.016),
-    ("finger_2_distal_link", 0.0, 0.016),
-    ("finger_3_distal_link", 0.0, 0.016),
-    ("finger_1_proximal_link", 0.043, 0.016),
-    ("finger_2_proximal_link", 0.043, 0.016),
-    ("finger_3_proximal_link", 0.043, 0.016),
-    ("palm_link", 0.02, 0.06),
-    ("palm_link", 0.07, 0.06),
-    ("arm_7_link", 0.0, 0.05),
-    ("arm_6_link", 0.0, 0.05),
-    ("arm_5_link", 0.08, 0.055),
-)
+#: The margins (m) by which the robot profile's box clearance points (frame, offset along the
+#: frame's z, radius) stay clear of the box body, the table and (while reaching) the lid. The hand
+#: keeps the profile's box pre-shape.
 SAFETY = {"box_body": 0.012, "table": 0.02, "lid": 0.006}
 WEIGHTS = {
     "smooth": 30.0,
@@ -109,12 +83,13 @@ class BoxTeacher:
         self.hinge = scene.hinge_placement(situation)
         self.lid_extents = scene.lid_extents(self.side)
         self.q_start = robot.check_configuration(q_start, "q_start")
-        self.tips = [robot.frame_id("finger_2_tip"), robot.frame_id("finger_3_tip")]
+        self.tips = [robot.frame_id(tip) for tip in robot.profile.lid_fingertips]
         self.points = [
-            (robot.frame_id(f), np.array([0.0, 0.0, dz]), r) for f, dz, r in COLLISION_POINTS
+            (robot.frame_id(frame), np.array([0.0, 0.0, offset]), radius)
+            for frame, offset, radius in robot.profile.clearance["box"]
         ]
         self.nominal = robot.home.copy()
-        for name, value in NOMINAL_HAND.items():
+        for name, value in robot.profile.preshapes["box"].items():
             self.nominal[robot.joint_names.index(name)] = value
         start = time.perf_counter()
         self.plan = self._optimize(self._initial_guess())

@@ -18,15 +18,7 @@ import pinocchio as pin
 from tric_sim.teachers.grasp_approach import approach_direction, cylinder_grasp_point, frame_from
 from tric_sim.teachers.pose_servo import PoseServo
 from tric_sim.world import scene
-from tric_sim.world.robot_model import (
-    DISTAL_LINKS,
-    DISTAL_RADIUS,
-    FINGERTIPS,
-    PALM,
-    PRESHAPE,
-    RobotModel,
-)
-from tric_sim.world.scene import GRASP_GRIP
+from tric_sim.world.robot_model import RobotModel
 from tric_sim.world.shapes import object_surface
 from tric_sim.world.situation import Situation
 
@@ -36,20 +28,14 @@ PREGRASP_DISTANCE = {"sphere": 0.10, "cylinder": 0.14}
 #: Phase tolerances: palm position (m) and orientation (rad) error to leave reach / approach.
 REACH_TOLERANCE = (0.015, 0.08)
 APPROACH_TOLERANCE = (0.004, 0.04)
-#: Finger closing: joint speed (rad/s), contact distance (m), and how far past contact the targets
-#: go to squeeze (rad).
+#: Finger closing: joint speed (rad/s) and contact distance (m); the targets then go the robot
+#: profile's grip squeeze past contact (rad). A proximal link's radius, m.
 CLOSING_SPEED = 1.5
 CONTACT_DISTANCE = 0.002
-SQUEEZE = GRASP_GRIP.squeeze
+PROXIMAL_RADIUS = 0.016
 #: The reference may lead the measured arm joints by at most this (rad); when the arm is held back
 #: (contact), the reference is pulled back so the teacher stays reactive.
 MAX_REFERENCE_LEAD = 0.1
-FINGER_JOINTS = (
-    ("finger_1_proximal_joint", "finger_1_distal_joint"),
-    ("finger_2_proximal_joint", "finger_2_distal_joint"),
-    ("finger_3_proximal_joint", "finger_3_distal_joint"),
-)
-PROXIMAL_LINKS = ("finger_1_proximal_link", "finger_2_proximal_link", "finger_3_proximal_link")
 
 
 class GraspTeacher:
@@ -72,9 +58,10 @@ class GraspTeacher:
         self.servo = PoseServo(robot, period)
         self.phase = "reach"
         self.reference: np.ndarray | None = None
-        self.knuckle = robot.joint_names.index("finger_2_knuckle_joint")
-        self.fingers = [[robot.joint_names.index(j) for j in pair] for pair in FINGER_JOINTS]
-        self.finger_state = ["closing"] * 3
+        index = robot.joint_names.index
+        self.preshape = {index(j): angle for j, angle in robot.profile.preshapes[self.kind].items()}
+        self.fingers = [[index(j) for j in finger.joints] for finger in robot.profile.fingers]
+        self.finger_state = ["closing"] * len(self.fingers)
         self.grasp_pose: pin.SE3 | None = None
 
     # --- poses ---------------------------------------------------------------------------------
@@ -109,9 +96,11 @@ class GraspTeacher:
         """Distance from home of the IK solution for pose, plus penalties for an unreached pose or a
         joint near its limit."""
         robot, arm = self.robot, self.robot.arm_indices
-        solution = robot.reach(q, PALM, pose, iterations=150)
+        solution = robot.reach(q, robot.profile.palm, pose, iterations=150)
         robot.forward(solution)
-        error = np.linalg.norm(pin.log6(robot.frame_placement(PALM).actInv(pose)).vector)
+        error = np.linalg.norm(
+            pin.log6(robot.frame_placement(robot.profile.palm).actInv(pose)).vector
+        )
         margin = np.min(
             np.minimum(solution[arm] - robot.lower[arm], robot.upper[arm] - solution[arm])
         )
@@ -142,7 +131,7 @@ class GraspTeacher:
             reference[arm] += self.servo.step(reference, target, avoid)
             self._preshape(reference)
             self.robot.forward(reference)
-            error = self.robot.frame_placement(PALM).actInv(target)
+            error = self.robot.frame_placement(self.robot.profile.palm).actInv(target)
             position_error = np.linalg.norm(error.translation)
             angle_error = np.linalg.norm(pin.log3(error.rotation))
             tolerance = REACH_TOLERANCE if self.phase == "reach" else APPROACH_TOLERANCE
@@ -159,44 +148,44 @@ class GraspTeacher:
         )
 
     def _preshape(self, reference):
-        knuckle, proximal, distal = PRESHAPE[self.kind]
         goal = reference.copy()
-        goal[self.knuckle] = knuckle
-        for prox, dist in self.fingers:
-            goal[prox], goal[dist] = proximal, distal
+        for joint, angle in self.preshape.items():
+            goal[joint] = angle
         hand = self.robot.hand_indices
         step = self.robot.velocity_limits[hand] * self.period * 0.9
         reference[hand] += np.clip(goal[hand] - reference[hand], -step, step)
 
     def _preshaped(self, reference) -> bool:
-        knuckle, proximal, _ = PRESHAPE[self.kind]
-        return abs(reference[self.knuckle] - knuckle) < 1e-3 and all(
-            abs(reference[prox] - proximal) < 1e-3 for prox, _ in self.fingers
-        )
+        return all(abs(reference[joint] - angle) < 1e-3 for joint, angle in self.preshape.items())
 
     def _close(self, reference, object_pose):
-        """Flex each finger (proximal and distal together) until its links touch, then squeeze."""
+        """Flex each finger (its joints together) until its distal link touches, then squeeze; the
+        first joint stops once its own link touches."""
         placement = scene.se3(*object_pose)
         dims = self.situation.object_dimensions
         self.robot.forward(reference)
         step = CLOSING_SPEED * self.period
-        for k, (prox, dist) in enumerate(self.fingers):
+        profile = self.robot.profile
+        squeeze, upper = profile.grip_squeeze, self.robot.upper
+        for k, (finger, joints) in enumerate(zip(profile.fingers, self.fingers)):
             if self.finger_state[k] != "closing":
                 continue
+            first, last = joints[0], joints[-1]
             distal = self._link_distance(
-                DISTAL_LINKS[k], FINGERTIPS[k], placement, dims, DISTAL_RADIUS
+                finger.links[-1], finger.tip, placement, dims, profile.distal_radius
             )
             proximal = self._link_distance(
-                PROXIMAL_LINKS[k], DISTAL_LINKS[k], placement, dims, 0.016
+                finger.links[0], finger.links[-1], placement, dims, PROXIMAL_RADIUS
             )
-            if distal <= CONTACT_DISTANCE or reference[dist] >= self.robot.upper[dist] - 0.05:
-                reference[prox] = min(reference[prox] + SQUEEZE, self.robot.upper[prox])
-                reference[dist] = min(reference[dist] + SQUEEZE, self.robot.upper[dist])
+            if distal <= CONTACT_DISTANCE or reference[last] >= upper[last] - 0.05:
+                for joint in joints:
+                    reference[joint] = min(reference[joint] + squeeze, upper[joint])
                 self.finger_state[k] = "squeezing"
                 continue
             if proximal > CONTACT_DISTANCE:
-                reference[prox] = min(reference[prox] + step, self.robot.upper[prox])
-            reference[dist] = min(reference[dist] + step, self.robot.upper[dist])
+                reference[first] = min(reference[first] + step, upper[first])
+            for joint in joints[1:]:
+                reference[joint] = min(reference[joint] + step, upper[joint])
         if all(state == "squeezing" for state in self.finger_state):
             self.phase = "hold"
 

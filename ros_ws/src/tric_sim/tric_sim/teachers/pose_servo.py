@@ -7,7 +7,7 @@ import numpy as np
 import pinocchio as pin
 import proxsuite
 
-from tric_sim.world.robot_model import FINGERTIPS, PALM, RobotModel
+from tric_sim.world.robot_model import RobotModel
 from tric_sim.world.shapes import object_surface
 
 #: The palm pose servo descends the pose error E = |dx|^2 + ORIENTATION_LENGTH^2 |drot|^2 (m^2)
@@ -15,21 +15,12 @@ from tric_sim.world.shapes import object_surface
 #: as long as the joints' velocity limits allow.
 SERVO_RATE = 6.0
 ORIENTATION_LENGTH = 0.3
-#: Points kept at least TABLE_CLEARANCE above the table top (z = 0), m.
+#: The palm centre and the fingertips are kept at least TABLE_CLEARANCE above the table top
+#: (z = 0), m.
 TABLE_CLEARANCE = 0.03
-CLEARANCE_FRAMES = (PALM, *FINGERTIPS)
-#: While reaching, these hand points keep OBJECT_CLEARANCE (m, beyond their own radius) from the
-#: object, so that the hand goes around it to the pre-grasp pose.
-HAND_POINTS = (
-    (PALM, 0.0),
-    ("finger_1_tip", 0.014),
-    ("finger_2_tip", 0.014),
-    ("finger_3_tip", 0.014),
-    ("finger_1_distal_link", 0.016),
-    ("finger_2_distal_link", 0.016),
-    ("finger_3_distal_link", 0.016),
-    ("palm_link", 0.06),
-)
+#: While reaching, the robot profile's grasp clearance points (frame, offset, radius) keep
+#: OBJECT_CLEARANCE (m, beyond their own radius) from the object, so that the hand goes around it to
+#: the pre-grasp pose.
 OBJECT_CLEARANCE = 0.015
 #: Velocity-damper rate: the fraction of the remaining margin a point may close per period.
 DAMPER_RATE = 0.5
@@ -43,9 +34,13 @@ class PoseServo:
 
     def __init__(self, robot: RobotModel, period: float):
         self.robot, self.period = robot, period
-        self.palm = robot.frame_id(PALM)
-        self.clearance_frames = [robot.frame_id(f) for f in CLEARANCE_FRAMES]
-        self.hand_points = [(robot.frame_id(f), radius) for f, radius in HAND_POINTS]
+        profile = robot.profile
+        self.palm = robot.frame_id(profile.palm)
+        self.clearance_frames = [robot.frame_id(f) for f in (profile.palm, *profile.fingertips)]
+        self.hand_points = [
+            (robot.frame_id(frame), np.array([0.0, 0.0, offset]), radius)
+            for frame, offset, radius in profile.clearance["grasp"]
+        ]
         n = len(robot.arm_indices)
         self.qp = proxsuite.proxqp.dense.QP(
             n, 0, len(self.clearance_frames) + len(self.hand_points), True
@@ -92,16 +87,17 @@ class PoseServo:
             )
             # velocity damper: approach the floor gradually
             lower.append(0.5 * (TABLE_CLEARANCE - z))
-        for fid, radius in self.hand_points:
-            jac_point = pin.getFrameJacobian(robot.model, robot.data, fid, pin.LOCAL_WORLD_ALIGNED)[
-                :3, arm
-            ]
+        for fid, offset, radius in self.hand_points:
             if avoid is None:
                 rows.append(np.zeros(len(arm)))
                 lower.append(-1e20)
                 continue
+            placement = robot.data.oMf[fid]
+            world_offset = placement.rotation @ offset
+            jac = pin.getFrameJacobian(robot.model, robot.data, fid, pin.LOCAL_WORLD_ALIGNED)
+            jac_point = (jac[:3] - pin.skew(world_offset) @ jac[3:])[:, arm]
             distance, normal = object_surface(
-                avoid[0], avoid[1], avoid[2], robot.data.oMf[fid].translation[None, :]
+                avoid[0], avoid[1], avoid[2], (placement.translation + world_offset)[None, :]
             )
             rows.append(normal[0] @ jac_point)
             lower.append(DAMPER_RATE * (OBJECT_CLEARANCE - (distance[0] - radius)))

@@ -5,8 +5,8 @@ tric_sim.viz.foxglove_view Foxglove's.
 
 Frames (one tree, rooted at "world"):
 - every URDF link, with one transform per URDF joint from its parent link to its child link (the
-  names and the convention of robot_state_publisher); "world" -> "base_link" is the identity (the
-  simulator fixes the robot's base at the origin);
+  names and the convention of robot_state_publisher); "world" -> the robot profile's base is the
+  identity (the simulator fixes the robot's base at the origin);
 - "world" -> each name of /object_poses: "object", "lid" (the hinge frame), "lid_edge",
   "obstacle_0", ...
 
@@ -33,7 +33,6 @@ from tric_sim.world.robot_model import RobotModel
 from tric_sim.world.situation import Situation
 
 WORLD = "world"
-BASE = "base_link"
 IDENTITY = (0.0, 0.0, 0.0, 1.0)
 
 #: Colours (rgba) of the scene's bodies by role.
@@ -102,7 +101,7 @@ class RobotView:
             raise ValueError("the viewer draws fixed, revolute and continuous joints only")
         self.static = Transforms(
             (WORLD,) + tuple(j.parent for j in fixed),
-            (BASE,) + tuple(j.child for j in fixed),
+            (robot.profile.base,) + tuple(j.child for j in fixed),
             np.array([(0.0, 0.0, 0.0)] + [j.position for j in fixed]),
             np.array([IDENTITY] + [j.orientation for j in fixed]),
         )

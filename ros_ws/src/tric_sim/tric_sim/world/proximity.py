@@ -90,11 +90,8 @@ class Proximity:
         self.robot = robot
         self.scene = SceneCollision(robot, situation)
         self.contacts = self.scene.contacts
-        model = robot.model
         objects = robot.collision_model.geometryObjects
-        self.hand = np.array(
-            [model.frames[g.parentFrame].name.startswith(("finger_", "palm")) for g in objects]
-        )
+        self.hand = robot.hand_geometries
         self.names = [g.name for g in objects]
         bounds = [
             max(np.linalg.norm(c) + r for c, r in shapes.bounding_spheres(shape))

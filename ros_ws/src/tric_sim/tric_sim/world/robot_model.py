@@ -1,12 +1,12 @@
-"""The robot's kinematic and collision model, built once from the URDF and shared by everyone.
+"""The robot's kinematic and collision model, built once from its profile's URDF
+(tric_sim.world.robot_profile) and shared by everyone.
 
 The simulator (PyBullet) loads the very same URDF file. Pinocchio parses it with mimic joints, so
-the configuration q has the robot's 14 actuated degrees of freedom (7 arm + 7 hand) while the
-coupled knuckle of finger 3 follows finger 2's knuckle. Units: m, rad, s.
+q has one entry per actuated joint (the paper's robot: 7 arm + 7 hand, the knuckle of finger 3
+following finger 2's). Units: m, rad, s.
 """
 
 import copy
-import math
 import pathlib
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass
@@ -15,48 +15,7 @@ from typing import cast
 import numpy as np
 import pinocchio as pin
 
-URDF_PATH = pathlib.Path(__file__).resolve().parents[1] / "description" / "tric_arm_hand.urdf"
-#: The robot's semantic description: the link pairs whose collisions are never checked (adjacent,
-#: or never in collision over random configurations). Regenerate after changing the URDF:
-#:     python -m tric_sim.world.srdf
-SRDF_PATH = URDF_PATH.with_suffix(".srdf")
-
-#: Landmark frames on the robot (paper Fig. 7): palm centre, fingertips, the middles of the fingers'
-#: lower segments (and the finger bases on the palm).
-PALM = "palm_center"
-FINGERTIPS = ("finger_1_tip", "finger_2_tip", "finger_3_tip")
-FINGER_MIDDLES = ("finger_1_middle", "finger_2_middle", "finger_3_middle")
-FINGER_BASES = ("finger_1_base", "finger_2_base", "finger_3_base")
-BASE = "base_link"
-
-#: Distal link geometry (see the URDF): a segment from the distal joint to the tip centre, radius m.
-DISTAL_LINKS = ("finger_1_distal_link", "finger_2_distal_link", "finger_3_distal_link")
-DISTAL_RADIUS = 0.014
-#: The hand's pre-shapes for a grasp: (knuckle, proximal, distal) in rad. Spheres: the three fingers
-#: spread at 120 degrees; cylinders: fingers 2 and 3 side by side, facing the thumb, opened wide
-#: enough that the proximal links clear the cylinder until the palm is in place (see
-#: docs/decisions/cylinder-teacher.md).
-PRESHAPE = {"sphere": (math.pi / 3, -0.45, 0.35), "cylinder": (0.0, -0.9, 0.6)}
-
-ARM_JOINTS = tuple(f"arm_{i}_joint" for i in range(1, 8))
-HAND_JOINTS = (
-    "finger_1_proximal_joint",
-    "finger_1_distal_joint",
-    "finger_2_knuckle_joint",
-    "finger_2_proximal_joint",
-    "finger_2_distal_joint",
-    "finger_3_proximal_joint",
-    "finger_3_distal_joint",
-)
-#: The hand's joints that flex its fingers (all but the knuckle that turns finger 2).
-FLEXION_JOINTS = tuple(j for j in HAND_JOINTS if not j.endswith("knuckle_joint"))
-
-#: Home configuration (rad), in the order of RobotModel.joint_names: the hand raised in front of the
-#: robot, above the objects' workspace (palm at about (0.30, 0, 0.75) m, facing forward and 45
-#: degrees down), the hand open with its fingers spread at 120 degrees (knuckle pi/3).
-HOME = np.array(
-    [0.0, -0.23, 0.0, 1.04, 0.0, 1.54, 0.0, -0.45, 0.35, np.pi / 3, -0.45, 0.35, -0.45, 0.35]
-)
+from tric_sim.world.robot_profile import DEFAULT_ROBOT, RobotProfile, load_profile
 
 #: The rows of the spatial Jacobian (linear 0-2, angular 3-5) and their signs that give, for each
 #: axis a, [Jv_a, (e_x x Jw)_a, (e_y x Jw)_a, (e_z x Jw)_a] (RobotModel.point_jacobians).
@@ -110,29 +69,43 @@ def _parse_mimics(urdf_path: pathlib.Path) -> tuple:
 
 
 class RobotModel:
-    """Pinocchio model, data and collision model of the arm + hand.
+    """Pinocchio model, data and collision model of the arm + hand of a robot profile (a name, a
+    profile file, or a loaded RobotProfile).
 
-    Self-collision pairs: every pair of geometries on non-adjacent links, less those the SRDF
-    disables (srdf_path=None keeps them all).
+    Self-collision pairs: every pair of geometries on non-adjacent links, less those the profile's
+    SRDF disables (use_srdf=False keeps them all).
 
     Attributes:
-        joint_names: the n = 14 actuated joints, in the order of q.
+        profile: the robot's RobotProfile.
+        joint_names: the n actuated joints, in the order of q.
+        home: the profile's start configuration (n,), rad.
         lower, upper: joint limits (n,), rad.
         velocity_limits: (n,) rad/s; effort_limits: (n,) N m.
         mimic_joints: URDF joints driven by another joint (not part of q).
+        hand_geometries: (G,) bool, which collision geometries are on the hand (its profile's
+            hand_links).
     """
 
-    def __init__(self, urdf_path: pathlib.Path = URDF_PATH, srdf_path=SRDF_PATH):
-        self.urdf_path = pathlib.Path(urdf_path)
+    def __init__(
+        self, profile: RobotProfile | str | pathlib.Path = DEFAULT_ROBOT, use_srdf: bool = True
+    ):
+        self.profile = profile if isinstance(profile, RobotProfile) else load_profile(profile)
+        self.urdf_path = self.profile.urdf_path
         self.model = pin.buildModelFromUrdf(str(self.urdf_path), mimic=True)
         self.data = self.model.createData()
         self.collision_model = pin.buildGeomFromUrdf(
             self.model, str(self.urdf_path), pin.GeometryType.COLLISION
         )
         self._add_self_collision_pairs()
-        if srdf_path is not None:
-            pin.removeCollisionPairs(self.model, self.collision_model, str(srdf_path))
+        if use_srdf:
+            pin.removeCollisionPairs(self.model, self.collision_model, str(self.profile.srdf_path))
         self.collision_data = pin.GeometryData(self.collision_model)
+        self.hand_geometries = np.array(
+            [
+                self.model.frames[g.parentFrame].name in self.profile.hand_links
+                for g in self.collision_model.geometryObjects
+            ]
+        )
         self.joint_names = tuple(
             name
             for name, joint in zip(self.model.names[1:], self.model.joints[1:])
@@ -144,9 +117,9 @@ class RobotModel:
         self.velocity_limits = self.model.velocityLimit.copy()
         self.effort_limits = self.model.effortLimit.copy()
         self.mimic_joints = _parse_mimics(self.urdf_path)
-        self.home = HOME.copy()
-        self.arm_indices = np.array([self.joint_names.index(j) for j in ARM_JOINTS])
-        self.hand_indices = np.array([self.joint_names.index(j) for j in HAND_JOINTS])
+        self.home = np.array([self.profile.home[j] for j in self.joint_names])
+        self.arm_indices = np.array([self.joint_names.index(j) for j in self.profile.arm_joints])
+        self.hand_indices = np.array([self.joint_names.index(j) for j in self.profile.hand_joints])
         self._chain = self._kinematic_chain()
         self.joint_supports, self.extended_to_q = self._jacobian_columns()
         columns = self.model.nvExtended
@@ -169,6 +142,7 @@ class RobotModel:
         joints."""
         geoms = self.collision_model.geometryObjects
         parents = self.model.parents
+        mount = self.model.frames[self.frame_id(self.profile.hand_root)].parentJoint
         for a in range(len(geoms)):
             for b in range(a + 1, len(geoms)):
                 ja, jb = geoms[a].parentJoint, geoms[b].parentJoint
@@ -176,7 +150,7 @@ class RobotModel:
                     continue
                 # Siblings on the palm (finger chains' first links, the palm itself) touch by
                 # design.
-                if parents[ja] == parents[jb] and self.model.names[parents[ja]] == "arm_7_joint":
+                if parents[ja] == parents[jb] == mount:
                     continue
                 self.collision_model.addCollisionPair(pin.CollisionPair(a, b))
 

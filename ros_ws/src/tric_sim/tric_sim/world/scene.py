@@ -11,7 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
-from tric_sim.world.robot_model import FLEXION_JOINTS
+from tric_sim.world.robot_profile import RobotProfile
 from tric_sim.world.situation import Situation
 
 #: The table top is the plane z = 0 under the robot and the objects.
@@ -76,11 +76,16 @@ class Grip:
     duration_s: float
 
 
-#: Each task's grip (None: none): a grasp closes the fingers by the grasp teacher's squeeze past
-#: where they came to rest, so that the fingers hold the object with force, not only friction
-#: (docs/decisions/rest-and-grip.md); a box keeps the hand where it came to rest, the lid held.
-GRASP_GRIP = Grip(FLEXION_JOINTS, 0.12, 0.3)
-TASK_GRIPS = {"grasp": GRASP_GRIP, "open_box": None}
+def task_grip(task: str, profile: RobotProfile) -> Grip | None:
+    """A task's grip (None: none): a grasp closes the fingers' flexion joints by the robot
+    profile's squeeze (the grasp teacher's squeeze past contact) past where they came to rest, so
+    that the fingers hold the object with force, not only friction
+    (docs/decisions/rest-and-grip.md); a box keeps the hand where it came to rest, the lid held."""
+    if task not in TASK_CONTACTS:
+        raise ValueError(f"no grip for task '{task}' (known: {', '.join(TASK_CONTACTS)})")
+    if task != "grasp":
+        return None
+    return Grip(profile.flexion_joints, profile.grip_squeeze, profile.grip_duration_s)
 
 
 @dataclass(frozen=True)

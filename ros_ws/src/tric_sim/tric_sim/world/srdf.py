@@ -1,25 +1,28 @@
 """The robot's semantic description (SRDF): the self-collision pairs that are never checked,
 because random configurations never bring them within NEVER_MARGIN of each other (as MoveIt's setup
-assistant finds them). Regenerate it after changing the URDF: python -m tric_sim.world.srdf
+assistant finds them), written where the robot's profile says. Regenerate it after changing the
+URDF: python -m tric_sim.world.srdf [ROBOT]  (a profile's name or path; default tric_arm_hand)
 """
 
 import hashlib
-import pathlib
+import sys
 
 import numpy as np
 import pinocchio as pin
 
-from tric_sim.world.robot_model import SRDF_PATH, RobotModel
+from tric_sim.world.robot_model import RobotModel
+from tric_sim.world.robot_profile import DEFAULT_ROBOT
 
 #: Self-collision pairs whose distance stays above this over all sampled configurations are
 #: disabled as "Never" in the SRDF, m.
 NEVER_MARGIN = 0.005
 
 
-def write_srdf(samples: int = 20000, seed: int = 0, path: pathlib.Path = SRDF_PATH) -> int:
-    """Write the SRDF disabling the self-collision pairs that random configurations never bring
-    within NEVER_MARGIN of each other (as MoveIt's setup assistant does); returns how many."""
-    robot = RobotModel(srdf_path=None)
+def write_srdf(robot_name: str = DEFAULT_ROBOT, samples: int = 20000, seed: int = 0) -> int:
+    """Write the SRDF of a robot profile (its srdf entry) disabling the self-collision pairs that
+    random configurations never bring within NEVER_MARGIN of each other (as MoveIt's setup
+    assistant does); returns how many."""
+    robot = RobotModel(robot_name, use_srdf=False)
     geometry, data = robot.collision_model, robot.collision_data
     rng = np.random.default_rng(seed)
     closest = np.full(len(geometry.collisionPairs), np.inf)
@@ -46,9 +49,10 @@ def write_srdf(samples: int = 20000, seed: int = 0, path: pathlib.Path = SRDF_PA
     ]
     lines += [f'  <disable_collisions link1="{a}" link2="{b}" reason="Never"/>' for a, b in never]
     lines.append("</robot>")
-    path.write_text("\n".join(lines) + "\n")
+    robot.profile.srdf_path.write_text("\n".join(lines) + "\n")
     return len(never)
 
 
 if __name__ == "__main__":
-    print(f"{write_srdf()} link pairs disabled in {SRDF_PATH}")
+    name = sys.argv[1] if len(sys.argv) > 1 else DEFAULT_ROBOT
+    print(f"{write_srdf(name)} link pairs disabled in {RobotModel(name).profile.srdf_path}")
