@@ -59,6 +59,7 @@ TOOLS = {
         "tric_sim",
         [f"sphere_grid_{k:02d}" for k in range(8)] + ["--strip", "12", "--out", "{tmp}/pictures"],
     ),
+    "tric-robot-check": ("tric_sim", ["--samples", "20000", "--picture", "{tmp}/landmarks.png"]),
 }
 #: The line each tool ends with, after "interrupted" or "terminated".
 KEPT = {
@@ -71,6 +72,7 @@ KEPT = {
     "tric-demo": "; the demonstrations recorded so far kept as bags",
     "tric-analyze": "",
     "tric-snapshot": "; the pictures finished so far kept",
+    "tric-robot-check": "",
 }
 
 

@@ -132,6 +132,7 @@ BAD_ARGUMENTS = {
     "tric_learning.record_cli": (["sphere_train", "--period", "0"], "must"),
     "tric_learning.analyze_cli": (["m.safetensors", "b.mcap", "--top", "0"], "--top must be"),
     "tric_sim.snapshot": (["sphere_grid_13", "--strip", "1"], "--strip takes 2 to 12 frames"),
+    "tric_sim.robot_check": (["--samples", "0"], "--samples takes at least 1"),
 }
 
 

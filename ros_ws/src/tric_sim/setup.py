@@ -31,6 +31,7 @@ setup(
         "console_scripts": [
             "simulator = tric_sim.nodes:simulator",
             "teacher = tric_sim.nodes:teacher",
+            "tric-robot-check = tric_sim.commands:tric_robot_check",
             "tric-snapshot = tric_sim.commands:tric_snapshot",
             "visualizer = tric_sim.nodes:visualizer",
         ]

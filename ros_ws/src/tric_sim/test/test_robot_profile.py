@@ -1,16 +1,17 @@
 """Robot profiles: the paper's robot as data, every shipped profile checked against its URDF in
 Pinocchio and PyBullet, and each kind of mistake in a profile refused with its name."""
 
-import xml.etree.ElementTree as ET
-
 import numpy as np
 import pinocchio as pin
-import pybullet as pb
 import pytest
 import yaml
 
-from tric_sim.physics.simulation import PhysicsWorld
-from tric_sim.world import scene, situations
+from tric_sim import robot_check
+from tric_sim.physics.profile_check import (
+    AGREEMENT,
+    collision_pair_problems,
+    landmark_disagreement,
+)
 from tric_sim.world.robot_model import RobotModel
 from tric_sim.world.robot_profile import DEFAULT_ROBOT, PROFILE_DIR, load_profile
 
@@ -41,109 +42,35 @@ def test_the_hand_geometries_are_the_hand_links():
     assert all(name in hand for name in names if name.startswith(("finger_", "palm")))
 
 
-def _landmarks(profile) -> set:
-    fingers = profile.fingers
-    return {
-        profile.base,
-        profile.palm,
-        *profile.lid_fingertips,
-        *(frame for f in fingers for frame in (f.tip, f.middle, f.base, *f.links)),
-    }
-
-
-def _fixed_chains(urdf_path) -> dict:
-    """URDF child link -> (parent link, fixed placement) of each fixed joint."""
-    chains = {}
-    for joint in ET.parse(urdf_path).getroot().iter("joint"):
-        if joint.get("type") != "fixed":
-            continue
-        origin = joint.find("origin")
-        xyz = [
-            float(v)
-            for v in (origin.get("xyz", "0 0 0") if origin is not None else "0 0 0").split()
-        ]
-        rpy = [
-            float(v)
-            for v in (origin.get("rpy", "0 0 0") if origin is not None else "0 0 0").split()
-        ]
-        placement = pin.SE3(pin.rpy.rpyToMatrix(*rpy), np.array(xyz))
-        chains[joint.find("child").get("link")] = (joint.find("parent").get("link"), placement)
-    return chains
-
-
-def _pybullet_placement(world, chains, base, frame) -> pin.SE3:
-    """A frame's world placement as PyBullet has it: its link, or the simulated link that carries
-    it (PyBullet merges fixed links) composed with the fixed joints in between."""
-    offset = pin.SE3.Identity()
-    while frame not in world.link_index and frame != base:
-        frame, placement = chains[frame]
-        offset = placement * offset
-    if frame == base:  # PyBullet places the base by its centre of mass
-        position, orientation = pb.getBasePositionAndOrientation(
-            world.robot_id, physicsClientId=world.client
-        )
-        inertial = pb.getDynamicsInfo(world.robot_id, -1, physicsClientId=world.client)
-        centre = scene.se3(np.array(inertial[3]), np.array(inertial[4]))
-        offset = centre.inverse() * offset
-    else:
-        state = pb.getLinkState(
-            world.robot_id,
-            world.link_index[frame],
-            computeForwardKinematics=True,
-            physicsClientId=world.client,
-        )
-        position, orientation = state[4], state[5]
-    return scene.se3(np.array(position), np.array(orientation)) * offset
-
-
 @pytest.mark.parametrize("name", SHIPPED)
 def test_every_profile_s_landmarks_agree_in_pinocchio_and_pybullet(name):
-    """Over random configurations, each landmark frame of the profile, as Pinocchio places it and
-    as PyBullet does, to 1e-6 m and rad; and the collision pairs are consistent: none between a
-    link and itself or its neighbour, none the SRDF disables, and the SRDF names URDF links."""
+    """Over random configurations, each landmark frame of the profile as Pinocchio places it and as
+    PyBullet does, to 1e-6 m and rad; and the self-collision pairs consistent (none on one link or
+    between neighbours, none the SRDF disables, the SRDF naming links of the URDF)."""
     robot = RobotModel(name)
+    worst = landmark_disagreement(robot, samples=10)
     profile = robot.profile
-    chains = _fixed_chains(profile.urdf_path)
-    world = PhysicsWorld(robot)
-    try:
-        world.reset(situations.sphere("agreement", (0.6, 0.0, 0.35)))
-        rng = np.random.default_rng(0)
-        worst = 0.0
-        for _ in range(10):
-            q = rng.uniform(robot.lower, robot.upper)
-            for joint, angle in robot.urdf_joint_positions(q).items():
-                index = (
-                    world.actuated[robot.joint_names.index(joint)]
-                    if joint in robot.joint_names
-                    else next(m[0] for m in world.mimics)
-                )
-                pb.resetJointState(world.robot_id, index, angle, physicsClientId=world.client)
-            robot.forward(q)
-            for frame in _landmarks(profile):
-                expected = robot.frame_placement(frame)
-                got = _pybullet_placement(world, chains, profile.base, frame)
-                worst = max(
-                    worst,
-                    np.abs(expected.translation - got.translation).max(),
-                    np.linalg.norm(pin.log3(expected.rotation.T @ got.rotation)),
-                )
-        assert worst < 1e-6
-    finally:
-        world.close()
-    links = {link.get("name") for link in ET.parse(profile.urdf_path).getroot().iter("link")}
-    disabled = {
-        frozenset((tag.get("link1"), tag.get("link2")))
-        for tag in ET.parse(profile.srdf_path).getroot().iter("disable_collisions")
-    }
-    assert disabled and all(pair <= links for pair in disabled)
-    geometries, model = robot.collision_model.geometryObjects, robot.model
-    for pair in robot.collision_model.collisionPairs:
-        a, b = geometries[pair.first], geometries[pair.second]
-        assert a.parentJoint != b.parentJoint
-        assert model.parents[a.parentJoint] != b.parentJoint
-        assert model.parents[b.parentJoint] != a.parentJoint
-        names = frozenset((model.frames[a.parentFrame].name, model.frames[b.parentFrame].name))
-        assert names not in disabled
+    assert {profile.base, profile.palm, *profile.fingertips, *profile.finger_middles} <= set(worst)
+    assert max(max(gaps) for gaps in worst.values()) < AGREEMENT
+    assert collision_pair_problems(robot) == []
+
+
+def test_the_check_finds_a_landmark_placed_elsewhere(monkeypatch):
+    """A fingertip that Pinocchio places 1 mm off PyBullet's is reported, and only it."""
+    robot = RobotModel()
+    tip, placement = robot.profile.fingertips[0], robot.frame_placement
+    moved = pin.SE3(np.eye(3), np.array([0.001, 0.0, 0.0]))
+    monkeypatch.setattr(
+        robot, "frame_placement", lambda f: placement(f) * moved if f == tip else placement(f)
+    )
+    worst = landmark_disagreement(robot, samples=3)
+    assert worst[tip][0] > 5e-4
+    assert all(max(gaps) < AGREEMENT for frame, gaps in worst.items() if frame != tip)
+
+
+def test_the_check_finds_checked_pairs_the_srdf_disables():
+    problems = collision_pair_problems(RobotModel(use_srdf=False))
+    assert problems and all("SRDF disables" in problem for problem in problems)
 
 
 @pytest.fixture
@@ -201,3 +128,22 @@ def test_a_profile_mistake_is_refused_with_its_name(tmp_path, profile_data, mist
 def test_an_unknown_robot_is_refused_naming_the_shipped_ones():
     with pytest.raises(ValueError, match="no robot profile 'panda_arm'.*tric_arm_hand"):
         load_profile("panda_arm")
+
+
+def test_tric_robot_check_reports_each_landmark_and_draws_them(tmp_path, capsys):
+    picture = tmp_path / "landmarks.png"
+    assert robot_check.main(["--samples", "3", "--picture", str(picture)]) == 0
+    out = capsys.readouterr().out
+    assert "robot profile 'tric_arm_hand'" in out and "over 3 random configurations" in out
+    assert "finger_3_tip" in out and "problems: none" in out
+    assert picture.read_bytes().startswith(b"\x89PNG")
+
+
+def test_tric_robot_check_refuses_a_profile_naming_why(tmp_path, profile_data, capsys):
+    profile_data["fingers"][2]["middle"] = "finger_3_center"
+    path = tmp_path / "robot.yaml"
+    path.write_text(yaml.safe_dump(profile_data))
+    assert robot_check.main([str(path)]) == 2
+    assert "finger 3 middle: frame 'finger_3_center' is not a link" in capsys.readouterr().err
+    assert robot_check.main(["no_robot"]) == 2
+    assert "no robot profile 'no_robot'" in capsys.readouterr().err

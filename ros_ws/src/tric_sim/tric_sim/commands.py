@@ -7,3 +7,7 @@ from tric_sim.tools.interrupts import command_main
 
 def tric_snapshot() -> int:
     return command_main("tric-snapshot", "tric_sim.snapshot")
+
+
+def tric_robot_check() -> int:
+    return command_main("tric-robot-check", "tric_sim.robot_check")
