@@ -69,10 +69,9 @@ from tric_msgs.msg import Situation as SituationMsg
 from tric_msgs.srv import LoadModel
 from tric_sim.ros import messages
 from tric_sim.ros.graph import EVENT_QOS, LATCHED_QOS, STATE_QOS, run_node
-from tric_sim.ros.parameters import AT_LEAST_ONE, POSITIVE, Range, declare
+from tric_sim.ros.parameters import AT_LEAST_ONE, POSITIVE, Range, declare, declare_robot
 from tric_sim.ros.topic_poller import command_msg
 from tric_sim.world.proximity import Proximity
-from tric_sim.world.robot_model import RobotModel
 from tric_sim.world.scene import task_grip
 
 MODES = ("lockstep", "realtime")
@@ -108,7 +107,7 @@ class ControllerNode(Node):
         )
         self.period = 1.0 / rate
         self.period_ns = int(round(1e9 / rate))
-        self.robot = RobotModel()
+        self.robot = declare_robot(self)
         self.definition = FeatureDefinition.for_task(self.task, self.robot)
         self.model = None
         self.scene = None

@@ -2,7 +2,7 @@
 
     tric-eval (--model MODEL | --teacher) (DATASET | --situations-file FILE) [--json OUT
               [--overwrite]] [--max-steps N | --protocol paper] [--snapshots DIR]
-              [--domain-id N] [--jobs N]
+              [--domain-id N] [--jobs N] [--robot ROBOT]
               [--executor processes|ray] [--address HOST:PORT] [--offline] [--record DIR]
               [--viz [--viz-port P]] [--perturb KIND:SIZE[@SECONDS] ...]
 
@@ -13,7 +13,9 @@ situation: reset the scene (/simulator/reset_scene); the teacher demonstrates it
 (/simulator/evaluate_task, with the lift test for grasps). Prints a table, and writes the
 per-episode records and their summary to the --json file. DATASET is a built-in data set
 (sphere_test, cylinder_test, obstacle_test, box_test, ...); any YAML/JSON situations file of one
-task works too. --snapshots DIR writes a PNG of each final state (before the lift test). The --json
+task works too. --robot: the robot (a shipped profile's name or a profile file, docs/robots.md;
+default tric_arm_hand); a model made for another robot is refused. --snapshots DIR writes a PNG
+of each final state (before the lift test). The --json
 file and the --snapshots folder are checked before the first episode (the --json file must not be
 the model or the situations file, nor exist unless --overwrite), claimed for this run (another run
 naming them is refused, naming this one's PID), with the name of every picture and bag the episodes
@@ -62,9 +64,11 @@ from tric_sim.tools.file_names import check_file_names, safe_stem
 from tric_sim.tools.interrupts import run_interruptible
 from tric_sim.tools.output_files import PARTIAL_SUFFIX, check_output_file, check_output_folder
 from tric_sim.tools.provenance import code_digest
+from tric_sim.tools.robot_option import add_robot_option, checked_robot
 from tric_sim.tools.untrusted import check_input_file
 from tric_sim.viz.view_options import add_view_arguments, open_view
 from tric_sim.world.perturbation_trials import parse_trial
+from tric_sim.world.robot_profile import load_profile
 from tric_sim.world.situation_files import load_situations
 from tric_sim.world.situations import DATASETS, dataset
 
@@ -89,6 +93,7 @@ def run(argv) -> int:
     )
     parser.add_argument("dataset", nargs="?", choices=sorted(DATASETS), help="a built-in data set")
     parser.add_argument("--situations-file", help="a YAML/JSON situations file instead of DATASET")
+    add_robot_option(parser)
     parser.add_argument("--json", help="write the per-episode records and the summary to this file")
     parser.add_argument(
         "--overwrite", action="store_true", help="replace the --json file if it exists"
@@ -188,13 +193,14 @@ def evaluate_and_report(args, executor, domain_id: int, claims: contextlib.ExitS
     view = None
     name = "teacher" if args.teacher else args.model
     try:
+        args.robot = checked_robot(args)
         situations = (
             load_situations(args.situations_file) if args.situations_file else dataset(args.dataset)
         )
         if args.perturb:
             from tric_sim.world.robot_model import RobotModel
 
-            robot = RobotModel()
+            robot = RobotModel(args.robot)
             situations = [
                 trial.apply(situation, robot) for situation in situations for trial in args.perturb
             ]
@@ -226,6 +232,7 @@ def evaluate_and_report(args, executor, domain_id: int, claims: contextlib.ExitS
                         jobs=args.jobs,
                         on_record=on_record,
                         executor=workers,
+                        robot=args.robot,
                     )
                 else:
                     new = evaluate(
@@ -239,6 +246,7 @@ def evaluate_and_report(args, executor, domain_id: int, claims: contextlib.ExitS
                         record=args.record,
                         on_record=on_record,
                         executor=workers,
+                        robot=args.robot,
                     )
         judged = {**done, **{record.situation: record for record in new}}
         records = [judged[situation.name] for situation in situations]
@@ -308,7 +316,8 @@ def kept_records(args, model, situations):
         return None
     from tric_control.evaluation.partial import PartialRecords, agent_digest
 
-    runs = "offline" if args.offline else "nodes"
+    # the robot's profile file and URDF are part of what made an episode
+    runs = f"{'offline' if args.offline else 'nodes'}, robot {load_profile(args.robot).digest}"
     code = code_digest(f"tric_control.evaluation.{'offline' if args.offline else 'graph'}")
     kept = PartialRecords(args.json, agent_digest(model), situations, args.max_steps, runs, code)
     if not args.resume:

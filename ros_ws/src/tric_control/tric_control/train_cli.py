@@ -5,7 +5,7 @@ a model file, choosing the model among candidates.
                [--members N] [--score NAME] [--hidden-units K] [--noisy-samples M] [--sigma RAD]
                [--alpha-n A] [--alpha-g A] [--alpha-w A] [--l2 W] [--iterations N]
                [--correlation-threshold C] [--seed G] [--jobs J] [--executor processes|ray]
-               [--address HOST:PORT] [--include-failed] [--tolerant] [--overwrite]
+               [--address HOST:PORT] [--include-failed] [--tolerant] [--overwrite] [--robot ROBOT]
 
 BAGS are MCAP bags written by tric-record or the recorder node, or folders of them. MODEL defaults
 to model.safetensors next to the first bag, and must not exist unless --overwrite; it is claimed
@@ -26,6 +26,8 @@ Bags whose recorded outcome is a failure are refused unless --include-failed; da
 (.part) bags unless --tolerant, which reads them up to their damage (a folder's .part files are
 skipped without it). Every bag skipped, read tolerantly or included despite its outcome is named.
 Shows the progress of the candidates (DPL: of loading and optimization), then a summary.
+--robot: the robot the bags were recorded with (a shipped profile's name or a profile file,
+docs/robots.md; default tric_arm_hand); bags of another robot are refused.
 Exit status 0 on success, 2 when a bag, value or path is refused (one line on stderr, nothing
 written), 130 when interrupted.
 """
@@ -48,6 +50,7 @@ from tric_control.selection.settings import SCORES, SelectionConfig
 from tric_control.train_output import CandidateBar, StageBars, dpl_summary, summary
 from tric_learning.training.hyperparameters import DPL_KINDS, KINDS, DplConfig, TrainingConfig
 from tric_sim.tools.interrupts import run_interruptible
+from tric_sim.tools.robot_option import add_robot_option, checked_robot
 
 PROG = "tric-train"
 
@@ -185,6 +188,7 @@ def parse_arguments(argv):
         "--overwrite", action="store_true", help="replace the model file if it exists"
     )
     parser.add_argument("--quiet", action="store_true", help="no progress bars")
+    add_robot_option(parser)
     return parser.parse_args(argv)
 
 
@@ -230,6 +234,7 @@ def run(argv) -> int:
             selection.validate()
         if not 1 <= args.jobs <= 64:
             raise ValueError("--jobs must be in [1, 64]")
+        robot = checked_robot(args)
         choice = chosen_executor(args)
     except ValueError as error:
         print(f"{PROG}: {error}", file=sys.stderr)
@@ -251,7 +256,7 @@ def run(argv) -> int:
                     args.bags,
                     args.out,
                     config,
-                    RobotModel(),
+                    RobotModel(robot),
                     bars,
                     kind=args.kind,
                     include_failed=args.include_failed,
@@ -273,7 +278,7 @@ def run(argv) -> int:
                     args.out,
                     config,
                     selection,
-                    RobotModel(),
+                    RobotModel(robot),
                     executor,
                     args.jobs,
                     bar,

@@ -62,9 +62,8 @@ from tric_msgs.msg import TrainingProgress
 from tric_msgs.srv import Train
 from tric_sim.ros import messages
 from tric_sim.ros.graph import run_node
-from tric_sim.ros.parameters import NOT_NEGATIVE, Range, declare
+from tric_sim.ros.parameters import NOT_NEGATIVE, Range, declare, declare_robot
 from tric_sim.ros.topic_poller import run_in_thread
-from tric_sim.world.robot_model import RobotModel
 
 #: Overall progress spanned by each stage of a training: (start, end) fractions.
 STAGE_SPANS = {
@@ -147,7 +146,7 @@ class TrainerNode(Node):
         self.jobs = declare(
             self, "jobs", 0, "candidates trained at once (0: the CPUs)", Range(0, 64)
         ) or (os.cpu_count() or 1)
-        self.robot = RobotModel()
+        self.robot = declare_robot(self)
         self._candidates = 0  # of the running TRIC training
         self._busy = threading.Lock()
         self._last_report = (None, 0.0)  # (stage, monotonic time) of the last progress message

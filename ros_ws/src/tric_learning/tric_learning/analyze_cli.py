@@ -1,14 +1,15 @@
 """tric-analyze: the paper's analyses of a trained TRIC model, as PNGs (Fig. 12, 13, 14a, 14b, 15,
 16 and 17a-c).
 
-    tric-analyze MODEL BAGS... [--out DIR] [--top N] [--feature-rank N]
+    tric-analyze MODEL BAGS... [--out DIR] [--top N] [--feature-rank N] [--robot ROBOT]
 
 Writes the figures of tric_learning.analysis into DIR for the demonstrations in BAGS (bags or
 folders of bags, the training ones or others of the same feature definition), and, for a model
 chosen among candidates (tric-train), selection.png: each candidate's score against its rollouts'
 outcomes. Prints the share of demonstration steps along which f decreases, the mean cosine, the
-top features and how the model was chosen. Exit status 0, or 2 with one line on stderr when the
-model or a bag is refused.
+top features and how the model was chosen. --robot: the robot of the model and the bags (a shipped
+profile's name or a profile file, docs/robots.md; default tric_arm_hand). Exit status 0, or 2 with
+one line on stderr when the model or a bag is refused.
 """
 
 import argparse
@@ -20,6 +21,7 @@ import sys
 from tric_sim.tools.claims import claim
 from tric_sim.tools.interrupts import run_interruptible
 from tric_sim.tools.output_files import check_output_folder
+from tric_sim.tools.robot_option import add_robot_option, checked_robot
 
 PROG = "tric-analyze"
 
@@ -48,8 +50,10 @@ def run(argv) -> int:
         help="the feature of Fig. 17b/c: the N-th by score (default: the paper's, "
         "tric_learning.analysis.DEFAULT_FEATURE_RANK)",
     )
+    add_robot_option(parser)
     args = parser.parse_args(argv)
     try:
+        args.robot = checked_robot(args)
         if args.top < 1:
             raise ValueError("--top must be at least 1")
         if args.feature_rank is not None and args.feature_rank < 1:
@@ -92,7 +96,7 @@ def analyze(args) -> int:
         from tric_sim.world.robot_model import RobotModel
 
         rank = DEFAULT_FEATURE_RANK if args.feature_rank is None else args.feature_rank
-        robot = RobotModel()
+        robot = RobotModel(args.robot)
         dataset = load_dataset(args.bags, robot)
         model_file = ModelFile.load(args.model, expected=dataset.definition)
         model = value_function(model_file)

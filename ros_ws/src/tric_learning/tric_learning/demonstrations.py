@@ -16,6 +16,7 @@ from tric_sim.ros.graph import InProcessGraph, wait
 from tric_sim.simulator_node import lockstep_simulator
 from tric_sim.teacher_node import TeacherNode
 from tric_sim.visualizer_node import VisualizerNode
+from tric_sim.world.robot_profile import DEFAULT_ROBOT
 
 
 def demonstrate_all(
@@ -27,17 +28,24 @@ def demonstrate_all(
     domain_id: int = None,
     view=None,
     overwrite: bool = False,
+    robot: str = DEFAULT_ROBOT,
 ):
     """Demonstrate and record every situation; returns [(situation, result, bag path or None)]
     (None with result.message saying why, when the recorder could not write the bag).
     domain_id: the graph's DDS domain (None: the environment's); view: a FoxgloveView to show the
-    run in (None: no visualizer); overwrite: the recorder's parameter."""
+    run in (None: no visualizer); overwrite: the recorder's parameter; robot: the robot, a profile's
+    name or file (docs/robots.md), a parameter of every node."""
     graph = InProcessGraph(domain_id)
     try:
-        graph.add(lockstep_simulator(graph.context))
+        robot_parameter = Parameter("robot", value=robot)
+        graph.add(lockstep_simulator(graph.context, robot))
         if view is not None:
-            graph.add(VisualizerNode(view=view, context=graph.context))
-        graph.add(TeacherNode(context=graph.context))
+            graph.add(
+                VisualizerNode(
+                    view=view, context=graph.context, parameter_overrides=[robot_parameter]
+                )
+            )
+        graph.add(TeacherNode(context=graph.context, parameter_overrides=[robot_parameter]))
         recorder = graph.add(
             RecorderNode(
                 context=graph.context,
@@ -45,6 +53,7 @@ def demonstrate_all(
                     Parameter("output_dir", value=str(out)),
                     Parameter("sample_period_s", value=period),
                     Parameter("overwrite", value=overwrite),
+                    robot_parameter,
                 ],
             )
         )

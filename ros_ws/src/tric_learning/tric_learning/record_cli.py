@@ -1,7 +1,7 @@
 """tric-record: record teacher demonstrations to MCAP bags, through the real nodes.
 
     tric-record DATASET|--situations-file FILE [--out DIR] [--overwrite] [--period S] [--duration S]
-                [--domain-id N] [--viz [--viz-port P]]
+                [--domain-id N] [--robot ROBOT] [--viz [--viz-port P]]
 
 Runs the simulator (lockstep), the teacher and the recorder nodes in one process: for each situation
 the teacher demonstrates (action /teacher/demonstrate) and the recorder writes one bag
@@ -12,7 +12,8 @@ this one's PID), its room checked for the bags (which grow with --duration, at m
 shrink with --period), and every bag's name: no two situations may map to one file (as DIR's file
 system compares names), and no bag may be an input (the situations file). Prints a table of the
 demonstrations' outcomes; exits non-zero if any failed. --viz serves a live Foxglove view of the run
-(tric_sim.visualizer_node) on ws://127.0.0.1:P (default 8765).
+(tric_sim.visualizer_node) on ws://127.0.0.1:P (default 8765). --robot: the robot, a shipped
+profile's name or a profile file (docs/robots.md; default tric_arm_hand).
 """
 
 import argparse
@@ -28,6 +29,7 @@ from tric_sim.tools.claims import claim
 from tric_sim.tools.file_names import check_file_names, safe_stem
 from tric_sim.tools.interrupts import run_interruptible
 from tric_sim.tools.output_files import check_output_folder
+from tric_sim.tools.robot_option import add_robot_option, checked_robot
 from tric_sim.viz.view_options import add_view_arguments, open_view
 from tric_sim.world.durations import DEFAULT_DURATION, MAX_DURATION
 from tric_sim.world.situation_files import load_situations
@@ -73,6 +75,7 @@ def run(argv) -> int:
         "replaced, other files are kept",
     )
     parser.add_argument("--period", type=float, default=0.125, help="sampling period, simulated s")
+    add_robot_option(parser)
     parser.add_argument(
         "--duration",
         type=float,
@@ -99,6 +102,7 @@ def run(argv) -> int:
         parser.error(f"--domain-id must be in [0, {MAX_DOMAIN_ID}]")
     with contextlib.ExitStack() as claims:
         try:
+            args.robot = checked_robot(args)
             situations = (
                 load_situations(args.situations_file)
                 if args.situations_file
@@ -153,6 +157,7 @@ def record(args, situations, out: pathlib.Path, domain_id: int) -> int:
             domain_id=domain_id,
             view=view,
             overwrite=args.overwrite,
+            robot=args.robot,
         )
     finally:
         if view is not None:

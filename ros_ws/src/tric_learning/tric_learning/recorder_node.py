@@ -40,11 +40,10 @@ from tric_learning.recording import SAMPLE_PERIOD
 from tric_msgs.msg import ControllerStatus, EpisodeEvent, ObjectPoses
 from tric_sim.ros import messages
 from tric_sim.ros.graph import EVENT_QOS, run_node
-from tric_sim.ros.parameters import POSITIVE, declare
+from tric_sim.ros.parameters import POSITIVE, declare, declare_robot
 from tric_sim.ros.topic_poller import TopicPoller
 from tric_sim.tools.file_names import safe_stem
 from tric_sim.tools.output_files import check_output_folder
-from tric_sim.world.robot_model import RobotModel
 
 #: The recorded state topics: deep enough to hold a whole 5 s episode at 100 Hz should the
 #: recording thread fall behind.
@@ -85,7 +84,7 @@ class RecorderNode(Node):
         self.status_topic = declare(
             self, "status_topic", "", "the controller's status topic to record (empty: none)"
         )
-        self.robot = RobotModel()
+        self.robot = declare_robot(self)
         self.finished = []
         self.failed = []
         self._lock = threading.Lock()

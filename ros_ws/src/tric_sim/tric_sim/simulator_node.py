@@ -39,9 +39,9 @@ from tric_sim.physics import metrics
 from tric_sim.physics.simulation import PhysicsWorld
 from tric_sim.ros import messages
 from tric_sim.ros.graph import LATCHED_QOS, STATE_QOS, run_node
-from tric_sim.ros.parameters import POSITIVE, Range, declare
+from tric_sim.ros.parameters import POSITIVE, Range, declare, declare_robot
 from tric_sim.ros.topic_poller import TopicPoller
-from tric_sim.world.robot_model import RobotModel
+from tric_sim.world.robot_profile import DEFAULT_ROBOT
 from tric_sim.world.situations import find_situation
 
 #: lockstep_timeout_s for a simulator whose commanders run in the same process (the in-process
@@ -87,7 +87,7 @@ class SimulatorNode(Node):
             "YAML/JSON situations file to find `situation` in; empty: built-in sets",
         )
 
-        self.robot = RobotModel()
+        self.robot = declare_robot(self)
         self.world = PhysicsWorld(self.robot, physics_rate, control_rate, iterations, gui)
         self.joint_index = {name: i for i, name in enumerate(self.robot.joint_names)}
         group = MutuallyExclusiveCallbackGroup()
@@ -308,14 +308,16 @@ class SimulatorNode(Node):
         return response
 
 
-def lockstep_simulator(context) -> SimulatorNode:
-    """A simulator node in lockstep mode for an in-process graph on context (its commanders answer
-    every state: lockstep_timeout_s IN_PROCESS_LOCKSTEP_TIMEOUT_S)."""
+def lockstep_simulator(context, robot: str = DEFAULT_ROBOT) -> SimulatorNode:
+    """A simulator node of robot (a profile's name or file) in lockstep mode for an in-process
+    graph on context (its commanders answer every state: lockstep_timeout_s
+    IN_PROCESS_LOCKSTEP_TIMEOUT_S)."""
     return SimulatorNode(
         context=context,
         parameter_overrides=[
             Parameter("mode", value="lockstep"),
             Parameter("lockstep_timeout_s", value=IN_PROCESS_LOCKSTEP_TIMEOUT_S),
+            Parameter("robot", value=robot),
         ],
     )
 

@@ -1,13 +1,14 @@
 """tric-snapshot: render situations to PNG files (PyBullet's software renderer, no display).
 
     tric-snapshot SITUATION [SITUATION ...] --out DIR [--situations-file FILE] [--size W H]
-                  [--strip FRAMES]
+                  [--strip FRAMES] [--robot ROBOT]
 
 Each SITUATION is a name from the built-in data sets (sphere_train, sphere_test, cylinder_train,
 cylinder_test, obstacle_test, box_train, box_test) or from --situations-file; the robot stands in
 its initial configuration. Writes DIR/<name>.png. With --strip FRAMES, the situation's teacher
 demonstrates it (directly on the physics, no ROS) and DIR/<name>_strip.png shows FRAMES moments of
-the demonstration side by side, with their times.
+the demonstration side by side, with their times. --robot: the robot (a shipped profile's name or a
+profile file, docs/robots.md; default tric_arm_hand).
 """
 
 import argparse
@@ -18,6 +19,7 @@ import sys
 from tric_sim.tools.claims import claim
 from tric_sim.tools.interrupts import run_interruptible
 from tric_sim.tools.output_files import WriteFailed, check_output_folder
+from tric_sim.tools.robot_option import add_robot_option, checked_robot
 from tric_sim.world.situations import find_situation
 
 
@@ -31,6 +33,7 @@ def run(argv) -> int:
     parser.add_argument("--out", default=".", help="output folder (default: .)")
     parser.add_argument("--situations-file", default=None, help="YAML/JSON file to find names in")
     parser.add_argument("--size", nargs=2, type=int, default=(640, 480), metavar=("W", "H"))
+    add_robot_option(parser)
     parser.add_argument(
         "--strip",
         type=int,
@@ -42,6 +45,7 @@ def run(argv) -> int:
     if args.strip and not 2 <= args.strip <= 12:
         parser.error("--strip takes 2 to 12 frames")
     try:
+        robot = checked_robot(args)
         chosen = [find_situation(name, args.situations_file) for name in args.situations]
         out = check_output_folder(args.out, "--out folder")
         held = claim(out, "--out folder", folder=True)
@@ -52,7 +56,7 @@ def run(argv) -> int:
 
     with held:
         try:
-            write_pictures(chosen, out, args.size, args.strip)
+            write_pictures(chosen, out, args.size, args.strip, robot)
         except WriteFailed as error:
             print(f"tric-snapshot: {error}", file=sys.stderr)
             return 2

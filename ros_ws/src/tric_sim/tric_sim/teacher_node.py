@@ -21,11 +21,10 @@ from tric_msgs.msg import EpisodeEvent
 from tric_msgs.srv import EvaluateTask, ResetScene
 from tric_sim.ros import messages
 from tric_sim.ros.graph import EVENT_QOS, STATE_QOS, Canceled, run_node
-from tric_sim.ros.parameters import POSITIVE, declare
+from tric_sim.ros.parameters import POSITIVE, declare, declare_robot
 from tric_sim.ros.topic_poller import StateStream, command_msg, run_in_thread
 from tric_sim.teachers import make_teacher
 from tric_sim.world.durations import DEFAULT_DURATION, MAX_DURATION
-from tric_sim.world.robot_model import RobotModel
 
 #: How long a goal waits for the simulator's services to be discovered before it is aborted, s.
 SERVICE_WAIT_S = 10.0
@@ -44,7 +43,7 @@ class TeacherNode(Node):
             "wall seconds without joint states before a goal aborts",
             POSITIVE,
         )
-        self.robot = RobotModel()
+        self.robot = declare_robot(self)
         self.command_pub = self.create_publisher(JointState, "/joint_command", STATE_QOS)
         self.episode_pub = self.create_publisher(EpisodeEvent, "/episode", EVENT_QOS)
         self.reset_client = self.create_client(ResetScene, f"{simulator}/reset_scene")

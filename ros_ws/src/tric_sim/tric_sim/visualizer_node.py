@@ -36,10 +36,9 @@ from tric_msgs.msg import ControllerStatus, ObjectPoses
 from tric_msgs.msg import Situation as SituationMsg
 from tric_sim.ros import messages
 from tric_sim.ros.graph import LATCHED_QOS, run_node
-from tric_sim.ros.parameters import Range, declare
+from tric_sim.ros.parameters import Range, declare, declare_robot
 from tric_sim.ros.topic_poller import TopicPoller
 from tric_sim.viz import scene_messages, scene_view
-from tric_sim.world.robot_model import RobotModel
 
 try:
     from tf2_msgs.msg import TFMessage
@@ -78,7 +77,7 @@ class VisualizerNode(Node):
         status_topic = declare(
             self, "status_topic", "/controller/status", "the controller's status topic"
         )
-        self.robot_view = scene_view.RobotView(RobotModel())
+        self.robot_view = scene_view.RobotView(declare_robot(self))
         self.situation = None
         self._poses = {}
         self._stamp_ns = 0

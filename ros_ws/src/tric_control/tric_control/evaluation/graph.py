@@ -33,6 +33,7 @@ from tric_sim.teacher_node import TeacherNode
 from tric_sim.visualizer_node import VisualizerNode
 from tric_sim.viz.situation_pictures import write_png
 from tric_sim.world.perturbations import min_steps_for
+from tric_sim.world.robot_profile import DEFAULT_ROBOT
 
 #: Wall seconds to wait for a service answer, for an episode to end, and for the recorder to close
 #: an episode's bag (--record).
@@ -44,7 +45,8 @@ class Evaluator:
 
     model: a model file for the controller, or None to evaluate the teacher; domain_id: the DDS
     domain of the graph (None: the environment's); view: a FoxgloveView to show the episodes in
-    (None: no visualizer); record: a folder for one bag per episode (None: no recorder)."""
+    (None: no visualizer); record: a folder for one bag per episode (None: no recorder); robot: the
+    robot, a profile's name or file (docs/robots.md), a parameter of every node."""
 
     def __init__(
         self,
@@ -54,16 +56,24 @@ class Evaluator:
         domain_id: int = None,
         view=None,
         record=None,
+        robot: str = DEFAULT_ROBOT,
     ):
         self.task, self.model = task, model
+        robot_parameter = Parameter("robot", value=robot)
         self.max_steps = check_integer(max_steps, "uint32", "max_steps")  # the Execute goal's
         self.graph = InProcessGraph(domain_id)
         self.closed = False
         self.recorder = None
         try:
-            self.simulator = self.graph.add(lockstep_simulator(self.graph.context))
+            self.simulator = self.graph.add(lockstep_simulator(self.graph.context, robot))
             if view is not None:
-                self.graph.add(VisualizerNode(view=view, context=self.graph.context))
+                self.graph.add(
+                    VisualizerNode(
+                        view=view,
+                        context=self.graph.context,
+                        parameter_overrides=[robot_parameter],
+                    )
+                )
             if record is not None:
                 self.recorder = self.graph.add(
                     RecorderNode(
@@ -77,11 +87,14 @@ class Evaluator:
                             Parameter(
                                 "status_topic", value="" if model is None else "/controller/status"
                             ),
+                            robot_parameter,
                         ],
                     )
                 )
             if model is None:
-                self.graph.add(TeacherNode(context=self.graph.context))
+                self.graph.add(
+                    TeacherNode(context=self.graph.context, parameter_overrides=[robot_parameter])
+                )
             else:
                 self.controller = self.graph.add(
                     ControllerNode(
@@ -89,6 +102,7 @@ class Evaluator:
                         parameter_overrides=[
                             Parameter("task", value=task),
                             Parameter("mode", value="lockstep"),
+                            robot_parameter,
                         ],
                     )
                 )
@@ -313,8 +327,10 @@ def evaluate(
     record=None,
     on_record=None,
     executor=None,
+    robot: str = DEFAULT_ROBOT,
 ):
-    """Run the agent (model file, or the teacher if None) on every situation; [EpisodeRecord] in the
+    """Run the agent (model file, or the teacher if None) on robot (a profile's name or file) in
+    every situation; [EpisodeRecord] in the
     situations' order; on_record(record) (if given) as each episode ends. jobs > 1, or a Ray
     executor: that many workers of executor (tric_control.evaluation.executors; None: spawned
     processes here), worker k with its own Evaluator on DDS domain domain_id + k (domain_id None:
@@ -339,6 +355,7 @@ def evaluate(
                 view,
                 record,
                 on_record,
+                robot,
             )
         return _evaluate_in_workers(
             situations,
@@ -352,16 +369,17 @@ def evaluate(
             record,
             on_record,
             executor or ProcessExecutor(),
+            robot,
         )
     finally:
         bar.close()
 
 
 def _evaluate_here(
-    situations, task, model, max_steps, snapshot, domain_id, bar, view, record, on_record
+    situations, task, model, max_steps, snapshot, domain_id, bar, view, record, on_record, robot
 ) -> list:
     """Every situation in turn on one Evaluator in this process."""
-    evaluator = Evaluator(task, model, max_steps, domain_id, view, record)
+    evaluator = Evaluator(task, model, max_steps, domain_id, view, record, robot)
     records = []
     try:
         for situation in situations:
@@ -376,7 +394,18 @@ def _evaluate_here(
 
 
 def _evaluate_in_workers(
-    situations, task, model, max_steps, snapshot, domain_id, jobs, bar, record, on_record, executor
+    situations,
+    task,
+    model,
+    max_steps,
+    snapshot,
+    domain_id,
+    jobs,
+    bar,
+    record,
+    on_record,
+    executor,
+    robot,
 ) -> list:
     """The situations shared out over jobs workers (_worker_evaluator), one at a time."""
     base = int(os.environ.get("ROS_DOMAIN_ID", "0")) if domain_id is None else domain_id
@@ -385,16 +414,18 @@ def _evaluate_in_workers(
             f"{jobs} workers from DDS domain {base} on would pass the last domain {MAX_DOMAIN_ID}"
         )
     record = None if record is None else str(pathlib.Path(record).resolve())
-    arguments = (task, executor.ship(model), max_steps, base, record)
+    arguments = (task, executor.ship(model), max_steps, base, record, robot)
     agent = "teacher" if model is None else "model"
     return executor.run_episodes(
         situations, snapshot, jobs, bar, _worker_evaluator, lambda: arguments, agent, on_record
     )
 
 
-def _worker_evaluator(worker, task, model, max_steps, base_domain, record) -> Evaluator:
+def _worker_evaluator(worker, task, model, max_steps, base_domain, record, robot) -> Evaluator:
     """Worker k's Evaluator (see tric_control.evaluation.executors), on DDS domain base_domain + k;
     closed at the worker's exit."""
-    evaluator = Evaluator(task, local_path(model), max_steps, base_domain + worker, record=record)
+    evaluator = Evaluator(
+        task, local_path(model), max_steps, base_domain + worker, record=record, robot=robot
+    )
     multiprocessing.util.Finalize(None, evaluator.close, exitpriority=10)
     return evaluator

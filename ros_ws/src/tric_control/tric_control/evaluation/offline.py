@@ -32,6 +32,7 @@ from tric_sim.world.durations import DEFAULT_DURATION
 from tric_sim.world.perturbations import min_steps_for
 from tric_sim.world.proximity import Proximity
 from tric_sim.world.robot_model import RobotModel
+from tric_sim.world.robot_profile import DEFAULT_ROBOT
 from tric_sim.world.scene import task_grip
 
 
@@ -49,6 +50,8 @@ class OfflineEvaluator:
             rest (tric_sim.world.scene.task_grip).
         lift_test: whether a grasp is judged with the lift test (False: its success is the grasp
             cost's alone and lift_passed is None; the final state is the same either way).
+        robot: the robot, a profile's name or file (docs/robots.md); a model made for another
+            is refused.
     """
 
     def __init__(
@@ -59,13 +62,14 @@ class OfflineEvaluator:
         period: float = CONTROL_PERIOD,
         controller_options: dict | None = None,
         lift_test: bool = True,
+        robot: str = DEFAULT_ROBOT,
     ):
         self.task, self.model, self.period = task, model, period
         self.lift_test = lift_test
         self.controller_options = dict(controller_options or {})
         rho_scale = self.controller_options.pop("rho_scale", 1.0)
         self.max_steps = max_steps or DEFAULT_MAX_STEPS[task]
-        self.robot = RobotModel()
+        self.robot = RobotModel(robot)
         gripping = self.controller_options.pop("grip", True)
         self.grip = task_grip(task, self.robot.profile) if gripping else None
         self.objective = None
@@ -190,8 +194,10 @@ def evaluate_offline(
     controller_options: dict | None = None,
     on_record=None,
     executor=None,
+    robot: str = DEFAULT_ROBOT,
 ) -> list:
-    """Run the agent (a model file, or the teacher if None) on every situation offline;
+    """Run the agent (a model file, or the teacher if None) on every situation offline, on robot
+    (a profile's name or file);
     [EpisodeRecord] in the situations' order; on_record(record) (if given) as each episode ends.
     jobs > 1, or a Ray executor: that many workers of executor (tric_control.evaluation.executors;
     None: spawned processes here), each with its own world. controller_options: see
@@ -203,7 +209,7 @@ def evaluate_offline(
     with tqdm(total=len(situations), desc=desc, unit="episode", disable=not progress) as bar:
         if jobs <= 1 and getattr(executor, "kind", "processes") == "processes":
             evaluator = OfflineEvaluator(
-                task, model, max_steps, controller_options=controller_options
+                task, model, max_steps, controller_options=controller_options, robot=robot
             )
             try:
                 for k, situation in enumerate(situations):
@@ -216,7 +222,7 @@ def evaluate_offline(
                 evaluator.close()
             return records
         executor = executor or ProcessExecutor()
-        arguments = (task, executor.ship(model), max_steps, controller_options)
+        arguments = (task, executor.ship(model), max_steps, controller_options, robot)
         return executor.run_episodes(
             situations,
             snapshot,
@@ -229,8 +235,10 @@ def evaluate_offline(
         )
 
 
-def _worker_evaluator(_worker, task, model, max_steps, controller_options) -> OfflineEvaluator:
+def _worker_evaluator(
+    _worker, task, model, max_steps, controller_options, robot
+) -> OfflineEvaluator:
     """A worker's OfflineEvaluator (see tric_control.evaluation.executors); every worker alike."""
     return OfflineEvaluator(
-        task, local_path(model), max_steps, controller_options=controller_options
+        task, local_path(model), max_steps, controller_options=controller_options, robot=robot
     )

@@ -24,7 +24,7 @@ KEY_PARTS = {
     "agent": "the model changed",
     "situation": "the situation changed",
     "max_steps": "the step budget changed",
-    "runs": "it ran another way (through the nodes or offline)",
+    "runs": "it ran another way (through the nodes or offline, or on another robot)",
     "code": "the code changed",
 }
 #: The partial file's format name.

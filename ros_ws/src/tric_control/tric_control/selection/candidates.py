@@ -17,6 +17,7 @@ from tric_learning.training.dataset import Dataset
 from tric_learning.training.lbfgs import torch_threads
 from tric_learning.training.value import TrainingConfig, train
 from tric_sim.world.robot_model import RobotModel
+from tric_sim.world.robot_profile import DEFAULT_ROBOT
 
 
 @dataclass
@@ -40,16 +41,17 @@ def candidate(
     controller_options: dict | None = None,
     fit=None,
     lift_test: bool = True,
+    robot: str = DEFAULT_ROBOT,
 ) -> Candidate:
     """Train TRIC on dataset with config (its seed the candidate's) and roll the model out from
     every demonstration's start situation, max_steps ticks at most (0: the task's default), the
     controller built with controller_options (OfflineEvaluator's), the grasps judged with the lift
     test unless lift_test is False. fit(dataset, robot, config) -> a TrainingResult, a
-    module-level function (a study's other training procedure; None: training.value.train)."""
-    robot = RobotModel()
+    module-level function (a study's other training procedure; None: training.value.train).
+    robot: the robot of the demonstrations, a profile's name or file."""
     started = time.perf_counter()
     with torch_threads(CANDIDATE_THREADS):
-        result = (fit or train)(dataset, robot, config)
+        result = (fit or train)(dataset, RobotModel(robot), config)
     train_s = time.perf_counter() - started
     with tempfile.TemporaryDirectory(prefix="tric-candidate-") as folder:
         path = model_file.from_training(result, dataset).save(
@@ -64,7 +66,15 @@ def candidate(
         "rho": result.rho,
     }
     return rolled_out(
-        dataset, content, config.seed, record, train_s, max_steps, controller_options, lift_test
+        dataset,
+        content,
+        config.seed,
+        record,
+        train_s,
+        max_steps,
+        controller_options,
+        lift_test,
+        robot,
     )
 
 
@@ -77,6 +87,7 @@ def rolled_out(
     max_steps: int = 0,
     controller_options: dict | None = None,
     lift_test: bool = True,
+    robot: str = DEFAULT_ROBOT,
 ) -> Candidate:
     """The Candidate of a trained model (its model file's bytes, content; its seed and training
     record), rolled out from every demonstration's start situation of dataset (as candidate())."""
@@ -90,6 +101,7 @@ def rolled_out(
             max_steps,
             controller_options=controller_options,
             lift_test=lift_test,
+            robot=robot,
         )
         try:
             rollouts = roll_out(evaluator, dataset)

@@ -16,6 +16,7 @@ from tric_learning.training.from_bags import train_on_bags
 from tric_learning.training.value import TrainingConfig
 from tric_sim.tools.provenance import code_digest
 from tric_sim.world.robot_model import RobotModel
+from tric_sim.world.robot_profile import DEFAULT_ROBOT
 
 #: The module whose code (and all it imports: the training, the rollouts' controller and physics,
 #: the scores and the choice) makes a chosen model.
@@ -56,13 +57,15 @@ def select_model(
     progress=None,
     max_steps: int = 0,
     controller_options: dict | None = None,
+    robot: str = DEFAULT_ROBOT,
 ) -> Selection:
     """Train selection.candidates candidates on dataset with config (their seeds
     candidate_seeds), at most jobs at once on executor (None: processes here), roll each out from
     every demonstration's start (max_steps ticks at most, 0: the task's default;
     controller_options: OfflineEvaluator's) and choose. progress(done, total, candidate) after
-    each candidate (candidate None before the first). RuntimeError naming every candidate that
-    failed, when too few are left to choose from."""
+    each candidate (candidate None before the first); robot: the demonstrations' robot, a profile's
+    name or file. RuntimeError naming every candidate that failed, when too few are left to choose
+    from."""
     config.validate()
     selection.validate()
     dataset.check()
@@ -72,7 +75,7 @@ def select_model(
     # the lift test costs a sixth of a grasp's rollout, and only the "successes" score reads it
     lift_test = selection.reads_lift_test
     calls = [
-        (replace(config, seed=seed), max_steps, controller_options, None, lift_test)
+        (replace(config, seed=seed), max_steps, controller_options, None, lift_test, robot)
         for seed in seeds
     ]
     started = time.monotonic()
@@ -134,6 +137,7 @@ def select_from_bags(
             executor,
             jobs,
             lambda done, total, candidate: report("candidates", done / total, candidate),
+            robot=robot.profile.spec,
         )
 
     trained = train_on_bags(

@@ -87,3 +87,21 @@ def _typed(value, kind):
     if kind is int:
         return int(value) if math.isfinite(value) and float(value).is_integer() else None
     return float(value)
+
+
+def declare_robot(node):
+    """Declare the node's `robot` parameter (a shipped profile's name or a profile file) and return
+    its RobotModel; a profile it refuses is a ValueError naming the parameter and why."""
+    from tric_sim.world.robot_model import RobotModel  # Pinocchio: only for the nodes that use it
+    from tric_sim.world.robot_profile import DEFAULT_ROBOT
+
+    robot = declare(
+        node,
+        "robot",
+        DEFAULT_ROBOT,
+        "the robot: a profile shipped with tric_sim (its name) or a profile file (docs/robots.md)",
+    )
+    try:
+        return RobotModel(robot)
+    except ValueError as error:
+        raise ValueError(f"parameter 'robot': {error}") from None

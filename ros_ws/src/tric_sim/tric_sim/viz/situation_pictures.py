@@ -14,6 +14,7 @@ from tric_sim.teachers import demonstrate  # noqa: E402
 from tric_sim.tools.output_files import atomic_path  # noqa: E402
 from tric_sim.world.durations import DEFAULT_DURATION  # noqa: E402
 from tric_sim.world.robot_model import RobotModel  # noqa: E402
+from tric_sim.world.robot_profile import DEFAULT_ROBOT  # noqa: E402
 
 
 def demonstration_strip(
@@ -46,10 +47,13 @@ def write_png(path, image) -> None:
         plt.imsave(temporary, image)
 
 
-def write_pictures(situations, out: pathlib.Path, size, strip: int = 0):
+def write_pictures(
+    situations, out: pathlib.Path, size, strip: int = 0, robot_name: str = DEFAULT_ROBOT
+):
     """Write out/<name>.png of each situation's initial state, or with strip (frames) the strip of
-    its demonstration as out/<name>_strip.png, printing each path once written."""
-    robot = RobotModel()
+    its demonstration as out/<name>_strip.png, printing each path once written; the robot
+    robot_name (a profile's name or file)."""
+    robot = RobotModel(robot_name)
     world = PhysicsWorld(robot)
     try:
         for situation in situations:

@@ -85,6 +85,13 @@ class RobotProfile:
     digest: str
 
     @property
+    def spec(self) -> str:
+        """What names this profile to load_profile in another process: its name when it is the
+        shipped profile of that name, else its file's path."""
+        shipped = PROFILE_DIR / f"{self.name}.yaml"
+        return self.name if shipped.resolve() == self.path.resolve() else str(self.path)
+
+    @property
     def fingertips(self) -> tuple:
         return tuple(finger.tip for finger in self.fingers)
 

@@ -1,0 +1,100 @@
+"""Another robot, end to end: the paper's robot under another profile's name (the same URDF) is
+another robot. Its demonstrations are recorded through the nodes with the `robot` parameter, a
+model is trained on them with tric-train --robot, run offline and through tric-eval --robot; the
+bags and the model are refused on the default robot, naming both robots, and a node refuses a
+robot it cannot load."""
+
+import contextlib
+import io
+import json
+import re
+
+import pytest
+import yaml
+from rclpy.parameter import Parameter
+
+from tric_control import evaluate_cli, train_cli
+from tric_control.evaluation.offline import OfflineEvaluator
+from tric_learning.bags.loader import load_dataset
+from tric_learning.demonstrations import demonstrate_all
+from tric_sim.simulator_node import SimulatorNode
+from tric_sim.world import situations
+from tric_sim.world.robot_model import RobotModel
+from tric_sim.world.robot_profile import PROFILE_DIR
+
+#: How a model of other_arm is refused on the default robot: naming both.
+OTHER_ROBOT = r"robot_model differs \('other_arm:[0-9a-f]+' instead of 'tric_arm_hand:"
+
+
+@pytest.fixture(scope="module")
+def other_arm(tmp_path_factory):
+    """A profile file 'other_arm': the paper's robot under another name."""
+    data = yaml.safe_load((PROFILE_DIR / "tric_arm_hand.yaml").read_text())
+    data.update(
+        name="other_arm",
+        urdf=str(PROFILE_DIR / data["urdf"]),
+        srdf=str(PROFILE_DIR / data["srdf"]),
+    )
+    path = tmp_path_factory.mktemp("robot") / "other_arm.yaml"
+    path.write_text(yaml.safe_dump(data))
+    return str(path)
+
+
+@pytest.fixture(scope="module")
+def recorded(other_arm, tmp_path_factory):
+    """Two sphere demonstrations of other_arm, recorded through the nodes, and a model tric-train
+    --robot made of them: (bags folder, model path)."""
+    out = tmp_path_factory.mktemp("bags")
+    chosen = situations.sphere_grid()[12:14]
+    rows = demonstrate_all(chosen, out, 0.125, 0.0, progress=False, robot=other_arm)
+    assert all(result.success and path for _, result, path in rows)
+    model = tmp_path_factory.mktemp("model") / "other.safetensors"
+    arguments = [str(out), "--out", str(model), "--robot", other_arm, "--quiet"]
+    arguments += ["--hidden-units", "5", "--noisy-samples", "10", "--iterations", "20"]
+    arguments += ["--candidates", "1", "--executor", "processes"]
+    with contextlib.redirect_stdout(io.StringIO()):
+        assert train_cli.main(arguments) == 0
+    return out, model
+
+
+def test_bags_and_models_name_their_robot_and_are_refused_on_another(other_arm, recorded):
+    bags, model = recorded
+    dataset = load_dataset([bags], RobotModel(other_arm))
+    assert dataset.definition.robot_model.startswith("other_arm:")
+    with pytest.raises(ValueError, match="another robot"):
+        load_dataset([bags], RobotModel())
+    situation = situations.sphere_grid()[12]
+    evaluator = OfflineEvaluator("grasp", str(model), 40, robot=other_arm)
+    try:
+        record = evaluator.run(situation)
+    finally:
+        evaluator.close()
+    assert record.steps > 0 and record.agent == "tric"
+    with pytest.raises(ValueError, match=OTHER_ROBOT):
+        OfflineEvaluator("grasp", str(model), 40)
+
+
+def test_tric_eval_runs_a_model_on_its_robot_and_refuses_it_on_another(
+    other_arm, recorded, tmp_path, capsys
+):
+    _, model = recorded
+    situations_file = tmp_path / "one.yaml"
+    situations_file.write_text(
+        yaml.safe_dump({"situations": [situations.sphere_grid()[12].to_dict()]})
+    )
+    result = tmp_path / "r.json"
+    common = ["--model", str(model), "--situations-file", str(situations_file)]
+    common += ["--max-steps", "40", "--json", str(result)]
+    assert evaluate_cli.main(common + ["--robot", other_arm]) in (0, 1)  # judged, good or not
+    assert len(json.loads(result.read_text())["episodes"]) == 1
+    assert evaluate_cli.main(common + ["--overwrite"]) == 2
+    assert re.search(OTHER_ROBOT, capsys.readouterr().err)
+    assert evaluate_cli.main(common + ["--robot", "no_robot", "--overwrite"]) == 2
+    assert "no robot profile 'no_robot'" in capsys.readouterr().err
+
+
+def test_a_node_refuses_a_robot_it_cannot_load(ros_context):
+    with pytest.raises(ValueError, match="parameter 'robot': no robot profile 'no_robot'"):
+        SimulatorNode(
+            context=ros_context, parameter_overrides=[Parameter("robot", value="no_robot")]
+        )
