@@ -329,13 +329,13 @@ def evaluate(
     executor=None,
     robot: str = DEFAULT_ROBOT,
 ):
-    """Run the agent (model file, or the teacher if None) on robot (a profile's name or file) in
-    every situation; [EpisodeRecord] in the
-    situations' order; on_record(record) (if given) as each episode ends. jobs > 1, or a Ray
-    executor: that many workers of executor (tric_control.evaluation.executors; None: spawned
-    processes here), worker k with its own Evaluator on DDS domain domain_id + k (domain_id None:
-    the environment's ROS_DOMAIN_ID, else 0). view: a FoxgloveView to show the run in (jobs 1 only);
-    record: a folder for one bag per episode."""
+    """Run the agent (model file, or the teacher if None) of robot (a profile's name or file) on
+    every situation; [EpisodeRecord] in the situations' order; on_record(record) (if given) as each
+    episode ends. jobs > 1, or a Ray executor: that many workers of executor
+    (tric_control.evaluation.executors; None: spawned processes here), worker k with its own
+    Evaluator on DDS domain domain_id + k (domain_id None: the environment's ROS_DOMAIN_ID, else
+    0). view: a FoxgloveView to show the run in (jobs 1 only); record: a folder for one bag per
+    episode."""
     task = evaluated_task(situations, jobs)
     jobs = min(jobs, len(situations))
     if view is not None and jobs > 1:
@@ -343,71 +343,30 @@ def evaluate(
     snapshot = pathlib.Path(snapshots) if snapshots else None
     bar = tqdm(total=len(situations), desc=desc, unit="episode", disable=not progress)
     try:
-        if jobs == 1 and getattr(executor, "kind", "processes") == "processes":
-            return _evaluate_here(
-                situations,
-                task,
-                model,
-                max_steps,
-                snapshot,
-                domain_id,
-                bar,
-                view,
-                record,
-                on_record,
-                robot,
-            )
-        return _evaluate_in_workers(
-            situations,
-            task,
-            model,
-            max_steps,
-            snapshot,
-            domain_id,
-            jobs,
-            bar,
-            record,
-            on_record,
-            executor or ProcessExecutor(),
-            robot,
-        )
+        if jobs > 1 or getattr(executor, "kind", "processes") != "processes":
+            agent = (task, model, max_steps, domain_id, record, robot)
+            run = (situations, snapshot, jobs, bar, on_record)
+            return _evaluate_in_workers(*run, executor or ProcessExecutor(), agent)
+        evaluator = Evaluator(task, model, max_steps, domain_id, view, record, robot)
+        records = []
+        try:
+            for situation in situations:
+                bar.set_postfix_str(situation.name)
+                records.append(evaluator.run(situation, snapshot))
+                bar.update()
+                if on_record is not None:
+                    on_record(records[-1])
+        finally:
+            evaluator.close()
+        return records
     finally:
         bar.close()
 
 
-def _evaluate_here(
-    situations, task, model, max_steps, snapshot, domain_id, bar, view, record, on_record, robot
-) -> list:
-    """Every situation in turn on one Evaluator in this process."""
-    evaluator = Evaluator(task, model, max_steps, domain_id, view, record, robot)
-    records = []
-    try:
-        for situation in situations:
-            bar.set_postfix_str(situation.name)
-            records.append(evaluator.run(situation, snapshot))
-            bar.update()
-            if on_record is not None:
-                on_record(records[-1])
-    finally:
-        evaluator.close()
-    return records
-
-
-def _evaluate_in_workers(
-    situations,
-    task,
-    model,
-    max_steps,
-    snapshot,
-    domain_id,
-    jobs,
-    bar,
-    record,
-    on_record,
-    executor,
-    robot,
-) -> list:
-    """The situations shared out over jobs workers (_worker_evaluator), one at a time."""
+def _evaluate_in_workers(situations, snapshot, jobs, bar, on_record, executor, agent) -> list:
+    """The situations shared out over jobs workers (_worker_evaluator), one at a time; agent: (task,
+    model, max_steps, domain_id, record, robot) as evaluate's."""
+    task, model, max_steps, domain_id, record, robot = agent
     base = int(os.environ.get("ROS_DOMAIN_ID", "0")) if domain_id is None else domain_id
     if not 0 <= base <= MAX_DOMAIN_ID - jobs + 1:
         raise ValueError(
