@@ -45,12 +45,16 @@ def test_partial_records_round_trip_with_their_keys(tmp_path):
     assert again["b"].outcome == "demonstrated"
 
 
+#: Why a run through the nodes drops what ran offline (or on another robot).
+ANOTHER_WAY = "it ran another way (through the nodes or offline, or on another robot)"
+
+
 @pytest.mark.parametrize(
     "change, why",
     [
         ({"agent": "sha256:another"}, "the model changed"),
         ({"max_steps": 300}, "the step budget changed"),
-        ({"runs": "nodes"}, "it ran another way (through the nodes or offline)"),
+        ({"runs": "nodes"}, ANOTHER_WAY),
         ({"code": "c1"}, "the code changed"),
     ],
 )
