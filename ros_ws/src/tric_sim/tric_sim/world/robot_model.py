@@ -36,10 +36,11 @@ class MimicJoint:
 
 
 def _parse_axes(urdf_path: pathlib.Path) -> dict:
-    """Joint name -> unit rotation axis (3,) of every revolute joint in the URDF."""
+    """Joint name -> unit axis (3,) of every revolute (rotation) and prismatic (translation) joint
+    in the URDF."""
     axes = {}
     for joint in ET.parse(urdf_path).getroot().iter("joint"):
-        if joint.get("type") == "revolute":
+        if joint.get("type") in ("revolute", "prismatic"):
             tag = joint.find("axis")
             axis = (
                 np.array([float(v) for v in cast(str, tag.get("xyz")).split()])
@@ -156,9 +157,14 @@ class RobotModel:
 
     def _kinematic_chain(self) -> list:
         """Per Pinocchio joint (in tree order): parent, fixed placement (R, or None for the
-        identity, and p), axis, and the q index, multiplier and offset that give its angle (mimic
-        joints follow their source)."""
+        identity, and p), axis, the q index, multiplier and offset that give its angle or
+        displacement (mimic joints follow their source), and whether it is prismatic."""
         axes = _parse_axes(self.urdf_path)
+        prismatic = {
+            joint.get("name")
+            for joint in ET.parse(self.urdf_path).getroot().iter("joint")
+            if joint.get("type") == "prismatic"
+        }
         mimics = {m.name: m for m in self.mimic_joints}
         chain = []
         for index in range(1, self.model.njoints):
@@ -184,6 +190,7 @@ class RobotModel:
                     source,
                     multiplier,
                     offset,
+                    name in prismatic,
                 )
             )
         return chain
@@ -230,14 +237,19 @@ class RobotModel:
             source,
             multiplier,
             offset,
+            prismatic,
         ) in self._chain:
-            angle = multiplier * qs[:, source] + offset
+            value = multiplier * qs[:, source] + offset  # rad, or m for a prismatic joint
             parent_rotation = rotations[parent]
             base_rotation = (
                 parent_rotation if fixed_rotation is None else parent_rotation @ fixed_rotation
             )
             positions[index] = positions[parent] + parent_rotation @ fixed_translation
-            rotations[index] = _rotate_about(base_rotation, axis, angle)
+            if prismatic:
+                positions[index] = positions[index] + (base_rotation @ axis) * value[:, None]
+                rotations[index] = np.broadcast_to(base_rotation, (batch, 3, 3))
+            else:
+                rotations[index] = _rotate_about(base_rotation, axis, value)
         return rotations, positions
 
     def batch_frame_placements(self, configurations: np.ndarray, frames) -> tuple:

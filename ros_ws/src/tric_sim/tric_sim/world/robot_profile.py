@@ -46,7 +46,8 @@ CLEARANCE_TEACHERS = ("grasp", "box")
 
 @dataclass(frozen=True)
 class Finger:
-    """One finger: its flexion joints (base to tip), its links (proximal, distal), its frames."""
+    """One finger: its flexion joints (base to tip; none when a mimic joint moves it), its links
+    (proximal to distal; one for a gripper's finger), its frames."""
 
     joints: tuple
     links: tuple
@@ -278,8 +279,8 @@ def _finger(k: int, entry: Any, hand: tuple, links: set) -> Finger:
         frames = entry[key] if key == "links" else [entry[key]]
         for frame in frames:
             _check_frame(f"finger {k + 1} {key}", frame, links)
-    if not entry["joints"] or not entry["links"]:
-        raise ValueError(f"finger {k + 1} names no joint or no link")
+    if not entry["links"]:
+        raise ValueError(f"finger {k + 1} names no link")
     return Finger(
         tuple(entry["joints"]), tuple(entry["links"]), entry["tip"], entry["middle"], entry["base"]
     )
