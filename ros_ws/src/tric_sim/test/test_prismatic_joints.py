@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 import yaml
 
+from tric_sim.physics import metrics
 from tric_sim.physics.profile_check import collision_pair_problems, landmark_disagreement
 from tric_sim.viz import scene_view
 from tric_sim.world.robot_model import RobotModel
@@ -38,6 +39,22 @@ def test_the_profile_names_a_gripper_finger_moved_by_a_mimic_joint(robot):
     assert [m.name for m in robot.mimic_joints] == ["right_finger_joint"]
     assert profile.fingers[1].joints == () and profile.flexion_joints == ("left_finger_joint",)
     assert {"hand", "left_tip", "right_tip"} <= profile.hand_links
+    assert profile.closing_signs == {"left_finger_joint": -1.0}
+
+
+def test_a_gripper_closes_as_its_joint_falls(robot):
+    """The fingers close as the left finger's joint falls (its profile's closing -1): closing moves
+    it down, to its lower limit at most, and the fingers' flexion grows as they close."""
+    finger = [robot.joint_names.index("left_finger_joint")]
+    np.testing.assert_allclose(robot.closed(np.array([0.03]), finger, 0.01), [0.02])
+    np.testing.assert_allclose(robot.closed(np.array([0.004]), finger, 0.01), [0.0])
+    arm = [0]
+    np.testing.assert_allclose(robot.closed(np.array([0.5]), arm, 0.1), [0.6])  # no finger: +1
+    q = robot.home.copy()
+    open_flexion = metrics.finger_flexion(robot, q)
+    q[finger] = 0.01
+    assert metrics.finger_flexion(robot, q) > open_flexion
+    assert metrics.open_flexion(robot, "sphere") < metrics.open_flexion(robot, "box")
 
 
 def test_batched_kinematics_slide_the_fingers_as_pinocchio_does(robot):

@@ -85,6 +85,8 @@ class RobotModel:
         mimic_joints: URDF joints driven by another joint (not part of q).
         hand_geometries: (G,) bool, which collision geometries are on the hand (its profile's
             hand_links).
+        closing_signs: (n,) +1.0 where a finger closes as the joint rises, -1.0 where as it falls
+            (its profile's; +1.0 for the joints of no finger).
     """
 
     def __init__(
@@ -121,6 +123,8 @@ class RobotModel:
         self.home = np.array([self.profile.home[j] for j in self.joint_names])
         self.arm_indices = np.array([self.joint_names.index(j) for j in self.profile.arm_joints])
         self.hand_indices = np.array([self.joint_names.index(j) for j in self.profile.hand_joints])
+        signs = self.profile.closing_signs
+        self.closing_signs = np.array([signs.get(j, 1.0) for j in self.joint_names])
         self._chain = self._kinematic_chain()
         self.joint_supports, self.extended_to_q = self._jacobian_columns()
         columns = self.model.nvExtended
@@ -265,6 +269,15 @@ class RobotModel:
             frame_positions[:, k] = positions[joint] + rotations[joint] @ placement.translation
             frame_rotations[:, k] = rotations[joint] @ placement.rotation
         return frame_positions, frame_rotations
+
+    def closed(self, values, joints, amount):
+        """values (k,) of the joints (indices (k,)) moved by amount (>= 0, rad or m; a number or
+        (k,)) in the direction that closes each one's finger, within the joint limits."""
+        signs = self.closing_signs[joints]
+        moved = values + signs * amount
+        return np.where(
+            signs > 0, np.minimum(moved, self.upper[joints]), np.maximum(moved, self.lower[joints])
+        )
 
     def frame_id(self, name: str) -> int:
         if not self.model.existFrame(name):
