@@ -233,7 +233,8 @@ class EpisodeRunner:
         closing = self.grip is not None and done <= self._grip_ticks
         if self.grip is not None:
             joints = cast(np.ndarray, self._grip_joints)
-            target[joints] += self.grip.squeeze * min(done / self._grip_ticks, 1.0)
+            squeeze = self.grip.squeeze * min(done / self._grip_ticks, 1.0)
+            target[joints] = self.robot.closed(target[joints], joints, squeeze)
         command = self.safe_command(np.minimum(target, self.robot.upper), count=False)
         self.controller.reference = command.copy()
         step_norm = float(np.linalg.norm(command - cast(np.ndarray, self.previous)))

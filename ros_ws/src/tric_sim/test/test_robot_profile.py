@@ -98,6 +98,10 @@ def _preshape_joint(data, name):
     data["preshapes"]["sphere"][name] = 0.0
 
 
+def _closing(data, sign):
+    data["fingers"][0]["closing"] = [int(sign), 1]
+
+
 def _home_angle(data, _name):
     data["home"]["arm_1_joint"] = "zero"
 
@@ -114,6 +118,7 @@ def _home_angle(data, _name):
         (lambda d, n: d.pop(n), "grip", r"missing entries \['grip'\]"),
         (lambda d, n: d.update({n: 1}), "gripper", r"unknown entries \['gripper'\]"),
         (lambda d, n: d.update(hand_root=n), "wrist_link", "hand_root: frame 'wrist_link'"),
+        (_closing, "2", "finger 1: closing must give \\+1 or -1 for each of its joints"),
     ],
 )
 def test_a_profile_mistake_is_refused_with_its_name(tmp_path, profile_data, mistake, name, message):

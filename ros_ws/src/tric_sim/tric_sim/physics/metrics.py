@@ -140,16 +140,17 @@ def grasp_cost_terms(robot: RobotModel, q, kind: str, dimensions, placement: pin
 
 
 def finger_flexion(robot: RobotModel, q) -> float:
-    """The fingers' mean flexion: the sum of a finger's flexion joint angles, averaged over the
-    fingers, rad."""
-    index = robot.joint_names.index
-    return float(np.mean([sum(q[index(j)] for j in f.joints) for f in robot.profile.fingers]))
+    """The fingers' mean flexion: the sum of a finger's flexion joint values, each signed to grow as
+    the finger closes, averaged over the fingers, rad (or m)."""
+    value = dict(zip(robot.joint_names, q))
+    fingers = robot.profile.fingers
+    return float(np.mean([sum(c * value[j] for j, c in zip(f.joints, f.closing)) for f in fingers]))
 
 
 def open_flexion(robot: RobotModel, kind: str) -> float:
     """The flexion (as finger_flexion) of the hand's open pre-shape for an object kind, rad."""
-    preshape = robot.profile.preshapes[kind]
-    return float(np.mean([sum(preshape[j] for j in f.joints) for f in robot.profile.fingers]))
+    shape, fingers = robot.profile.preshapes[kind], robot.profile.fingers
+    return float(np.mean([sum(c * shape[j] for j, c in zip(f.joints, f.closing)) for f in fingers]))
 
 
 def grasp_failure(
@@ -226,8 +227,11 @@ def lift_test(world, robot: RobotModel) -> float:
     q_raised = robot.reach(q, robot.profile.palm, raised)
     hand_targets = world.targets.copy()
     flexion = np.array([robot.joint_names.index(j) for j in robot.profile.flexion_joints])
-    hand_targets[flexion] = np.maximum(
-        hand_targets[flexion], np.minimum(q[flexion] + GRIP_CLOSURE, robot.upper[flexion])
+    gripped = robot.closed(q[flexion], flexion, GRIP_CLOSURE)
+    closing = robot.closing_signs[flexion] > 0
+    targets = hand_targets[flexion]
+    hand_targets[flexion] = np.where(
+        closing, np.maximum(targets, gripped), np.minimum(targets, gripped)
     )
     world.command(hand_targets)
     for _ in range(int(round(GRIP_DURATION / world.control_period))):

@@ -88,7 +88,7 @@ class PhysicsWorld:
         for i in range(pb.getNumJoints(self.robot_id, physicsClientId=self.client)):
             info = pb.getJointInfo(self.robot_id, i, physicsClientId=self.client)
             self.link_index[info[12].decode()] = i
-            if info[2] == pb.JOINT_REVOLUTE:
+            if info[2] in (pb.JOINT_REVOLUTE, pb.JOINT_PRISMATIC):
                 joint_index[info[1].decode()] = i
         self.actuated = [joint_index[name] for name in robot.joint_names]
         self.mimics = [

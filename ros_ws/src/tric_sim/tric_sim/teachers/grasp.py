@@ -61,7 +61,7 @@ class GraspTeacher:
         index = robot.joint_names.index
         self.preshape = {index(j): angle for j, angle in robot.profile.preshapes[self.kind].items()}
         self.fingers = [[index(j) for j in finger.joints] for finger in robot.profile.fingers]
-        self.finger_state = ["closing"] * len(self.fingers)
+        self.finger_state = ["closing" if joints else "squeezing" for joints in self.fingers]
         self.grasp_pose: pin.SE3 | None = None
 
     # --- poses ---------------------------------------------------------------------------------
@@ -159,33 +159,32 @@ class GraspTeacher:
         return all(abs(reference[joint] - angle) < 1e-3 for joint, angle in self.preshape.items())
 
     def _close(self, reference, object_pose):
-        """Flex each finger (its joints together) until its distal link touches, then squeeze; the
-        first joint stops once its own link touches."""
+        """Flex each finger (its joints together, each in its closing direction) until its distal
+        link touches, then squeeze; the first joint stops once its own link touches. A finger a
+        mimic joint moves has nothing to flex (it squeezes from the start)."""
         placement = scene.se3(*object_pose)
         dims = self.situation.object_dimensions
-        self.robot.forward(reference)
+        robot, profile = self.robot, self.robot.profile
+        robot.forward(reference)
         step = CLOSING_SPEED * self.period
-        profile = self.robot.profile
-        squeeze, upper = profile.grip_squeeze, self.robot.upper
         for k, (finger, joints) in enumerate(zip(profile.fingers, self.fingers)):
             if self.finger_state[k] != "closing":
                 continue
-            first, last = joints[0], joints[-1]
+            last = joints[-1]
             distal = self._link_distance(
                 finger.links[-1], finger.tip, placement, dims, profile.distal_radius
             )
             proximal = self._link_distance(
                 finger.links[0], finger.links[-1], placement, dims, PROXIMAL_RADIUS
             )
-            if distal <= CONTACT_DISTANCE or reference[last] >= upper[last] - 0.05:
-                for joint in joints:
-                    reference[joint] = min(reference[joint] + squeeze, upper[joint])
+            sign = robot.closing_signs[last]
+            limit = robot.upper[last] if sign > 0 else robot.lower[last]
+            if distal <= CONTACT_DISTANCE or sign * reference[last] >= sign * limit - 0.05:
+                reference[joints] = robot.closed(reference[joints], joints, profile.grip_squeeze)
                 self.finger_state[k] = "squeezing"
                 continue
-            if proximal > CONTACT_DISTANCE:
-                reference[first] = min(reference[first] + step, upper[first])
-            for joint in joints[1:]:
-                reference[joint] = min(reference[joint] + step, upper[joint])
+            moving = joints if proximal > CONTACT_DISTANCE else joints[1:]
+            reference[moving] = robot.closed(reference[moving], moving, step)
         if all(state == "squeezing" for state in self.finger_state):
             self.phase = "hold"
 

@@ -97,8 +97,8 @@ class RobotView:
         joints = [_parse_joint(tag) for tag in root.iter("joint")]
         fixed = [j for j in joints if j.kind == "fixed"]
         moving = [j for j in joints if j.kind != "fixed"]
-        if any(j.kind not in ("revolute", "continuous") for j in moving):
-            raise ValueError("the viewer draws fixed, revolute and continuous joints only")
+        if any(j.kind not in ("revolute", "continuous", "prismatic") for j in moving):
+            raise ValueError("the viewer draws fixed, revolute, continuous and prismatic joints")
         self.static = Transforms(
             (WORLD,) + tuple(j.parent for j in fixed),
             (robot.profile.base,) + tuple(j.child for j in fixed),
@@ -110,6 +110,7 @@ class RobotView:
         self._origins = np.array([j.position for j in moving])
         self._origin_rotations = np.array([j.orientation for j in moving])
         self._axes = np.array([j.axis for j in moving])
+        self._sliding = np.array([j.kind == "prismatic" for j in moving])
         # each moving joint's angle = multiplier * q[source] + offset (mimic joints follow their
         # source)
         mimics = {m.name: m for m in robot.mimic_joints}
@@ -129,12 +130,14 @@ class RobotView:
 
     def transforms(self, q) -> Transforms:
         """The moving joints' transforms (parent link -> child link) at joint positions q (n,),
-        rad."""
-        angles = self._multipliers * np.asarray(q, dtype=float)[self._sources] + self._offsets
-        half = 0.5 * angles
+        rad (m for a prismatic joint: it slides along its axis instead of turning)."""
+        values = self._multipliers * np.asarray(q, dtype=float)[self._sources] + self._offsets
+        half = np.where(self._sliding, 0.0, 0.5 * values)
         turns = np.concatenate([self._axes * np.sin(half)[:, None], np.cos(half)[:, None]], axis=1)
         rotations = quaternion_product(self._origin_rotations, turns)
-        return Transforms(self._parents, self._children, self._origins, rotations)
+        slides = np.where(self._sliding, values, 0.0)[:, None] * self._axes
+        positions = self._origins + _rotate(self._origin_rotations, slides)
+        return Transforms(self._parents, self._children, positions, rotations)
 
 
 def object_transforms(poses: dict) -> Transforms:
@@ -229,6 +232,13 @@ def quaternion_product(a: np.ndarray, b: np.ndarray) -> np.ndarray:
         ],
         axis=1,
     )
+
+
+def _rotate(quaternions: np.ndarray, vectors: np.ndarray) -> np.ndarray:
+    """Vectors (k, 3) turned by xyzw quaternions (k, 4): v + 2 w (u x v) + 2 u x (u x v)."""
+    axes, w = quaternions[:, :3], quaternions[:, 3:]
+    twice = 2.0 * np.cross(axes, vectors)
+    return vectors + w * twice + np.cross(axes, twice)
 
 
 def _extents(shape: str, dimensions) -> tuple:

@@ -36,10 +36,11 @@ class MimicJoint:
 
 
 def _parse_axes(urdf_path: pathlib.Path) -> dict:
-    """Joint name -> unit rotation axis (3,) of every revolute joint in the URDF."""
+    """Joint name -> unit axis (3,) of every revolute (rotation) and prismatic (translation) joint
+    in the URDF."""
     axes = {}
     for joint in ET.parse(urdf_path).getroot().iter("joint"):
-        if joint.get("type") == "revolute":
+        if joint.get("type") in ("revolute", "prismatic"):
             tag = joint.find("axis")
             axis = (
                 np.array([float(v) for v in cast(str, tag.get("xyz")).split()])
@@ -84,6 +85,8 @@ class RobotModel:
         mimic_joints: URDF joints driven by another joint (not part of q).
         hand_geometries: (G,) bool, which collision geometries are on the hand (its profile's
             hand_links).
+        closing_signs: (n,) +1.0 where a finger closes as the joint rises, -1.0 where as it falls
+            (its profile's; +1.0 for the joints of no finger).
     """
 
     def __init__(
@@ -120,6 +123,8 @@ class RobotModel:
         self.home = np.array([self.profile.home[j] for j in self.joint_names])
         self.arm_indices = np.array([self.joint_names.index(j) for j in self.profile.arm_joints])
         self.hand_indices = np.array([self.joint_names.index(j) for j in self.profile.hand_joints])
+        signs = self.profile.closing_signs
+        self.closing_signs = np.array([signs.get(j, 1.0) for j in self.joint_names])
         self._chain = self._kinematic_chain()
         self.joint_supports, self.extended_to_q = self._jacobian_columns()
         columns = self.model.nvExtended
@@ -156,9 +161,14 @@ class RobotModel:
 
     def _kinematic_chain(self) -> list:
         """Per Pinocchio joint (in tree order): parent, fixed placement (R, or None for the
-        identity, and p), axis, and the q index, multiplier and offset that give its angle (mimic
-        joints follow their source)."""
+        identity, and p), axis, the q index, multiplier and offset that give its angle or
+        displacement (mimic joints follow their source), and whether it is prismatic."""
         axes = _parse_axes(self.urdf_path)
+        prismatic = {
+            joint.get("name")
+            for joint in ET.parse(self.urdf_path).getroot().iter("joint")
+            if joint.get("type") == "prismatic"
+        }
         mimics = {m.name: m for m in self.mimic_joints}
         chain = []
         for index in range(1, self.model.njoints):
@@ -184,6 +194,7 @@ class RobotModel:
                     source,
                     multiplier,
                     offset,
+                    name in prismatic,
                 )
             )
         return chain
@@ -230,14 +241,19 @@ class RobotModel:
             source,
             multiplier,
             offset,
+            prismatic,
         ) in self._chain:
-            angle = multiplier * qs[:, source] + offset
+            value = multiplier * qs[:, source] + offset  # rad, or m for a prismatic joint
             parent_rotation = rotations[parent]
             base_rotation = (
                 parent_rotation if fixed_rotation is None else parent_rotation @ fixed_rotation
             )
             positions[index] = positions[parent] + parent_rotation @ fixed_translation
-            rotations[index] = _rotate_about(base_rotation, axis, angle)
+            if prismatic:
+                positions[index] = positions[index] + (base_rotation @ axis) * value[:, None]
+                rotations[index] = np.broadcast_to(base_rotation, (batch, 3, 3))
+            else:
+                rotations[index] = _rotate_about(base_rotation, axis, value)
         return rotations, positions
 
     def batch_frame_placements(self, configurations: np.ndarray, frames) -> tuple:
@@ -253,6 +269,15 @@ class RobotModel:
             frame_positions[:, k] = positions[joint] + rotations[joint] @ placement.translation
             frame_rotations[:, k] = rotations[joint] @ placement.rotation
         return frame_positions, frame_rotations
+
+    def closed(self, values, joints, amount):
+        """values (k,) of the joints (indices (k,)) moved by amount (>= 0, rad or m; a number or
+        (k,)) in the direction that closes each one's finger, within the joint limits."""
+        signs = self.closing_signs[joints]
+        moved = values + signs * amount
+        return np.where(
+            signs > 0, np.minimum(moved, self.upper[joints]), np.maximum(moved, self.lower[joints])
+        )
 
     def frame_id(self, name: str) -> int:
         if not self.model.existFrame(name):

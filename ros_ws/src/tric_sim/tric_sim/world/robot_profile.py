@@ -39,6 +39,9 @@ _KEYS = {
     "clearance": dict,
 }
 _FINGER_KEYS = ("joints", "links", "tip", "middle", "base")
+#: A finger's entry may also give `closing`: per joint, +1 if the finger closes as the joint's value
+#: rises (the default), -1 if it closes as it falls (a gripper finger that slides inwards).
+_FINGER_OPTIONS = ("closing",)
 #: The object kinds a profile gives pre-shapes for, and the teachers that use clearance points.
 PRESHAPE_KINDS = ("sphere", "cylinder", "box")
 CLEARANCE_TEACHERS = ("grasp", "box")
@@ -46,13 +49,15 @@ CLEARANCE_TEACHERS = ("grasp", "box")
 
 @dataclass(frozen=True)
 class Finger:
-    """One finger: its flexion joints (base to tip), its links (proximal, distal), its frames."""
+    """One finger: its flexion joints (base to tip; none when a mimic joint moves it), its links
+    (proximal to distal; one for a gripper's finger), its frames."""
 
     joints: tuple
     links: tuple
     tip: str
     middle: str
     base: str
+    closing: tuple  # per joint, +1.0 (closes as it rises) or -1.0 (as it falls)
 
 
 @dataclass(frozen=True)
@@ -102,6 +107,11 @@ class RobotProfile:
     @property
     def distal_links(self) -> tuple:
         return tuple(finger.links[-1] for finger in self.fingers)
+
+    @property
+    def closing_signs(self) -> dict:
+        """flexion joint -> +1.0 if its finger closes as the joint rises, -1.0 if as it falls."""
+        return {j: sign for f in self.fingers for j, sign in zip(f.joints, f.closing)}
 
     @property
     def flexion_joints(self) -> tuple:
@@ -269,8 +279,21 @@ def _angles(key: str, values: Any, allowed: tuple) -> dict:
 
 
 def _finger(k: int, entry: Any, hand: tuple, links: set) -> Finger:
-    if not isinstance(entry, dict) or sorted(entry) != sorted(_FINGER_KEYS):
-        raise ValueError(f"finger {k + 1} must give {list(_FINGER_KEYS)}")
+    if (
+        not isinstance(entry, dict)
+        or not set(_FINGER_KEYS) <= set(entry)
+        or not set(entry) <= {*_FINGER_KEYS, *_FINGER_OPTIONS}
+    ):
+        raise ValueError(
+            f"finger {k + 1} must give {list(_FINGER_KEYS)}, and may give {list(_FINGER_OPTIONS)}"
+        )
+    closing = entry.get("closing", [1] * len(entry["joints"]))
+    if (
+        not isinstance(closing, list)
+        or len(closing) != len(entry["joints"])
+        or any(sign not in (1, -1) or isinstance(sign, bool) for sign in closing)
+    ):
+        raise ValueError(f"finger {k + 1}: closing must give +1 or -1 for each of its joints")
     for joint in entry["joints"]:
         if joint not in hand:
             raise ValueError(f"finger {k + 1}: joint '{joint}' is not one of hand_joints")
@@ -278,10 +301,15 @@ def _finger(k: int, entry: Any, hand: tuple, links: set) -> Finger:
         frames = entry[key] if key == "links" else [entry[key]]
         for frame in frames:
             _check_frame(f"finger {k + 1} {key}", frame, links)
-    if not entry["joints"] or not entry["links"]:
-        raise ValueError(f"finger {k + 1} names no joint or no link")
+    if not entry["links"]:
+        raise ValueError(f"finger {k + 1} names no link")
     return Finger(
-        tuple(entry["joints"]), tuple(entry["links"]), entry["tip"], entry["middle"], entry["base"]
+        tuple(entry["joints"]),
+        tuple(entry["links"]),
+        entry["tip"],
+        entry["middle"],
+        entry["base"],
+        tuple(float(sign) for sign in closing),
     )
 
 
