@@ -32,7 +32,13 @@ $(DEPS_STAMP): requirements.txt requirements/ros-pypi.txt requirements/libs.txt 
 	$(PY) scripts/mend_cmake_exports.py $(VENV)
 	touch $@
 
-$(BUILD_STAMP): $(DEPS_STAMP) $(BUILD_INPUTS) scripts/colcon_build.sh
+# The robot descriptions derived from installed ones (docs/robots.md), written before the build
+# installs them.
+DERIVED_PROFILES := ros_ws/src/tric_sim/tric_sim/description/panda.yaml
+
+$(BUILD_STAMP): $(DEPS_STAMP) $(BUILD_INPUTS) $(DERIVED_PROFILES) scripts/colcon_build.sh
+	for profile in $(DERIVED_PROFILES); do \
+		PYTHONPATH=ros_ws/src/tric_sim $(PY) -m tric_sim.world.derived_urdf $$profile || exit 1; done
 	scripts/colcon_build.sh
 	touch $@
 

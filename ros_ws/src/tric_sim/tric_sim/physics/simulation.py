@@ -91,6 +91,10 @@ class PhysicsWorld:
             if info[2] in (pb.JOINT_REVOLUTE, pb.JOINT_PRISMATIC):
                 joint_index[info[1].decode()] = i
         self.actuated = [joint_index[name] for name in robot.joint_names]
+        #: PyBullet's indices of the links mounted on the table: the base (-1), the profile's
+        self.mounted_links = {-1} | {
+            self.link_index[link] for link in robot.profile.mounted_links if link in self.link_index
+        }
         self.mimics = [
             (joint_index[m.name], robot.joint_names.index(m.source), m.multiplier, m.offset)
             for m in robot.mimic_joints
@@ -345,7 +349,7 @@ class PhysicsWorld:
     def closest_distance(self) -> float:
         """Smallest signed distance between the robot and the avoided bodies (table, obstacles, box
         body) at the last physics step, m, capped at DISTANCE_CUTOFF. The robot's base, mounted on
-        the table, is left out."""
+        the table, is left out (and its profile's mounted links)."""
         best = DISTANCE_CUTOFF
         for name, uid in self.bodies.items():
             if self.body_roles[name] not in scene.AVOIDED_ROLES:
@@ -353,7 +357,7 @@ class PhysicsWorld:
             for point in pb.getContactPoints(
                 self.robot_id, uid, linkIndexB=-1, physicsClientId=self.client
             ):
-                if point[3] != -1:
+                if point[3] not in self.mounted_links:
                     best = min(best, point[8])
         return best
 

@@ -44,9 +44,9 @@ class SceneCollision:
         self.robot_geometries = [
             (g.parentJoint, g.placement, g.geometry) for g in geometry_model.geometryObjects
         ]
-        # geometry fixed to the world (the base, mounted on the table) is not checked against the
-        # scene
-        self._moving = np.array([joint != 0 for joint, _, _ in self.robot_geometries])
+        # geometry mounted on the table (the base, and the robot profile's mounted links) is not
+        # checked against the scene
+        self._moving = ~robot.mounted_geometries
         self.self_pairs = [(p.first, p.second) for p in geometry_model.collisionPairs]
         self.body_shapes = [shapes.coal_shape(b.shape, b.dimensions) for b in self.bodies]
         self.allowance = [

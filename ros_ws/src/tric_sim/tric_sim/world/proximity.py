@@ -145,8 +145,8 @@ class Proximity:
             robot.joint_supports[np.array(joints)].transpose(1, 0, 2)
         )
         # the order in which pairs are examined (and ties in distance kept): body by body, geometry
-        # by geometry, then the self pairs; pairs of geometry fixed to the world never
-        moving = [objects[k].parentJoint != 0 for k in range(count)]
+        # by geometry, then the self pairs; pairs of geometry mounted on the table never
+        moving = ~robot.mounted_geometries
         self._order = np.array(
             [k * bodies + b for b in range(bodies) for k in range(count) if moving[k]]
             + list(range(count * bodies, len(self.pair_names))),

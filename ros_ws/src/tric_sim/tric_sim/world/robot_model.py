@@ -84,7 +84,8 @@ class RobotModel:
         velocity_limits: (n,) rad/s; effort_limits: (n,) N m.
         mimic_joints: URDF joints driven by another joint (not part of q).
         hand_geometries: (G,) bool, which collision geometries are on the hand (its profile's
-            hand_links).
+            hand_links); mounted_geometries: (G,) bool, which are fixed to the world or on its
+            profile's mounted_links (never checked against the scene).
         closing_signs: (n,) +1.0 where a finger closes as the joint rises, -1.0 where as it falls
             (its profile's; +1.0 for the joints of no finger).
     """
@@ -103,10 +104,15 @@ class RobotModel:
         if use_srdf:
             pin.removeCollisionPairs(self.model, self.collision_model, str(self.profile.srdf_path))
         self.collision_data = pin.GeometryData(self.collision_model)
-        self.hand_geometries = np.array(
+        geometry_links = [
+            self.model.frames[g.parentFrame].name for g in self.collision_model.geometryObjects
+        ]
+        hand = self.profile.hand_links
+        self.hand_geometries = np.array([link in hand for link in geometry_links])
+        self.mounted_geometries = np.array(
             [
-                self.model.frames[g.parentFrame].name in self.profile.hand_links
-                for g in self.collision_model.geometryObjects
+                g.parentJoint == 0 or link in self.profile.mounted_links
+                for g, link in zip(self.collision_model.geometryObjects, geometry_links)
             ]
         )
         self.joint_names = tuple(

@@ -36,6 +36,7 @@ _KEYS = {
     "preshapes": dict,
     "grip": dict,
     "hand_root": str,
+    "mounted_links": list,
     "clearance": dict,
 }
 _FINGER_KEYS = ("joints", "links", "tip", "middle", "base")
@@ -65,7 +66,8 @@ class RobotProfile:
     """A checked robot profile (see the module docstring and tric_arm_hand.yaml for each field).
 
     home: joint -> rad; preshapes: kind -> {joint: rad}; grip_squeeze (rad) and grip_duration_s
-    (s); hand_links: hand_root and every link below it; clearance: teacher -> ((frame, offset
+    (s); hand_links: hand_root and every link below it; mounted_links: the links mounted on the
+    table with the base, never checked against the scene; clearance: teacher -> ((frame, offset
     along the frame's z in m, radius in m), ...); digest: SHA-256 of the profile file and its URDF.
     """
 
@@ -86,6 +88,7 @@ class RobotProfile:
     grip_duration_s: float
     hand_root: str
     hand_links: frozenset
+    mounted_links: tuple
     clearance: dict
     digest: str
 
@@ -153,7 +156,7 @@ def _parse(path: pathlib.Path, data: Any, text: str) -> RobotProfile:
     if not isinstance(data, dict):
         raise ValueError("expected a mapping of the profile's entries")
     missing = [key for key in _KEYS if key not in data]
-    unknown = sorted(set(data) - set(_KEYS))
+    unknown = sorted(set(data) - set(_KEYS) - {"derive"})
     if missing or unknown:
         raise ValueError(f"missing entries {missing}, unknown entries {unknown}")
     for key, kind in _KEYS.items():
@@ -164,7 +167,8 @@ def _parse(path: pathlib.Path, data: Any, text: str) -> RobotProfile:
             raise ValueError(f"'{key}' must be a {kind.__name__}, not {value!r}")
     urdf_path, srdf_path = path.parent / data["urdf"], path.parent / data["srdf"]
     if not urdf_path.is_file():
-        raise ValueError(f"its URDF {urdf_path} does not exist")
+        how = " (python -m tric_sim.world.derived_urdf writes it)" if "derive" in data else ""
+        raise ValueError(f"its URDF {urdf_path} does not exist{how}")
     joints, children = _urdf_joints_and_links(urdf_path)
     links = set(children)
     arm, hand = tuple(data["arm_joints"]), tuple(data["hand_joints"])
@@ -203,6 +207,8 @@ def _parse(path: pathlib.Path, data: Any, text: str) -> RobotProfile:
     ):
         raise ValueError(f"'grip' must be {{squeeze: rad >= 0, duration_s: s >= 0}}, not {grip}")
     _check_frame("hand_root", data["hand_root"], links)
+    for link in data["mounted_links"]:
+        _check_frame("mounted_links", link, links)
     hand_links, below = set(), [data["hand_root"]]
     while below:
         link = below.pop()
@@ -230,6 +236,7 @@ def _parse(path: pathlib.Path, data: Any, text: str) -> RobotProfile:
         grip_duration_s=float(grip["duration_s"]),
         hand_root=data["hand_root"],
         hand_links=frozenset(hand_links),
+        mounted_links=tuple(data["mounted_links"]),
         clearance={
             teacher: tuple(_clearance_point(teacher, p, links) for p in clearance[teacher])
             for teacher in CLEARANCE_TEACHERS

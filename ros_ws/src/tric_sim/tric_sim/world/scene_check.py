@@ -40,7 +40,7 @@ def check_scene(situation: Situation, robot) -> Situation:
         (robot.model.frames[g.parentFrame].name, g.geometry, placement)
         for g, placement in zip(robot.collision_model.geometryObjects, geometry_data.oMg)
     ]
-    moving = [g.parentJoint != 0 for g in robot.collision_model.geometryObjects]
+    moving = ~robot.mounted_geometries
     table, *bodies = scene_bodies(situation)
     table_shape, table_placement = (
         coal_shape(table.shape, table.dimensions),

@@ -1,6 +1,8 @@
-"""The robot's semantic description (SRDF): the self-collision pairs that are never checked,
-because random configurations never bring them within NEVER_MARGIN of each other (as MoveIt's setup
-assistant finds them), written where the robot's profile says. Regenerate it after changing the
+"""The robot's semantic description (SRDF): the self-collision pairs that are never checked, as
+MoveIt's setup assistant finds them: "Never", random configurations never bring them within
+NEVER_MARGIN of each other; "Default", they touch in the robot's start (its profile's home, where
+a coarse collision model's neighbouring links overlap by design), written where the robot's
+profile says. Regenerate it after changing the
 URDF: python -m tric_sim.world.srdf [ROBOT]  (a profile's name or path; default tric_arm_hand)
 """
 
@@ -20,8 +22,8 @@ NEVER_MARGIN = 0.005
 
 def write_srdf(robot_name: str = DEFAULT_ROBOT, samples: int = 20000, seed: int = 0) -> int:
     """Write the SRDF of a robot profile (its srdf entry) disabling the self-collision pairs that
-    random configurations never bring within NEVER_MARGIN of each other (as MoveIt's setup
-    assistant does); returns how many."""
+    random configurations never bring within NEVER_MARGIN of each other, and those that touch at
+    the profile's home (as MoveIt's setup assistant does); returns how many."""
     robot = RobotModel(robot_name, use_srdf=False)
     geometry, data = robot.collision_model, robot.collision_data
     rng = np.random.default_rng(seed)
@@ -31,12 +33,18 @@ def write_srdf(robot_name: str = DEFAULT_ROBOT, samples: int = 20000, seed: int 
             robot.model, robot.data, geometry, data, rng.uniform(robot.lower, robot.upper)
         )
         closest = np.minimum(closest, [result.min_distance for result in data.distanceResults])
+    pin.computeDistances(robot.model, robot.data, geometry, data, robot.home)
+    at_home = [result.min_distance for result in data.distanceResults]
     links: dict[tuple[str, str], float] = {}
-    for pair, distance in zip(geometry.collisionPairs, closest):
+    touching = set()
+    for pair, distance, home_distance in zip(geometry.collisionPairs, closest, at_home):
         a = robot.model.frames[geometry.geometryObjects[pair.first].parentFrame].name
         b = robot.model.frames[geometry.geometryObjects[pair.second].parentFrame].name
         links[(a, b)] = min(links.get((a, b), np.inf), distance)
+        if home_distance <= 0.0:
+            touching.add((a, b))
     never = sorted(pair for pair, distance in links.items() if distance > NEVER_MARGIN)
+    default = sorted(touching - set(never))
     digest = hashlib.sha256(robot.urdf_path.read_bytes()).hexdigest()
     lines = [
         '<?xml version="1.0"?>',
@@ -48,9 +56,12 @@ def write_srdf(robot_name: str = DEFAULT_ROBOT, samples: int = 20000, seed: int 
         f'<robot name="{robot.model.name}">',
     ]
     lines += [f'  <disable_collisions link1="{a}" link2="{b}" reason="Never"/>' for a, b in never]
+    lines += [
+        f'  <disable_collisions link1="{a}" link2="{b}" reason="Default"/>' for a, b in default
+    ]
     lines.append("</robot>")
     robot.profile.srdf_path.write_text("\n".join(lines) + "\n")
-    return len(never)
+    return len(never) + len(default)
 
 
 if __name__ == "__main__":

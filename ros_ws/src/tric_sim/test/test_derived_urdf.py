@@ -1,0 +1,57 @@
+"""A URDF derived from another (tric_sim.world.derived_urdf): the source's links and joints kept,
+its collision primitives drawn as visuals, the profile's frames added as fixed links; a frame on a
+link the source lacks, or named as one of its links, refused; and the Panda's, derived from
+example-robot-data by make setup, loads."""
+
+import pathlib
+import xml.etree.ElementTree as ET
+
+import pytest
+
+from tric_sim.world.derived_urdf import derived_urdf, source_file
+from tric_sim.world.robot_model import RobotModel
+
+SOURCE = pathlib.Path(__file__).resolve().parent / "data" / "slider_gripper.urdf"
+
+
+def test_a_derived_urdf_keeps_the_source_and_adds_the_frames():
+    frames = {"probe": {"parent": "hand", "xyz": [0.0, 0.0, 0.1], "rpy": [0.0, 0.0, 1.5]}}
+    root = ET.fromstring(derived_urdf(SOURCE, frames).split("\n", 2)[2])
+    source = ET.parse(SOURCE).getroot()
+    names = {link.get("name") for link in root.iter("link")}
+    assert names == {link.get("name") for link in source.iter("link")} | {"probe"}
+    joint = next(j for j in root.iter("joint") if j.get("name") == "probe_joint")
+    assert joint.get("type") == "fixed" and joint.find("parent").get("link") == "hand"
+    assert joint.find("origin").get("xyz") == "0.0 0.0 0.1"
+    for link in root.iter("link"):
+        visuals, collisions = link.findall("visual"), link.findall("collision")
+        assert len(visuals) == len(collisions)
+        for visual, collision in zip(visuals, collisions):
+            shapes = [[(c.tag, c.attrib) for c in x.find("geometry")] for x in (visual, collision)]
+            assert shapes[0] == shapes[1] and visual.find("material") is not None
+
+
+@pytest.mark.parametrize(
+    "frames, message",
+    [
+        ({"probe": {"parent": "wrist"}}, "frame 'probe': its parent must be a link"),
+        ({"hand": {"parent": "link_c"}}, "frame 'hand' is a link of slider_gripper.urdf already"),
+    ],
+)
+def test_a_frame_that_cannot_be_added_is_refused(frames, message):
+    with pytest.raises(ValueError, match=message):
+        derived_urdf(SOURCE, frames)
+
+
+def test_a_source_in_a_missing_distribution_is_refused(tmp_path):
+    with pytest.raises(ValueError, match="the distribution 'no-such-robots' is not installed"):
+        source_file("no-such-robots:share/robot.urdf", tmp_path / "robot.yaml")
+    with pytest.raises(ValueError, match="the source URDF .* does not exist"):
+        source_file("missing.urdf", tmp_path / "robot.yaml")
+
+
+def test_the_panda_derived_by_make_setup_loads():
+    robot = RobotModel("panda")
+    assert robot.n_joints == 8 and [m.name for m in robot.mimic_joints] == ["panda_finger_joint2"]
+    assert robot.profile.closing_signs == {"panda_finger_joint1": -1.0}
+    assert "Derived by `python -m tric_sim.world.derived_urdf`" in robot.urdf_path.read_text()
