@@ -91,10 +91,9 @@ class PhysicsWorld:
             if info[2] in (pb.JOINT_REVOLUTE, pb.JOINT_PRISMATIC):
                 joint_index[info[1].decode()] = i
         self.actuated = [joint_index[name] for name in robot.joint_names]
-        #: PyBullet's indices of the links mounted on the table: the base (-1), the profile's
-        self.mounted_links = {-1} | {
-            self.link_index[link] for link in robot.profile.mounted_links if link in self.link_index
-        }
+        # PyBullet's indices of the links mounted on the table: the base (-1) and the profile's
+        mounted = [self.link_index[k] for k in robot.profile.mounted_links if k in self.link_index]
+        self.mounted_links = {-1, *mounted}
         self.mimics = [
             (joint_index[m.name], robot.joint_names.index(m.source), m.multiplier, m.offset)
             for m in robot.mimic_joints
