@@ -1,13 +1,16 @@
 """A URDF derived from another (tric_sim.world.derived_urdf): the source's links and joints kept,
 its collision primitives drawn as visuals, the profile's frames added as fixed links; a frame on a
 link the source lacks, or named as one of its links, refused; and the Panda's, derived from
-example-robot-data by make setup, loads."""
+example-robot-data by make setup, loads and rests on the table."""
 
 import pathlib
 import xml.etree.ElementTree as ET
 
 import pytest
 
+from tric_sim.physics.bullet import pb
+from tric_sim.physics.simulation import PhysicsWorld
+from tric_sim.world import situations
 from tric_sim.world.derived_urdf import derived_urdf, source_file
 from tric_sim.world.robot_model import RobotModel
 
@@ -55,3 +58,25 @@ def test_the_panda_derived_by_make_setup_loads():
     assert robot.n_joints == 8 and [m.name for m in robot.mimic_joints] == ["panda_finger_joint2"]
     assert robot.profile.closing_signs == {"panda_finger_joint1": -1.0}
     assert "Derived by `python -m tric_sim.world.derived_urdf`" in robot.urdf_path.read_text()
+
+
+def test_the_panda_s_mounted_link_never_collides_with_the_table_in_the_simulator():
+    """panda_link1 rests on the table with the base (its coarse model reaches 9 cm below the base's
+    plane): PyBullet reports no contact between them (before: 9 cm deep, holding joint 1)."""
+    robot = RobotModel("panda")
+    world = PhysicsWorld(robot)
+    try:
+        world.reset(situations.sphere("mounted", (0.5, 0.0, 0.3)))
+        world.step()
+        link1, table = world.link_index["panda_link1"], world.bodies["table"]
+        assert link1 in world.mounted_links and -1 in world.mounted_links
+        client = world.client
+        assert pb.getContactPoints(world.robot_id, table, link1, physicsClientId=client) == ()
+        pb.setCollisionFilterPair(world.robot_id, table, link1, -1, 1, physicsClientId=client)
+        world.step()  # the pair enabled again: 9 cm deep
+        deepest = min(
+            p[8] for p in pb.getContactPoints(world.robot_id, table, link1, physicsClientId=client)
+        )
+        assert deepest < -0.05
+    finally:
+        world.close()

@@ -1,6 +1,6 @@
 """A situation's bodies built in a PyBullet client: the table, obstacles and grasp target as
-primitive multibodies, and the box as a static body whose lid is a link on a hinge with friction.
-Units: m, rad, kg, N m."""
+primitive multibodies, and the box as a static body whose lid is a link on a hinge with friction;
+and the robot's contact rules there. Units: m, rad, kg, N m."""
 
 from tric_sim.physics.bullet import pb
 from tric_sim.world import scene
@@ -18,6 +18,23 @@ LATERAL_FRICTION = 0.6
 SPINNING_FRICTION = 0.002
 #: The lid's hinge range, rad: closed (resting on the box) to flung open.
 LID_RANGE = (0.0, 2.2)
+
+
+def robot_contact_rules(client: int, uid: int, robot, link_index: dict) -> set:
+    """Apply a robot's contact rules to its PyBullet body uid (link name -> index: link_index): its
+    links' friction; returns the indices of the links mounted on the table (the base, -1, and its
+    profile's mounted_links), which are not checked against the scene (and never collide with the
+    table: PhysicsWorld.reset)."""
+    for link in range(-1, pb.getNumJoints(uid, physicsClientId=client)):
+        pb.changeDynamics(
+            uid,
+            link,
+            lateralFriction=LATERAL_FRICTION,
+            spinningFriction=SPINNING_FRICTION,
+            physicsClientId=client,
+        )
+    mounted = robot.profile.mounted_links
+    return {-1, *(link_index[link] for link in mounted if link in link_index)}
 
 
 def create_body(client: int, body: scene.Body, situation: Situation) -> int:

@@ -16,7 +16,7 @@ from typing import cast
 import numpy as np
 
 from tric_sim.physics.bullet import pb, quiet_stdout
-from tric_sim.physics.bullet_scene import LATERAL_FRICTION, SPINNING_FRICTION, create_body
+from tric_sim.physics.bullet_scene import create_body, robot_contact_rules
 from tric_sim.physics.joint_stops import JointStops
 from tric_sim.world import scene
 from tric_sim.world.robot_model import RobotModel
@@ -91,9 +91,7 @@ class PhysicsWorld:
             if info[2] in (pb.JOINT_REVOLUTE, pb.JOINT_PRISMATIC):
                 joint_index[info[1].decode()] = i
         self.actuated = [joint_index[name] for name in robot.joint_names]
-        # PyBullet's indices of the links mounted on the table: the base (-1) and the profile's
-        mounted = [self.link_index[k] for k in robot.profile.mounted_links if k in self.link_index]
-        self.mounted_links = {-1, *mounted}
+        self.mounted_links = robot_contact_rules(self.client, self.robot_id, robot, self.link_index)
         self.mimics = [
             (joint_index[m.name], robot.joint_names.index(m.source), m.multiplier, m.offset)
             for m in robot.mimic_joints
@@ -108,14 +106,6 @@ class PhysicsWorld:
         self._forces = list(robot.effort_limits) + [robot.effort_limits[k] for k in sources]
         self._position_gains = [POSITION_GAIN] * len(self.all_joints)
         self._velocity_gains = [VELOCITY_GAIN] * len(self.all_joints)
-        for link in range(-1, pb.getNumJoints(self.robot_id, physicsClientId=self.client)):
-            pb.changeDynamics(
-                self.robot_id,
-                link,
-                lateralFriction=LATERAL_FRICTION,
-                spinningFriction=SPINNING_FRICTION,
-                physicsClientId=self.client,
-            )
         self.stops = JointStops(self.client, self.robot_id, self.all_joints)
         self.periods = 0
         self.situation: Situation | None = None
@@ -151,11 +141,15 @@ class PhysicsWorld:
         for body in self.bodies.values():
             pb.removeBody(body, physicsClientId=self.client)
         self.bodies, self.body_roles = {}, {}
+        client = self.client
         for body in scene.scene_bodies(situation):
             if body.role == "lid":
                 continue  # built as a link of the box body
             self.body_roles[body.name] = body.role
-            self.bodies[body.name] = create_body(self.client, body, situation)
+            uid = self.bodies[body.name] = create_body(self.client, body, situation)
+            for link in self.mounted_links - {-1} if body.role == "table" else ():
+                # a link mounted with the base rests on the table: never a collision there
+                pb.setCollisionFilterPair(self.robot_id, uid, link, -1, 0, physicsClientId=client)
         if situation.object_kind in scene.OBJECT_MASS:
             position, orientation = situation.object_position, situation.object_orientation
             self.fixture = pb.createConstraint(
