@@ -344,9 +344,9 @@ def evaluate(
     bar = tqdm(total=len(situations), desc=desc, unit="episode", disable=not progress)
     try:
         if jobs > 1 or getattr(executor, "kind", "processes") != "processes":
-            agent = (task, model, max_steps, domain_id, record, robot)
+            graphs = (task, model, max_steps, domain_id, record, robot)
             run = (situations, snapshot, jobs, bar, on_record)
-            return _evaluate_in_workers(*run, executor or ProcessExecutor(), agent)
+            return _evaluate_in_workers(*run, executor or ProcessExecutor(), graphs)
         evaluator = Evaluator(task, model, max_steps, domain_id, view, record, robot)
         records = []
         try:
@@ -363,10 +363,11 @@ def evaluate(
         bar.close()
 
 
-def _evaluate_in_workers(situations, snapshot, jobs, bar, on_record, executor, agent) -> list:
-    """The situations shared out over jobs workers (_worker_evaluator), one at a time; agent: (task,
-    model, max_steps, domain_id, record, robot) as evaluate's."""
-    task, model, max_steps, domain_id, record, robot = agent
+def _evaluate_in_workers(situations, snapshot, jobs, bar, on_record, executor, graphs) -> list:
+    """The situations shared out over jobs workers (_worker_evaluator), one at a time; graphs: what
+    the workers' evaluation graphs are made of, (task, model, max_steps, domain_id, record, robot)
+    as evaluate's."""
+    task, model, max_steps, domain_id, record, robot = graphs
     base = int(os.environ.get("ROS_DOMAIN_ID", "0")) if domain_id is None else domain_id
     if not 0 <= base <= MAX_DOMAIN_ID - jobs + 1:
         raise ValueError(

@@ -142,15 +142,17 @@ def grasp_cost_terms(robot: RobotModel, q, kind: str, dimensions, placement: pin
 def finger_flexion(robot: RobotModel, q) -> float:
     """The fingers' mean flexion: the sum of a finger's flexion joint values, each signed to grow as
     the finger closes, averaged over the fingers, rad (or m)."""
-    value = dict(zip(robot.joint_names, q))
-    fingers = robot.profile.fingers
-    return float(np.mean([sum(c * value[j] for j, c in zip(f.joints, f.closing)) for f in fingers]))
+    return _mean_flexion(robot.profile.fingers, dict(zip(robot.joint_names, q)))
 
 
 def open_flexion(robot: RobotModel, kind: str) -> float:
     """The flexion (as finger_flexion) of the hand's open pre-shape for an object kind, rad."""
-    shape, fingers = robot.profile.preshapes[kind], robot.profile.fingers
-    return float(np.mean([sum(c * shape[j] for j, c in zip(f.joints, f.closing)) for f in fingers]))
+    return _mean_flexion(robot.profile.fingers, robot.profile.preshapes[kind])
+
+
+def _mean_flexion(fingers, value: dict) -> float:
+    """finger_flexion of the joint values value (joint -> rad or m)."""
+    return float(np.mean([sum(c * value[j] for j, c in zip(f.joints, f.closing)) for f in fingers]))
 
 
 def grasp_failure(

@@ -36,8 +36,8 @@ class MimicJoint:
 
 
 def _parse_axes(urdf_path: pathlib.Path) -> dict:
-    """Joint name -> unit axis (3,) of every revolute (rotation) and prismatic (translation) joint
-    in the URDF."""
+    """Joint name -> (unit axis (3,), whether it is prismatic) of every revolute (a rotation about
+    the axis) and prismatic (a translation along it) joint in the URDF."""
     axes = {}
     for joint in ET.parse(urdf_path).getroot().iter("joint"):
         if joint.get("type") in ("revolute", "prismatic"):
@@ -47,7 +47,8 @@ def _parse_axes(urdf_path: pathlib.Path) -> dict:
                 if tag is not None
                 else np.array([1.0, 0, 0])
             )
-            axes[joint.get("name")] = axis / np.linalg.norm(axis)
+            sliding = joint.get("type") == "prismatic"
+            axes[joint.get("name")] = (axis / np.linalg.norm(axis), sliding)
     return axes
 
 
@@ -167,14 +168,9 @@ class RobotModel:
 
     def _kinematic_chain(self) -> list:
         """Per Pinocchio joint (in tree order): parent, fixed placement (R, or None for the
-        identity, and p), axis, the q index, multiplier and offset that give its angle or
-        displacement (mimic joints follow their source), and whether it is prismatic."""
+        identity, and p), axis and whether it is prismatic, and the q index, multiplier and offset
+        that give its angle or displacement (mimic joints follow their source)."""
         axes = _parse_axes(self.urdf_path)
-        prismatic = {
-            joint.get("name")
-            for joint in ET.parse(self.urdf_path).getroot().iter("joint")
-            if joint.get("type") == "prismatic"
-        }
         mimics = {m.name: m for m in self.mimic_joints}
         chain = []
         for index in range(1, self.model.njoints):
@@ -196,11 +192,10 @@ class RobotModel:
                     self.model.parents[index],
                     None if np.allclose(rotation, np.eye(3)) else rotation,
                     placement.translation.copy(),
-                    axes[name],
+                    *axes[name],
                     source,
                     multiplier,
                     offset,
-                    name in prismatic,
                 )
             )
         return chain
@@ -244,10 +239,10 @@ class RobotModel:
             fixed_rotation,
             fixed_translation,
             axis,
+            prismatic,
             source,
             multiplier,
             offset,
-            prismatic,
         ) in self._chain:
             value = multiplier * qs[:, source] + offset  # rad, or m for a prismatic joint
             parent_rotation = rotations[parent]
