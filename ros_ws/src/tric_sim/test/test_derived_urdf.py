@@ -1,7 +1,8 @@
 """A URDF derived from another (tric_sim.world.derived_urdf): the source's links and joints kept,
-its collision primitives drawn as visuals, the profile's frames added as fixed links; a frame on a
-link the source lacks, or named as one of its links, refused; and the Panda's, derived from
-example-robot-data by make setup, loads and rests on the table."""
+its collision primitives drawn as visuals, the profile's frames added as fixed links with a
+negligible inertial, a link's collision geometry replaced by the primitives the profile gives; a
+frame on a link the source lacks, or named as one of its links, and a malformed primitive refused;
+and the Panda's, derived from example-robot-data by make setup, loads and rests on the table."""
 
 import pathlib
 import xml.etree.ElementTree as ET
@@ -26,6 +27,8 @@ def test_a_derived_urdf_keeps_the_source_and_adds_the_frames():
     joint = next(j for j in root.iter("joint") if j.get("name") == "probe_joint")
     assert joint.get("type") == "fixed" and joint.find("parent").get("link") == "hand"
     assert joint.find("origin").get("xyz") == "0.0 0.0 0.1"
+    probe = next(link for link in root.iter("link") if link.get("name") == "probe")
+    assert float(probe.find("inertial/mass").get("value")) == 0.001  # PyBullet's default: 1 kg
     for link in root.iter("link"):
         visuals, collisions = link.findall("visual"), link.findall("collision")
         assert len(visuals) == len(collisions)
@@ -44,6 +47,43 @@ def test_a_derived_urdf_keeps_the_source_and_adds_the_frames():
 def test_a_frame_that_cannot_be_added_is_refused(frames, message):
     with pytest.raises(ValueError, match=message):
         derived_urdf(SOURCE, frames)
+
+
+def test_a_link_s_collision_geometry_is_replaced_by_the_profile_s_primitives():
+    collisions = {
+        "hand": [
+            {"box": [0.04, 0.1, 0.02], "xyz": [0.0, 0.0, 0.01]},
+            {"sphere": 0.02},
+            {"cylinder": [0.01, 0.05], "rpy": [1.5, 0.0, 0.0]},
+        ]
+    }
+    root = ET.fromstring(derived_urdf(SOURCE, {}, collisions).split("\n", 2)[2])
+    hand = next(link for link in root.iter("link") if link.get("name") == "hand")
+    shapes = [
+        (c.find("geometry")[0].tag, c.find("geometry")[0].attrib) for c in hand.iter("collision")
+    ]
+    assert shapes == [
+        ("box", {"size": "0.04 0.1 0.02"}),
+        ("sphere", {"radius": "0.02"}),
+        ("cylinder", {"radius": "0.01", "length": "0.05"}),
+    ]
+    assert [c.find("origin").get("xyz") for c in hand.iter("collision")][0] == "0.0 0.0 0.01"
+    assert len(hand.findall("visual")) == 3  # drawn as they collide
+
+
+@pytest.mark.parametrize(
+    "collisions, message",
+    [
+        ({"wrist": [{"sphere": 0.02}]}, "collisions: 'wrist' is not a link of slider_gripper"),
+        ({"hand": []}, "collisions: 'hand' takes a list of primitives"),
+        ({"hand": [{"cone": 0.02}]}, r"collisions: hand\[0\]: give one of box, sphere or cylinder"),
+        ({"hand": [{"box": [0.1, 0.1]}]}, r"collisions: hand\[0\]: box takes 3 positive size"),
+        ({"hand": [{"sphere": -0.1}]}, r"collisions: hand\[0\]: sphere takes 1 positive size"),
+    ],
+)
+def test_a_malformed_collision_primitive_is_refused(collisions, message):
+    with pytest.raises(ValueError, match=message):
+        derived_urdf(SOURCE, {}, collisions)
 
 
 def test_a_source_in_a_missing_distribution_is_refused(tmp_path):

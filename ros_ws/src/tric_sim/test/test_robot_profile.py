@@ -1,6 +1,8 @@
 """Robot profiles: the paper's robot as data, every shipped profile checked against its URDF in
 Pinocchio and PyBullet, and each kind of mistake in a profile refused with its name."""
 
+import xml.etree.ElementTree as ET
+
 import numpy as np
 import pinocchio as pin
 import pytest
@@ -11,6 +13,7 @@ from tric_sim.physics.profile_check import (
     AGREEMENT,
     collision_pair_problems,
     landmark_disagreement,
+    mass_disagreement,
 )
 from tric_sim.world.robot_model import RobotModel
 from tric_sim.world.robot_profile import DEFAULT_ROBOT, PROFILE_DIR, load_profile
@@ -53,6 +56,24 @@ def test_every_profile_s_landmarks_agree_in_pinocchio_and_pybullet(name):
     assert {profile.base, profile.palm, *profile.fingertips, *profile.finger_middles} <= set(worst)
     assert max(max(gaps) for gaps in worst.values()) < AGREEMENT
     assert collision_pair_problems(robot) == []
+    masses = mass_disagreement(robot)
+    assert set(masses) >= set(profile.arm_joints) and max(masses.values()) < AGREEMENT
+
+
+def test_the_check_finds_a_link_without_an_inertial(tmp_path, profile_data):
+    """PyBullet gives a link without an inertial 1 kg, Pinocchio nothing: the check reports the
+    body that carries it, and only it (the Panda's derived frames had none: its fingers weighed
+    4 kg in the simulator)."""
+    urdf = ET.parse(profile_data["urdf"])
+    tip = next(link for link in urdf.getroot().iter("link") if link.get("name") == "finger_1_tip")
+    tip.remove(tip.find("inertial"))
+    profile_data["urdf"] = str(tmp_path / "robot.urdf")
+    urdf.write(profile_data["urdf"])
+    path = tmp_path / "robot.yaml"
+    path.write_text(yaml.safe_dump(profile_data))
+    masses = mass_disagreement(RobotModel(load_profile(path)))
+    assert masses["finger_1_distal_joint"] == pytest.approx(1.0)
+    assert all(gap < AGREEMENT for joint, gap in masses.items() if joint != "finger_1_distal_joint")
 
 
 def test_the_check_finds_a_landmark_placed_elsewhere(monkeypatch):
@@ -119,6 +140,28 @@ def _home_angle(data, _name):
         (lambda d, n: d.update({n: 1}), "gripper", r"unknown entries \['gripper'\]"),
         (lambda d, n: d.update(hand_root=n), "wrist_link", "hand_root: frame 'wrist_link'"),
         (_closing, "2", "finger 1: closing must give \\+1 or -1 for each of its joints"),
+        (lambda d, n: d["grasp_teacher"].pop(n), "shoulder", "'grasp_teacher' must give"),
+        (
+            lambda d, n: d["grasp_teacher"]["grasp_gap"].pop(n),
+            "cylinder",
+            "'grasp_teacher.grasp_gap' must give sphere and cylinder",
+        ),
+        (
+            lambda d, n: d["grasp_teacher"].update(closing_speed=0.0),
+            "closing_speed",
+            "'grasp_teacher.closing_speed' must be a number > 0",
+        ),
+        (
+            lambda d, n: d.update(workspace={n: [[0.4, 0.2, 0.1], [0.6, -0.2, 0.3]]}),
+            "sphere_grid",
+            "'workspace.sphere_grid': each low must be below its high",
+        ),
+        (
+            lambda d, n: d.update(workspace={n: [0.3]}),
+            "cylinder",
+            r"'workspace.cylinder' must be a list of 2 numbers > 0",
+        ),
+        (lambda d, n: d.update(workspace={n: 0.1}), "table", r"'workspace' may give \["),
     ],
 )
 def test_a_profile_mistake_is_refused_with_its_name(tmp_path, profile_data, mistake, name, message):

@@ -1,4 +1,5 @@
-"""The paper's data sets and their generators (tric_sim.world.situations)."""
+"""The data sets and their generators (tric_sim.world.situations): the paper's, and a robot's own
+workspace's."""
 
 import math
 
@@ -6,6 +7,7 @@ import numpy as np
 import pytest
 
 from tric_sim.world import situations as S
+from tric_sim.world.robot_profile import load_profile
 
 
 def test_data_set_sizes_and_grid():
@@ -105,3 +107,22 @@ def test_wide_sets_lie_where_they_say_outside_the_training_ranges():
     xs = [s.object_position[0] for s in boxes]
     assert S.widened(*S.BOX_X_RANGE)[0] <= min(xs) and max(xs) <= S.widened(*S.BOX_X_RANGE)[1]
     assert sum(S.outside_training_range(s) > 0 for s in boxes) > len(boxes) / 2
+
+
+def test_a_robot_s_workspace_makes_its_own_data_sets():
+    """The Panda's profile gives its workspace: the same generators and seeds, its objects (sized
+    for its gripper) within its grid; the paper's sets are the default workspace's."""
+    workspace = load_profile("panda").workspace
+    low, high = workspace.sphere_grid
+    spheres = S.dataset("sphere_test", workspace)
+    assert len(spheres) == 15 and all(s.object_dimensions == (0.03,) for s in spheres)
+    for s in spheres:
+        assert np.all(np.asarray(s.object_position) >= low)
+        assert np.all(np.asarray(s.object_position) <= high)
+    cylinders = S.dataset("cylinder_val", workspace)
+    assert {(c.object_dimensions, c.object_position) for c in cylinders} == {
+        (workspace.cylinder, workspace.cylinder_position)
+    }
+    assert S.dataset("box_test") == S.dataset("box_test", S.PAPER)
+    assert S.find_situation("sphere_test_03", workspace=workspace) == spheres[3]
+    assert S.outside_training_range(spheres[0], workspace) == 0.0

@@ -78,7 +78,7 @@ def test_grasp_teacher_grasps_and_lifts(world, robot, situation):
 
 
 def test_lift_test_grips_before_it_releases_and_holds_the_grip_while_raising(world, robot):
-    """The flexion joints' targets go GRIP_CLOSURE past the final joints (clipped to the limits) for
+    """The flexion joints' targets go the profile's grip squeeze past the final joints (clipped to the limits) for
     GRIP_DURATION while the fixture holds the object; the knuckle stays; the grip is kept after the
     release, while the arm rises; a target already past that (the teacher's squeeze) is kept."""
     world.reset(S.dataset("sphere_test")[3])
@@ -99,7 +99,8 @@ def test_lift_test_grips_before_it_releases_and_holds_the_grip_while_raising(wor
     )
     flexion = [robot.joint_names.index(j) for j in robot.profile.flexion_joints]
     assert len(flexion) == 6 and "finger_2_knuckle_joint" not in robot.profile.flexion_joints
-    grip = np.minimum(q[flexion] + metrics.GRIP_CLOSURE, robot.upper[flexion])
+    assert robot.profile.grip_squeeze == 0.12
+    grip = np.minimum(q[flexion] + robot.profile.grip_squeeze, robot.upper[flexion])
     grip[flexion.index(squeezed)] = held[squeezed]
     knuckle = robot.joint_names.index("finger_2_knuckle_joint")
     targets = [target for kind, target in events if kind == "command"]
@@ -178,3 +179,20 @@ def test_finger_opposition_of_a_small_sphere_moved_across_the_open_hand(robot):
         assert 0.0 < expected(s) < 1.0 and opposition(s) == pytest.approx(expected(s), abs=1e-6)
     # beyond every finger: all on one side
     assert opposition(0.15) == opposition(-0.1) == 1.0
+
+
+@pytest.mark.parametrize("name", ["sphere_val", "cylinder_val", "obstacle_val"])
+def test_the_panda_s_grasp_teacher_grasps_and_lifts_in_its_workspace(name):
+    """The same phased teacher on the Panda's parallel gripper, with its profile's approach and grip
+    (docs/robots.md): good grasps of its own data sets' objects that hold in the lift test, no
+    collision."""
+    panda = RobotModel("panda")
+    world = PhysicsWorld(panda)
+    try:
+        for situation in S.dataset(name, panda.profile.workspace)[:3]:
+            demonstrate(world, panda, situation, 4.0)
+            result = metrics.evaluate(world, panda, run_lift_test=True)
+            assert result.grasp_cost < 0.1, (situation.name, result.cost_terms)
+            assert result.lift_passed and not result.collided, situation.name
+    finally:
+        world.close()

@@ -5,7 +5,8 @@
 ROBOT is a shipped profile's name (default tric_arm_hand) or a profile file (.yaml). Loads the
 profile against its URDF (each joint and frame it names must exist), builds the robot in Pinocchio
 and PyBullet, and prints for each landmark frame the largest gap between the two over N random
-configurations within the joint limits, then the self-collision pairs' consistency with the SRDF.
+configurations within the joint limits, the largest gap between their masses of the body a joint
+moves, then the self-collision pairs' consistency with the SRDF.
 With --picture, draws the robot at its start with its landmark frames named. Exit status: 0 all
 agree, 1 a check failed, 2 the profile (or an argument) was refused.
 """
@@ -43,6 +44,7 @@ def run(argv) -> int:
         AGREEMENT,
         collision_pair_problems,
         landmark_disagreement,
+        mass_disagreement,
     )
     from tric_sim.world.robot_model import RobotModel
 
@@ -60,6 +62,10 @@ def run(argv) -> int:
     for frame, (position, rotation) in worst.items():
         print(f"  {frame:<{width}}  {position:.1e}  {rotation:.1e}")
     disagree = [frame for frame, gaps in worst.items() if max(gaps) >= AGREEMENT]
+    masses = mass_disagreement(robot)
+    heaviest = max(masses, key=masses.__getitem__)
+    print(f"mass of the body a joint moves, worst gap: {masses[heaviest]:.1e} kg ({heaviest})")
+    heavier = [joint for joint, gap in masses.items() if gap >= AGREEMENT]
     problems = collision_pair_problems(robot)
     pairs = len(robot.collision_model.collisionPairs)
     print(f"self-collision pairs checked: {pairs}; problems: {len(problems) or 'none'}")
@@ -76,7 +82,13 @@ def run(argv) -> int:
         print(f"landmarks drawn in {picture}")
     if disagree:
         print(f"tric-robot-check: Pinocchio and PyBullet place {disagree} apart", file=sys.stderr)
-    return 1 if disagree or problems else 0
+    if heavier:
+        print(
+            f"tric-robot-check: Pinocchio and PyBullet weigh what {heavier} move differently "
+            "(a link without an inertial?)",
+            file=sys.stderr,
+        )
+    return 1 if disagree or heavier or problems else 0
 
 
 if __name__ == "__main__":

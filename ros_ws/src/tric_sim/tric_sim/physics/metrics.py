@@ -16,8 +16,8 @@ the error of a task variable a grasp expert checks, normalized to [0, 1] (1 = as
   must not exceed 180 deg (otherwise the fingers all push from one side). (gap - 180) / 90 deg,
   clipped to [0, 1].
 
-Lift test (grasps): the fingers grip (every flexion joint's target at least GRIP_CLOSURE past where
-the joint ends the episode, for GRIP_DURATION while the fixture still holds the object), then the
+Lift test (grasps): the fingers grip (every flexion joint's target at least the robot profile's grip
+squeeze past where the joint ends the episode, for GRIP_DURATION while the fixture still holds the object), then the
 object is released (given its mass) and the hand raised LIFT_HEIGHT; it passes if the object rose by
 at least LIFT_PASS_FRACTION of that. The grip is the evaluator's, the same for every agent: a
 learned controller stops the fingers where its value function is lowest, at the contacts' cushion,
@@ -63,10 +63,10 @@ LIFT_HEIGHT = 0.10
 LIFT_DURATION = 1.0
 LIFT_HOLD = 0.5
 LIFT_PASS_FRACTION = 0.7
-#: The lift test's grip: how far past their final positions the finger flexion joints' targets go
-#: (rad; clipped to the joint limits; the grasp teacher's squeeze past contact) and for how long
-#: they close before the release (s). Chosen on the validation sets: docs/decisions/lift-grip.md.
-GRIP_CLOSURE = 0.12
+#: The lift test's grip: the finger flexion joints' targets go the robot profile's grip squeeze past
+#: their final positions (clipped to the joint limits; the grasp teacher's squeeze past contact), and
+#: close for GRIP_DURATION before the release (s). Chosen on the validation sets:
+#: docs/decisions/lift-grip.md.
 GRIP_DURATION = 0.2
 #: A signed distance below this between the robot and an avoided body counts as a collision, m.
 COLLISION_DISTANCE = 0.0
@@ -218,7 +218,7 @@ def box_failure(
 
 
 def lift_test(world, robot: RobotModel) -> float:
-    """Grip (GRIP_CLOSURE over GRIP_DURATION), release the object and raise the hand LIFT_HEIGHT
+    """Grip (the profile's grip squeeze over GRIP_DURATION), release the object and raise the hand LIFT_HEIGHT
     over LIFT_DURATION, then hold LIFT_HOLD; returns how far the object rose, m. Changes the world
     (reset it afterwards)."""
     q, _ = world.joint_state()
@@ -229,7 +229,7 @@ def lift_test(world, robot: RobotModel) -> float:
     q_raised = robot.reach(q, robot.profile.palm, raised)
     hand_targets = world.targets.copy()
     flexion = np.array([robot.joint_names.index(j) for j in robot.profile.flexion_joints])
-    gripped = robot.closed(q[flexion], flexion, GRIP_CLOSURE)
+    gripped = robot.closed(q[flexion], flexion, robot.profile.grip_squeeze)
     closing = robot.closing_signs[flexion] > 0
     targets = hand_targets[flexion]
     hand_targets[flexion] = np.where(

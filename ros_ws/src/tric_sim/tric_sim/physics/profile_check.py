@@ -1,7 +1,8 @@
 """Checks of a robot profile against the simulator (tric-robot-check, and the tests of every
 shipped profile): Pinocchio and PyBullet place each landmark frame alike over random
-configurations, and the self-collision pairs are consistent with the URDF and the SRDF. Units: m,
-rad."""
+configurations and weigh alike the body each joint moves (PyBullet gives a link without an
+inertial 1 kg, Pinocchio nothing), and the self-collision pairs are consistent with the URDF and
+the SRDF. Units: m, rad, kg."""
 
 import xml.etree.ElementTree as ET
 
@@ -13,7 +14,8 @@ from tric_sim.physics.simulation import PhysicsWorld
 from tric_sim.world import scene, situations
 from tric_sim.world.robot_model import RobotModel
 
-#: Pinocchio and PyBullet agree on a frame when they place it this close, m and rad.
+#: Pinocchio and PyBullet agree on a frame when they place it this close, m and rad; on a body's
+#: mass when they weigh it this close, kg.
 AGREEMENT = 1e-6
 
 
@@ -70,6 +72,40 @@ def _pybullet_placement(world: PhysicsWorld, chains: dict, frame: str) -> pin.SE
     return scene.se3(np.array(position), np.array(orientation)) * centre.inverse() * offset
 
 
+def _random_configurations(world: PhysicsWorld, robot: RobotModel, samples: int, seed: int):
+    """Yield `samples` configurations drawn uniformly within the joint limits, each set in PyBullet
+    (every joint, the mimic ones included) and in the robot's Pinocchio data."""
+    world.reset(situations.sphere("profile_check", (0.6, 0.0, 0.35)))
+    rng = np.random.default_rng(seed)
+    index = dict(zip(robot.joint_names, world.actuated))
+    index.update((m.name, w[0]) for m, w in zip(robot.mimic_joints, world.mimics))
+    for _ in range(samples):
+        q = rng.uniform(robot.lower, robot.upper)
+        for joint, angle in robot.urdf_joint_positions(q).items():
+            pb.resetJointState(world.robot_id, index[joint], angle, physicsClientId=world.client)
+        robot.forward(q)
+        yield q
+
+
+def mass_disagreement(robot: RobotModel) -> dict:
+    """joint -> |Pinocchio's - PyBullet's| mass of the body the joint moves (its link and the links
+    fixed below it), kg. PyBullet gives a link without an inertial 1 kg, Pinocchio nothing."""
+    model = robot.model
+    pinocchio = {model.names[i]: model.inertias[i].mass for i in range(1, model.njoints)}
+    gaps = {}
+    world = PhysicsWorld(robot)
+    try:
+        for link in range(pb.getNumJoints(world.robot_id, physicsClientId=world.client)):
+            info = pb.getJointInfo(world.robot_id, link, physicsClientId=world.client)
+            joint = info[1].decode()
+            if joint in pinocchio:
+                mass = pb.getDynamicsInfo(world.robot_id, link, physicsClientId=world.client)[0]
+                gaps[joint] = abs(pinocchio[joint] - mass)
+    finally:
+        world.close()
+    return gaps
+
+
 def landmark_disagreement(robot: RobotModel, samples: int = 25, seed: int = 0) -> dict:
     """frame -> (worst position gap m, worst rotation gap rad) between Pinocchio's and PyBullet's
     placement of each landmark frame over `samples` configurations drawn uniformly within the
@@ -79,17 +115,7 @@ def landmark_disagreement(robot: RobotModel, samples: int = 25, seed: int = 0) -
     worst = {frame: (0.0, 0.0) for frame in frames}
     world = PhysicsWorld(robot)
     try:
-        world.reset(situations.sphere("profile_check", (0.6, 0.0, 0.35)))
-        rng = np.random.default_rng(seed)
-        index = dict(zip(robot.joint_names, world.actuated))
-        index.update((m.name, w[0]) for m, w in zip(robot.mimic_joints, world.mimics))
-        for _ in range(samples):
-            q = rng.uniform(robot.lower, robot.upper)
-            for joint, angle in robot.urdf_joint_positions(q).items():
-                pb.resetJointState(
-                    world.robot_id, index[joint], angle, physicsClientId=world.client
-                )
-            robot.forward(q)
+        for _ in _random_configurations(world, robot, samples, seed):
             for frame in frames:
                 expected = robot.frame_placement(frame)
                 got = _pybullet_placement(world, chains, frame)

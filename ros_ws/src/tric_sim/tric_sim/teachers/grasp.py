@@ -3,11 +3,13 @@ al. (2011), the paper's sphere and cylinder teacher. Each phase servos its own t
 through differential inverse kinematics on the shared Pinocchio model (tric_sim.teachers.pose_servo:
 a small QP with joint limits, velocity limits and a table-clearance constraint):
 
-1. reach: pre-shape the hand and bring the palm to a pre-grasp pose PREGRASP_DISTANCE before the
-   object, along an approach direction chosen from the object's position
-   (tric_sim.teachers.grasp_approach);
-2. approach: move the palm along that direction to the grasp pose;
-3. close: flex the fingers until each touches the object, then squeeze.
+1. reach: pre-shape the hand and bring the palm to a pre-grasp pose (the robot profile's
+   grasp_teacher.pregrasp_distance) before the object, along an approach direction chosen from the
+   object's position (tric_sim.teachers.grasp_approach);
+2. approach: move the palm along that direction to the grasp pose (the palm centre the profile's
+   grasp_gap from the surface);
+3. close: flex the fingers (at the profile's closing_speed) until each touches the object, then
+   squeeze.
 
 Units: m, rad, s.
 """
@@ -22,15 +24,11 @@ from tric_sim.world.robot_model import RobotModel
 from tric_sim.world.shapes import object_surface
 from tric_sim.world.situation import Situation
 
-#: Palm-centre distance to the object's surface at the grasp and at the pre-grasp pose, m.
-GRASP_GAP = {"sphere": 0.025, "cylinder": 0.035}
-PREGRASP_DISTANCE = {"sphere": 0.10, "cylinder": 0.14}
 #: Phase tolerances: palm position (m) and orientation (rad) error to leave reach / approach.
 REACH_TOLERANCE = (0.015, 0.08)
 APPROACH_TOLERANCE = (0.004, 0.04)
-#: Finger closing: joint speed (rad/s) and contact distance (m); the targets then go the robot
-#: profile's grip squeeze past contact (rad). A proximal link's radius, m.
-CLOSING_SPEED = 1.5
+#: Finger closing: contact distance (m); the targets then go the robot profile's grip squeeze past
+#: contact (rad). A proximal link's radius, m.
 CONTACT_DISTANCE = 0.002
 PROXIMAL_RADIUS = 0.016
 #: The reference may lead the measured arm joints by at most this (rad); when the arm is held back
@@ -63,6 +61,7 @@ class GraspTeacher:
         self.fingers = [[index(j) for j in finger.joints] for finger in robot.profile.fingers]
         self.finger_state = ["closing" if joints else "squeezing" for joints in self.fingers]
         self.grasp_pose: pin.SE3 | None = None
+        self.settings = robot.profile.grasp_teacher
 
     # --- poses ---------------------------------------------------------------------------------
 
@@ -76,20 +75,22 @@ class GraspTeacher:
         if self.kind == "cylinder":
             height, radius = self.situation.object_dimensions
             axis = placement.rotation[:, 2]
-            centre, n = cylinder_grasp_point(centre, axis, height)
+            centre, n = cylinder_grasp_point(centre, axis, height, self.settings)
             # palm y along the axis (fingers 2 and 3 side by side along it): x = y cross z
             rotations = [np.column_stack([np.cross(y, n), y, n]) for y in (axis, -axis)]
         else:
             radius = self.situation.object_dimensions[0]
-            n = approach_direction(centre)
+            n = approach_direction(centre, self.settings)
             base = frame_from(n, np.array([0.0, 0.0, -1.0]))
             rotations = [base @ pin.utils.rotate("z", a) for a in np.radians(np.arange(0, 360, 30))]
-        position = centre - n * (radius + GRASP_GAP[self.kind])
+        position = centre - n * (radius + self.settings.grasp_gap[self.kind])
         grasp = min(
             (pin.SE3(rotation, position) for rotation in rotations),
             key=lambda pose: self._posture_cost(q, pose),
         )
-        pregrasp = pin.SE3(grasp.rotation, grasp.translation - n * PREGRASP_DISTANCE[self.kind])
+        pregrasp = pin.SE3(
+            grasp.rotation, grasp.translation - n * self.settings.pregrasp_distance[self.kind]
+        )
         return grasp, pregrasp
 
     def _posture_cost(self, q: np.ndarray, pose: pin.SE3) -> float:
@@ -166,7 +167,7 @@ class GraspTeacher:
         dims = self.situation.object_dimensions
         robot, profile = self.robot, self.robot.profile
         robot.forward(reference)
-        step = CLOSING_SPEED * self.period
+        step = self.settings.closing_speed * self.period
         for k, (finger, joints) in enumerate(zip(profile.fingers, self.fingers)):
             if self.finger_state[k] != "closing":
                 continue
@@ -179,7 +180,8 @@ class GraspTeacher:
             )
             sign = robot.closing_signs[last]
             limit = robot.upper[last] if sign > 0 else robot.lower[last]
-            if distal <= CONTACT_DISTANCE or sign * reference[last] >= sign * limit - 0.05:
+            closed = sign * reference[last] >= sign * limit - self.settings.closing_margin
+            if distal <= CONTACT_DISTANCE or closed:
                 reference[joints] = robot.closed(reference[joints], joints, profile.grip_squeeze)
                 self.finger_state[k] = "squeezing"
                 continue

@@ -1,37 +1,34 @@
 """Where the grasp teacher's palm approaches an object from: the approach direction for a sphere,
 the grasp point and direction across a cylinder's axis, both chosen so that the wrist ends a
-comfortable distance from the shoulder, and the palm frame built on a direction. Units: m, rad."""
+comfortable distance from the shoulder (the robot profile's grasp_teacher settings: shoulder,
+palm_to_wrist, wrist_distance; for the paper's robot, the arm_2 joint, the arm_6 joint and an
+elbow angle well conditioned across the workspace), and the palm frame built on a direction.
+Units: m, rad."""
 
 import math
 
 import numpy as np
 
-#: The shoulder (arm_2 joint) in the world frame at any arm_1 angle, m.
-SHOULDER = np.array([0.0, 0.0, 0.30])
-#: Distance from the palm centre back to the wrist (arm_6 joint), m.
-PALM_TO_WRIST = 0.19
-#: The approach tilt is chosen so that the wrist ends this far from the shoulder: a comfortable,
-#: well-conditioned elbow angle across the workspace, m.
-COMFORTABLE_WRIST_DISTANCE = 0.55
+from tric_sim.world.profile_entries import GraspTeacherSettings
 
 
-def _wrist_discomfort(point: np.ndarray, n: np.ndarray) -> float:
-    """How far the wrist would be from COMFORTABLE_WRIST_DISTANCE to the shoulder, m, when the palm
+def _wrist_discomfort(point: np.ndarray, n: np.ndarray, reach: GraspTeacherSettings) -> float:
+    """How far the wrist would be from its comfortable distance to the shoulder, m, when the palm
     approaches point along n."""
-    wrist = point - n * (0.06 + PALM_TO_WRIST)
-    return abs(float(np.linalg.norm(wrist - SHOULDER)) - COMFORTABLE_WRIST_DISTANCE)
+    wrist = point - n * (0.06 + reach.palm_to_wrist)
+    return abs(float(np.linalg.norm(wrist - np.array(reach.shoulder))) - reach.wrist_distance)
 
 
-def approach_direction(centre: np.ndarray) -> np.ndarray:
+def approach_direction(centre: np.ndarray, reach: GraspTeacherSettings) -> np.ndarray:
     """Unit vector along which the palm approaches a sphere centred at centre (world): pointing away
-    from the robot in azimuth, tilted down so the wrist ends COMFORTABLE_WRIST_DISTANCE from the
+    from the robot in azimuth, tilted down so the wrist ends its comfortable distance from the
     shoulder."""
     azimuth = math.atan2(centre[1], centre[0])
     candidates = [
         np.array([math.cos(t) * math.cos(azimuth), math.cos(t) * math.sin(azimuth), -math.sin(t)])
         for t in np.radians(np.arange(10.0, 81.0, 1.0))
     ]
-    return min(candidates, key=lambda n: _wrist_discomfort(centre, n))
+    return min(candidates, key=lambda n: _wrist_discomfort(centre, n, reach))
 
 
 #: A cylinder's approach from the robot's left (+y) costs this much more per unit of y, m: an
@@ -40,10 +37,12 @@ def approach_direction(centre: np.ndarray) -> np.ndarray:
 SIDE_PREFERENCE = 0.02
 
 
-def cylinder_grasp_point(centre: np.ndarray, axis: np.ndarray, height: float):
+def cylinder_grasp_point(
+    centre: np.ndarray, axis: np.ndarray, height: float, reach: GraspTeacherSettings
+):
     """(point on the axis, approach direction across the axis) for a cylinder: the direction points
     away from the robot and not upwards, the point lies within the middle of the cylinder, and the
-    pair puts the wrist closest to COMFORTABLE_WRIST_DISTANCE from the shoulder. A cylinder whose
+    pair puts the wrist closest to its comfortable distance from the shoulder. A cylinder whose
     axis points at the robot has no direction across it that points away: then the direction may
     point across (down onto the cylinder, or sideways)."""
     e1 = np.cross(axis, [0.0, 0.0, 1.0])
@@ -61,7 +60,7 @@ def cylinder_grasp_point(centre: np.ndarray, axis: np.ndarray, height: float):
                 if n @ outward < least_outward or n[2] > 0.1:
                     continue
                 cost = (
-                    _wrist_discomfort(point, n)
+                    _wrist_discomfort(point, n, reach)
                     + 0.05 * abs(offset) / height
                     + SIDE_PREFERENCE * max(float(n[1]), 0.0)
                 )

@@ -17,6 +17,8 @@ from typing import Any
 
 import yaml
 
+from tric_sim.world.profile_entries import GraspTeacherSettings, Workspace, grasp_teacher, workspace
+
 #: Where the profiles shipped with tric_sim live (next to their URDFs), and the default robot.
 PROFILE_DIR = pathlib.Path(__file__).resolve().parents[1] / "description"
 DEFAULT_ROBOT = "tric_arm_hand"
@@ -38,7 +40,10 @@ _KEYS = {
     "hand_root": str,
     "mounted_links": list,
     "clearance": dict,
+    "grasp_teacher": dict,
 }
+#: The optional entry `workspace` (the robot's data sets: see Workspace).
+_OPTIONAL_KEYS = ("derive", "workspace")
 _FINGER_KEYS = ("joints", "links", "tip", "middle", "base")
 #: A finger's entry may also give `closing`: per joint, +1 if the finger closes as the joint's value
 #: rises (the default), -1 if it closes as it falls (a gripper finger that slides inwards).
@@ -68,7 +73,9 @@ class RobotProfile:
     home: joint -> rad; preshapes: kind -> {joint: rad}; grip_squeeze (rad) and grip_duration_s
     (s); hand_links: hand_root and every link below it; mounted_links: the links mounted on the
     table with the base, never checked against the scene; clearance: teacher -> ((frame, offset
-    along the frame's z in m, radius in m), ...); digest: SHA-256 of the profile file and its URDF.
+    along the frame's z in m, radius in m), ...); grasp_teacher: GraspTeacherSettings; workspace:
+    Workspace (the paper's unless the profile gives one); digest: SHA-256 of the profile file and
+    its URDF.
     """
 
     name: str
@@ -90,6 +97,8 @@ class RobotProfile:
     hand_links: frozenset
     mounted_links: tuple
     clearance: dict
+    grasp_teacher: GraspTeacherSettings
+    workspace: Workspace
     digest: str
 
     @property
@@ -156,7 +165,7 @@ def _parse(path: pathlib.Path, data: Any, text: str) -> RobotProfile:
     if not isinstance(data, dict):
         raise ValueError("expected a mapping of the profile's entries")
     missing = [key for key in _KEYS if key not in data]
-    unknown = sorted(set(data) - set(_KEYS) - {"derive"})
+    unknown = sorted(set(data) - set(_KEYS) - set(_OPTIONAL_KEYS))
     if missing or unknown:
         raise ValueError(f"missing entries {missing}, unknown entries {unknown}")
     for key, kind in _KEYS.items():
@@ -241,6 +250,8 @@ def _parse(path: pathlib.Path, data: Any, text: str) -> RobotProfile:
             teacher: tuple(_clearance_point(teacher, p, links) for p in clearance[teacher])
             for teacher in CLEARANCE_TEACHERS
         },
+        grasp_teacher=grasp_teacher(data["grasp_teacher"]),
+        workspace=workspace(data.get("workspace", {})),
         digest=digest,
     )
 

@@ -11,22 +11,23 @@ from dataclasses import replace
 import numpy as np
 
 from tric_sim.tools.untrusted import quoted
+from tric_sim.world.profile_entries import Workspace
 from tric_sim.world.situation import Obstacle, Situation
 from tric_sim.world.situation_files import load_situations
 
-SPHERE_RADIUS = 0.04
-CYLINDER_HEIGHT, CYLINDER_RADIUS = 0.30, 0.05
-CYLINDER_POSITION = (0.65, 0.0, 0.25)
-#: The sphere grid of Sec. 5.3: 3 x 3 x 3 positions over 40 (x) x 50 (y) x 40 (z) cm in front of the
-#: robot.
-GRID_LOW = np.array([0.40, -0.25, 0.15])
-GRID_HIGH = np.array([0.80, 0.25, 0.55])
-#: Boxes (Sec. 5.3.5): cube side 10 to 25 cm, placed on the table within these bounds of its
-#: centre's x and y, turned about z within +-BOX_YAW.
-BOX_SIDE_RANGE = (0.10, 0.25)
-BOX_X_RANGE = (0.50, 0.68)
-BOX_Y_RANGE = (-0.20, 0.20)
-BOX_YAW = 0.4
+#: The paper's workspace (Sec. 5.3): the sphere grid's 3 x 3 x 3 positions over 40 (x) x 50 (y) x
+#: 40 cm (z) in front of the robot, 4 cm spheres, the 30 cm x 5 cm cylinder; boxes of side 10 to 25
+#: cm on the table, their centres within ranges of x and y, turned about z within +-0.4 rad. A
+#: robot profile may give its own (its `workspace` entry).
+PAPER = Workspace()
+SPHERE_RADIUS = PAPER.sphere_radius
+GRID_LOW, GRID_HIGH = (np.array(corner) for corner in PAPER.sphere_grid)
+BOX_SIDE_RANGE, BOX_X_RANGE, BOX_Y_RANGE, BOX_YAW = (
+    PAPER.box_side,
+    PAPER.box_x,
+    PAPER.box_y,
+    PAPER.box_yaw,
+)
 
 
 def sphere(name, position, seed=0, radius=SPHERE_RADIUS) -> Situation:
@@ -40,18 +41,24 @@ def sphere(name, position, seed=0, radius=SPHERE_RADIUS) -> Situation:
     ).validate()
 
 
-def sphere_grid() -> list:
-    """The 27 training situations: spheres on a 3 x 3 x 3 grid over GRID_LOW..GRID_HIGH."""
-    axes = [np.linspace(GRID_LOW[k], GRID_HIGH[k], 3) for k in range(3)]
+def sphere_grid(workspace: Workspace = PAPER) -> list:
+    """The 27 training situations: spheres on a 3 x 3 x 3 grid over the workspace's sphere grid."""
+    low, high = workspace.sphere_grid
+    axes = [np.linspace(low[k], high[k], 3) for k in range(3)]
     positions = [(x, y, z) for x in axes[0] for y in axes[1] for z in axes[2]]
-    return [sphere(f"sphere_grid_{i:02d}", p) for i, p in enumerate(positions)]
+    return [
+        sphere(f"sphere_grid_{i:02d}", p, radius=workspace.sphere_radius)
+        for i, p in enumerate(positions)
+    ]
 
 
-def sphere_test_set(count: int = 15, seed: int = 1) -> list:
+def sphere_test_set(count: int = 15, seed: int = 1, workspace: Workspace = PAPER) -> list:
     """Spheres at uniformly random positions inside the grid (the paper's 15 test situations)."""
     rng = np.random.default_rng(seed)
+    low, high = (np.array(corner) for corner in workspace.sphere_grid)
     return [
-        sphere(f"sphere_test_{i:02d}", rng.uniform(GRID_LOW, GRID_HIGH), seed) for i in range(count)
+        sphere(f"sphere_test_{i:02d}", rng.uniform(low, high), seed, workspace.sphere_radius)
+        for i in range(count)
     ]
 
 
@@ -77,23 +84,27 @@ def shifted(situations, std: float, seed: int = 2, suffix: str = "") -> list:
     return out
 
 
-def cylinder(name, angle: float, seed=0) -> Situation:
-    """The 30 cm x 5 cm cylinder at CYLINDER_POSITION, turned about the world y axis by angle (rad):
-    0 stands it upright, pi/2 lays it along x."""
+def cylinder(name, angle: float, seed=0, workspace: Workspace = PAPER) -> Situation:
+    """The workspace's cylinder (the paper's: 30 cm x 5 cm) at its position, turned about the world
+    y axis by angle (rad): 0 stands it upright, pi/2 lays it along x."""
     orientation = (0.0, math.sin(angle / 2), 0.0, math.cos(angle / 2))
     return Situation(
         name=name,
         task="grasp",
         object_kind="cylinder",
-        object_dimensions=(CYLINDER_HEIGHT, CYLINDER_RADIUS),
-        object_position=CYLINDER_POSITION,
+        object_dimensions=workspace.cylinder,
+        object_position=workspace.cylinder_position,
         object_orientation=orientation,
         seed=seed,
     ).validate()
 
 
 def cylinder_set(
-    count: int = 10, seed: int = 3, prefix: str = "cylinder_train", stratified: bool = False
+    count: int = 10,
+    seed: int = 3,
+    prefix: str = "cylinder_train",
+    stratified: bool = False,
+    workspace: Workspace = PAPER,
 ) -> list:
     """Cylinders turned about y by angles drawn uniformly from [0, pi/2] (Sec. 5.3.3); stratified:
     the i-th angle drawn uniformly from the i-th of count equal parts of [0, pi/2] (still random in
@@ -102,7 +113,7 @@ def cylinder_set(
     parts = np.arange(count) if stratified else np.zeros(count)
     width = math.pi / 2 / (count if stratified else 1)
     return [
-        cylinder(f"{prefix}_{i:02d}", float((part + rng.uniform()) * width), seed)
+        cylinder(f"{prefix}_{i:02d}", float((part + rng.uniform()) * width), seed, workspace)
         for i, part in enumerate(parts)
     ]
 
@@ -132,17 +143,25 @@ def with_obstacle(
 
 
 def obstacle_set(
-    count: int, seed: int, prefix: str, gap_range=(0.04, 0.10), height_range=(0.10, 0.18)
+    count: int,
+    seed: int,
+    prefix: str,
+    gap_range=(0.04, 0.10),
+    height_range=(0.10, 0.18),
+    workspace: Workspace = PAPER,
 ) -> list:
     """Spheres at random positions inside the grid, each behind a plate (with_obstacle) of random
     gap and height drawn uniformly from the ranges, m."""
     rng = np.random.default_rng(seed)
+    low, high = (np.array(corner) for corner in workspace.sphere_grid)
     out = []
     for i in range(count):
-        position = rng.uniform(GRID_LOW, GRID_HIGH)
+        position = rng.uniform(low, high)
         gap, height = float(rng.uniform(*gap_range)), float(rng.uniform(*height_range))
         situation = with_obstacle(
-            sphere(f"{prefix}_{i:02d}", position, seed), gap=gap, height=height
+            sphere(f"{prefix}_{i:02d}", position, seed, workspace.sphere_radius),
+            gap=gap,
+            height=height,
         )
         out.append(replace(situation, name=f"{prefix}_{i:02d}"))
     return out
@@ -165,16 +184,20 @@ def box_set(
     count: int = 10,
     seed: int = 4,
     prefix: str = "box_train",
-    x_range=BOX_X_RANGE,
-    y_range=BOX_Y_RANGE,
-    yaw: float = BOX_YAW,
+    x_range=None,
+    y_range=None,
+    yaw: float | None = None,
+    workspace: Workspace = PAPER,
 ) -> list:
-    """Boxes with random side, translation (centre x and y within the ranges, m) and rotation
-    (within +-yaw, rad) (Sec. 5.3.5)."""
+    """Boxes with random side, translation (centre x and y within the ranges, m; the workspace's
+    by default) and rotation (within +-yaw, rad; the workspace's by default) (Sec. 5.3.5)."""
+    x_range = workspace.box_x if x_range is None else x_range
+    y_range = workspace.box_y if y_range is None else y_range
+    yaw = workspace.box_yaw if yaw is None else yaw
     rng = np.random.default_rng(seed)
     out = []
     for i in range(count):
-        side = float(rng.uniform(*BOX_SIDE_RANGE))
+        side = float(rng.uniform(*workspace.box_side))
         out.append(
             box(
                 f"{prefix}_{i:02d}",
@@ -202,41 +225,45 @@ def widened(low: float, high: float) -> tuple:
     return low - half, high + half
 
 
-def box_wide_set(count: int = 25, seed: int = 8) -> list:
+def box_wide_set(count: int = 25, seed: int = 8, workspace: Workspace = PAPER) -> list:
     """Boxes as box_set's but turned within +-WIDE_BOX_YAW, their centres within the widened
     ranges."""
     return box_set(
         count,
         seed,
         "box_wide",
-        widened(*BOX_X_RANGE),
-        widened(*BOX_Y_RANGE),
+        widened(*workspace.box_x),
+        widened(*workspace.box_y),
         WIDE_BOX_YAW,
+        workspace,
     )
 
 
-def sphere_wide_set(count: int = 20, seed: int = 9) -> list:
+def sphere_wide_set(count: int = 20, seed: int = 9, workspace: Workspace = PAPER) -> list:
     """Spheres outside the training grid, up to WIDE_MARGIN from it: drawn uniformly in the grid
     grown by WIDE_MARGIN on every side, the draws inside the grid skipped."""
     rng = np.random.default_rng(seed)
+    low, high = (np.array(corner) for corner in workspace.sphere_grid)
     out: list[Situation] = []
     while len(out) < count:
-        position = rng.uniform(GRID_LOW - WIDE_MARGIN, GRID_HIGH + WIDE_MARGIN)
-        if np.all(position >= GRID_LOW) and np.all(position <= GRID_HIGH):
+        position = rng.uniform(low - WIDE_MARGIN, high + WIDE_MARGIN)
+        if np.all(position >= low) and np.all(position <= high):
             continue
-        out.append(sphere(f"sphere_wide_{len(out):02d}", position, seed))
+        out.append(sphere(f"sphere_wide_{len(out):02d}", position, seed, workspace.sphere_radius))
     return out
 
 
-def cylinder_wide_set(count: int = 10, seed: int = 10) -> list:
+def cylinder_wide_set(count: int = 10, seed: int = 10, workspace: Workspace = PAPER) -> list:
     """Cylinders turned outside [0, pi/2], by up to WIDE_TILT: half before 0, half past pi/2."""
     rng = np.random.default_rng(seed)
     beyond = rng.uniform(0.0, WIDE_TILT, count)
     angles = [-b if i % 2 == 0 else math.pi / 2 + b for i, b in enumerate(beyond)]
-    return [cylinder(f"cylinder_wide_{i:02d}", float(a), seed) for i, a in enumerate(angles)]
+    return [
+        cylinder(f"cylinder_wide_{i:02d}", float(a), seed, workspace) for i, a in enumerate(angles)
+    ]
 
 
-def outside_training_range(situation: Situation) -> float:
+def outside_training_range(situation: Situation, workspace: Workspace = PAPER) -> float:
     """How far a situation lies outside its task's training range, as a share of that range's
     width (the largest over its varied dimensions; 0 inside): spheres by position against the
     grid, cylinders by tilt against [0, pi/2], boxes by centre x, y and yaw against box_set's."""
@@ -245,64 +272,67 @@ def outside_training_range(situation: Situation) -> float:
         return float(max(low - value, value - high, 0.0) / (high - low))
 
     if situation.object_kind == "sphere":
-        return max(
-            beyond(v, lo, hi) for v, lo, hi in zip(situation.object_position, GRID_LOW, GRID_HIGH)
-        )
+        low, high = workspace.sphere_grid
+        return max(beyond(v, lo, hi) for v, lo, hi in zip(situation.object_position, low, high))
     x, y, z, w = situation.object_orientation
     if situation.object_kind == "cylinder":
         return beyond(2 * math.atan2(y, w), 0.0, math.pi / 2)
     yaw = 2 * math.atan2(z, w)
     return max(
-        beyond(situation.object_position[0], *BOX_X_RANGE),
-        beyond(situation.object_position[1], *BOX_Y_RANGE),
-        beyond(yaw, -BOX_YAW, BOX_YAW),
+        beyond(situation.object_position[0], *workspace.box_x),
+        beyond(situation.object_position[1], *workspace.box_y),
+        beyond(yaw, -workspace.box_yaw, workspace.box_yaw),
     )
 
 
-#: Named data sets: name -> function returning the list of situations. The training sets are the
-#: demonstrations; every choice of method or controller is made on them and on the validation sets
-#: (*_val, ours, drawn from the same generators with seeds of their own); the test sets (*_test, the
-#: paper's) and the wider sets (*_wide, Exp. 5) are only reported.
+#: Named data sets: name -> function of a Workspace returning the list of situations. The training
+#: sets are the demonstrations; every choice of method or controller is made on them and on the
+#: validation sets (*_val, ours, drawn from the same generators with seeds of their own); the test
+#: sets (*_test, the paper's) and the wider sets (*_wide, Exp. 5) are only reported.
 DATASETS = {
     "sphere_train": sphere_grid,
-    "sphere_val": lambda: [
-        replace(s, name=f"sphere_val_{i:02d}") for i, s in enumerate(sphere_test_set(15, seed=11))
+    "sphere_val": lambda w: [
+        replace(s, name=f"sphere_val_{i:02d}")
+        for i, s in enumerate(sphere_test_set(15, seed=11, workspace=w))
     ],
-    "sphere_test": lambda: sphere_test_set(15, seed=1),
-    "cylinder_train": lambda: cylinder_set(10, seed=3, prefix="cylinder_train"),
+    "sphere_test": lambda w: sphere_test_set(15, seed=1, workspace=w),
+    "cylinder_train": lambda w: cylinder_set(10, seed=3, prefix="cylinder_train", workspace=w),
     # a second draw of the cylinder training set, and both draws stratified (tric-study's rows)
-    "cylinder_b_train": lambda: cylinder_set(10, seed=15, prefix="cylinder_b_train"),
-    "cylinder_strat_train": lambda: cylinder_set(
-        10, seed=3, prefix="cylinder_strat_train", stratified=True
+    "cylinder_b_train": lambda w: cylinder_set(10, seed=15, prefix="cylinder_b_train", workspace=w),
+    "cylinder_strat_train": lambda w: cylinder_set(
+        10, seed=3, prefix="cylinder_strat_train", stratified=True, workspace=w
     ),
-    "cylinder_strat_b_train": lambda: cylinder_set(
-        10, seed=15, prefix="cylinder_strat_b_train", stratified=True
+    "cylinder_strat_b_train": lambda w: cylinder_set(
+        10, seed=15, prefix="cylinder_strat_b_train", stratified=True, workspace=w
     ),
-    "cylinder_val": lambda: cylinder_set(10, seed=12, prefix="cylinder_val"),
-    "cylinder_test": lambda: cylinder_set(10, seed=5, prefix="cylinder_test"),
-    "obstacle_val": lambda: obstacle_set(10, seed=14, prefix="obstacle_val"),
-    "obstacle_test": lambda: [with_obstacle(s) for s in sphere_test_set(5, seed=6)],
-    "box_train": lambda: box_set(10, seed=4, prefix="box_train"),
-    "box_val": lambda: box_set(25, seed=13, prefix="box_val"),
-    "box_test": lambda: box_set(25, seed=7, prefix="box_test"),
-    "box_wide": box_wide_set,
-    "sphere_wide": sphere_wide_set,
-    "cylinder_wide": cylinder_wide_set,
+    "cylinder_val": lambda w: cylinder_set(10, seed=12, prefix="cylinder_val", workspace=w),
+    "cylinder_test": lambda w: cylinder_set(10, seed=5, prefix="cylinder_test", workspace=w),
+    "obstacle_val": lambda w: obstacle_set(10, seed=14, prefix="obstacle_val", workspace=w),
+    "obstacle_test": lambda w: [with_obstacle(s) for s in sphere_test_set(5, seed=6, workspace=w)],
+    "box_train": lambda w: box_set(10, seed=4, prefix="box_train", workspace=w),
+    "box_val": lambda w: box_set(25, seed=13, prefix="box_val", workspace=w),
+    "box_test": lambda w: box_set(25, seed=7, prefix="box_test", workspace=w),
+    "box_wide": lambda w: box_wide_set(workspace=w),
+    "sphere_wide": lambda w: sphere_wide_set(workspace=w),
+    "cylinder_wide": lambda w: cylinder_wide_set(workspace=w),
 }
 
 
-def dataset(name: str) -> list:
-    """A named data set (see DATASETS), or ValueError listing the known names."""
+def dataset(name: str, workspace: Workspace = PAPER) -> list:
+    """A named data set (see DATASETS) in a workspace (a robot profile's; the paper's by default),
+    or ValueError listing the known names."""
     if name not in DATASETS:
         raise ValueError(f"unknown data set '{quoted(name, 80)}' (known: {', '.join(DATASETS)})")
-    return DATASETS[name]()
+    return DATASETS[name](workspace)
 
 
-def find_situation(name: str, path=None) -> Situation:
+def find_situation(name: str, path=None, workspace: Workspace = PAPER) -> Situation:
     """The situation called name in a situations file (if path is given) or in the named data
-    sets."""
+    sets of a workspace (the paper's by default)."""
     candidates = (
-        load_situations(path) if path else [s for make in DATASETS.values() for s in make()]
+        load_situations(path)
+        if path
+        else [s for make in DATASETS.values() for s in make(workspace)]
     )
     for situation in candidates:
         if situation.name == name:
