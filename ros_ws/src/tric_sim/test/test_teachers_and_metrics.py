@@ -78,9 +78,10 @@ def test_grasp_teacher_grasps_and_lifts(world, robot, situation):
 
 
 def test_lift_test_grips_before_it_releases_and_holds_the_grip_while_raising(world, robot):
-    """The flexion joints' targets go the profile's grip squeeze past the final joints (clipped to the limits) for
-    GRIP_DURATION while the fixture holds the object; the knuckle stays; the grip is kept after the
-    release, while the arm rises; a target already past that (the teacher's squeeze) is kept."""
+    """The flexion joints' targets go the profile's grip squeeze past the final joints (clipped to
+    the limits) for GRIP_DURATION while the fixture holds the object; the knuckle stays; the grip is
+    kept after the release, while the arm rises; a target already past that (the teacher's squeeze)
+    is kept."""
     world.reset(S.dataset("sphere_test")[3])
     q, _ = world.joint_state()
     squeezed = robot.joint_names.index("finger_3_distal_joint")

@@ -17,12 +17,12 @@ the error of a task variable a grasp expert checks, normalized to [0, 1] (1 = as
   clipped to [0, 1].
 
 Lift test (grasps): the fingers grip (every flexion joint's target at least the robot profile's grip
-squeeze past where the joint ends the episode, for GRIP_DURATION while the fixture still holds the object), then the
-object is released (given its mass) and the hand raised LIFT_HEIGHT; it passes if the object rose by
-at least LIFT_PASS_FRACTION of that. The grip is the evaluator's, the same for every agent: a
-learned controller stops the fingers where its value function is lowest, at the contacts' cushion,
-with its command equal to the measured joints, so without it the fingers hold the object with no
-force. Box success: lid opened by more than 0.3 rad.
+squeeze past where the joint ends the episode, for GRIP_DURATION while the fixture still holds the
+object), then the object is released (given its mass) and the hand raised LIFT_HEIGHT; it passes if
+the object rose by at least LIFT_PASS_FRACTION of that. The grip is the evaluator's, the same for
+every agent: a learned controller stops the fingers where its value function is lowest, at the
+contacts' cushion, with its command equal to the measured joints, so without it the fingers hold the
+object with no force. Box success: lid opened by more than 0.3 rad.
 
 Failure class (TaskMetrics.failure, "" for a success without collision): why an episode failed,
 from its final state before the lift test and the lift test's result (grasp_failure, box_failure).
@@ -63,9 +63,9 @@ LIFT_HEIGHT = 0.10
 LIFT_DURATION = 1.0
 LIFT_HOLD = 0.5
 LIFT_PASS_FRACTION = 0.7
-#: The lift test's grip: the finger flexion joints' targets go the robot profile's grip squeeze past
-#: their final positions (clipped to the joint limits; the grasp teacher's squeeze past contact), and
-#: close for GRIP_DURATION before the release (s). Chosen on the validation sets:
+#: The lift test's grip: the finger flexion joints' targets go the robot profile's grip squeeze
+#: past their final positions (clipped to the joint limits; the grasp teacher's squeeze past
+#: contact), and close for GRIP_DURATION before the release (s). Chosen on the validation sets:
 #: docs/decisions/lift-grip.md.
 GRIP_DURATION = 0.2
 #: A signed distance below this between the robot and an avoided body counts as a collision, m.
@@ -218,9 +218,9 @@ def box_failure(
 
 
 def lift_test(world, robot: RobotModel) -> float:
-    """Grip (the profile's grip squeeze over GRIP_DURATION), release the object and raise the hand LIFT_HEIGHT
-    over LIFT_DURATION, then hold LIFT_HOLD; returns how far the object rose, m. Changes the world
-    (reset it afterwards)."""
+    """Grip (the profile's grip squeeze over GRIP_DURATION), release the object and raise the hand
+    LIFT_HEIGHT over LIFT_DURATION, then hold LIFT_HOLD; returns how far the object rose, m.
+    Changes the world (reset it afterwards)."""
     q, _ = world.joint_state()
     start_height = world.object_poses()["object"][0][2]
     robot.forward(q)

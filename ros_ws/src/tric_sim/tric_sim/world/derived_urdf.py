@@ -77,7 +77,7 @@ def _primitive(entry, where: str) -> ET.Element:
         if isinstance(names, str)
         else {name: f"{float(v)!r}" for name, v in zip(names, sizes)}
     )
-    ET.SubElement(ET.SubElement(collision, "geometry"), kind, **attributes)
+    ET.SubElement(ET.SubElement(collision, "geometry"), kind, attributes)
     return collision
 
 
@@ -115,7 +115,7 @@ def derived_urdf(source: pathlib.Path, frames: dict, collisions: dict | None = N
         inertial = ET.SubElement(ET.SubElement(root, "link", name=name), "inertial")
         ET.SubElement(inertial, "mass", value=FRAME_MASS)
         moments = {f"i{axes}": FRAME_INERTIA for axes in ("xx", "yy", "zz")}
-        ET.SubElement(inertial, "inertia", ixy="0", ixz="0", iyz="0", **moments)
+        ET.SubElement(inertial, "inertia", {**moments, "ixy": "0", "ixz": "0", "iyz": "0"})
         joint = ET.SubElement(root, "joint", name=f"{name}_joint", type="fixed")
         ET.SubElement(joint, "parent", link=frame["parent"])
         ET.SubElement(joint, "child", link=name)
