@@ -43,7 +43,7 @@ $(BUILD_STAMP): $(DEPS_STAMP) $(BUILD_INPUTS) $(DERIVED_PROFILES) scripts/colcon
 	touch $@
 
 demo: setup
-	$(IN_ENV) ros2 run tric_control tric-demo $(DEMO_ARGS)
+	$(IN_ENV) ros2 run tric_control tric-demo $(if $(ROBOT),--robot $(ROBOT)) $(DEMO_ARGS)
 
 experiments: setup
 	$(IN_ENV) ros2 run tric_control tric-experiments $(EXPERIMENTS)

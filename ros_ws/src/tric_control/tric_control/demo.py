@@ -31,17 +31,24 @@ from tric_sim.ros.dds_domains import private_domain_id  # noqa: E402
 from tric_sim.tools.output_files import atomic_path  # noqa: E402
 from tric_sim.viz.view_options import open_view  # noqa: E402
 from tric_sim.world.robot_model import RobotModel  # noqa: E402
+from tric_sim.world.robot_profile import DEFAULT_ROBOT, RobotProfile  # noqa: E402
 from tric_sim.world.situations import dataset  # noqa: E402
 
 
-def record(out: pathlib.Path, domain_id: int, view=None) -> pathlib.Path:
-    """Demonstrate the sphere grid into out/bags (emptied first), shown in view (a FoxgloveView, or
-    None); the folder, or RuntimeError."""
+def record(out: pathlib.Path, domain_id: int, profile: RobotProfile, view=None) -> pathlib.Path:
+    """Demonstrate the robot's sphere grid into out/bags (emptied first), shown in view (a
+    FoxgloveView, or None); the folder, or RuntimeError."""
     bags = out / "bags"
     if bags.exists():
         shutil.rmtree(bags)
     rows = demonstrate_all(
-        dataset("sphere_train"), bags, 0.125, 0.0, domain_id=domain_id, view=view
+        dataset("sphere_train", profile.workspace),
+        bags,
+        0.125,
+        0.0,
+        domain_id=domain_id,
+        view=view,
+        robot=profile.spec,
     )
     failed = [s.name for s, result, path in rows if not (result.success and path)]
     if failed:
@@ -49,7 +56,7 @@ def record(out: pathlib.Path, domain_id: int, view=None) -> pathlib.Path:
     return bags
 
 
-def train(bags: pathlib.Path, model: pathlib.Path, config: TrainingConfig, jobs: int):
+def train(bags: pathlib.Path, model: pathlib.Path, config: TrainingConfig, jobs: int, robot: str):
     """Train TRIC's candidates on the bags, jobs at once in spawned processes, and choose the
     model (the default selection), with a progress bar; the selection (Selection)."""
     selection = SelectionConfig()
@@ -66,7 +73,7 @@ def train(bags: pathlib.Path, model: pathlib.Path, config: TrainingConfig, jobs:
 
     try:
         return select_from_bags(
-            [bags], model, config, selection, RobotModel(), ProcessExecutor(), jobs, progress
+            [bags], model, config, selection, RobotModel(robot), ProcessExecutor(), jobs, progress
         )
     finally:
         bar.close()
@@ -80,8 +87,9 @@ def stage_timer(stages: dict, name: str):
     stages[name] = time.monotonic() - start
 
 
-def comparison_table(teacher, tric) -> str:
-    """Paper Table 1 beside ours: the grasp cost of every test situation, then the means."""
+def comparison_table(teacher, tric, beside_paper: bool = True) -> str:
+    """Table 1 (beside the paper's, for the paper's robot): the grasp cost of every test
+    situation, then the means."""
     lines = [f"{'test situation':18s} {'teacher':>8s} {'TRIC':>8s} {'TRIC lift':>9s}"]
     for t, r in zip(teacher, tric):
         lines.append(
@@ -94,7 +102,8 @@ def comparison_table(teacher, tric) -> str:
         f"{'mean (ours)':18s} {ts['grasp_cost_mean']:8.3f} {rs['grasp_cost_mean']:8.3f} "
         f"{rs['lift_passed']:>5d}/{len(tric)}"
     )
-    lines.append(f"{'mean (paper)':18s} {PAPER_TEACHER:8.3f} {PAPER_TRIC:8.3f} {'-':>9s}")
+    if beside_paper:
+        lines.append(f"{'mean (paper)':18s} {PAPER_TEACHER:8.3f} {PAPER_TRIC:8.3f} {'-':>9s}")
     return "\n".join(lines)
 
 
@@ -139,7 +148,7 @@ def run_demo(args, out: pathlib.Path) -> int:
                 print(f"[1/4] reusing the demonstrations in {bags}")
             else:
                 print("[1/4] recording the 27 sphere-grid demonstrations with the teacher")
-                bags = record(work, domain_id, view)
+                bags = record(work, domain_id, args.profile, view)
         selection = SelectionConfig()
         print(
             f"[2/4] training {selection.candidates} TRIC candidates (TrainingConfig's defaults: K "
@@ -147,7 +156,7 @@ def run_demo(args, out: pathlib.Path) -> int:
             "choosing one (docs/decisions/model-selection.md)"
         )
         with stage_timer(stages, "candidates_and_choice"):
-            trained = train(bags, work / "tric_sphere.safetensors", config, args.jobs)
+            trained = train(bags, work / "tric_sphere.safetensors", config, args.jobs, args.robot)
         info = trained.choice.model.info
         print(
             f"      {trained.path}: seed {', '.join(map(str, trained.choice.chosen))} chosen by "
@@ -156,10 +165,16 @@ def run_demo(args, out: pathlib.Path) -> int:
             f"{trained.wall_s:.1f} s"
         )
         print("[3/4] the teacher on the 15 test situations")
-        tests = dataset("sphere_test")
+        tests = dataset("sphere_test", args.profile.workspace)
         with stage_timer(stages, "teacher_evaluation"):
             teacher = evaluate(
-                tests, None, domain_id=domain_id, desc="teacher", jobs=args.jobs, view=view
+                tests,
+                None,
+                domain_id=domain_id,
+                desc="teacher",
+                jobs=args.jobs,
+                view=view,
+                robot=args.robot,
             )
         print("[4/4] TRIC on the 15 test situations")
         snapshots = work / "snapshots"
@@ -172,13 +187,14 @@ def run_demo(args, out: pathlib.Path) -> int:
                 desc="TRIC",
                 jobs=args.jobs,
                 view=view,
+                robot=args.robot,
             )
     finally:
         if view is not None:
             view.close()
     with stage_timer(stages, "table_and_figures"):
         print("\nTable 1: sphere grasp cost on the 15 test situations\n")
-        print(comparison_table(teacher, tric))
+        print(comparison_table(teacher, tric, args.profile.name == DEFAULT_ROBOT))
         ts, rs = summarize(teacher), summarize(tric)
         best = min(tric, key=lambda r: r.grasp_cost if math.isfinite(r.grasp_cost) else math.inf)
         plot(teacher, tric, snapshots / f"{best.situation}.png", out)
@@ -204,6 +220,7 @@ def run_demo(args, out: pathlib.Path) -> int:
         out / "demo.json",
         {
             **summary,
+            "robot": args.profile.name,
             "model": str(trained.path),
             "bags": str(bags),
             "training": {

@@ -1,11 +1,12 @@
 """tric-demo: the main job. Record sphere demonstrations, train TRIC, run it against the teacher.
 
     tric-demo [--reuse [BAGS]] [--out DIR] [--iterations N] [--jobs N] [--check]
-              [--viz [--viz-port P]]
+              [--robot ROBOT] [--viz [--viz-port P]]
 
 1. Record the paper's 27 sphere-grid demonstrations with the teacher through the real nodes
    (simulator in lockstep, teacher, recorder) into DIR/demo/bags, or, with --reuse, take the bags
-   in BAGS (default: the reference set bags/sphere).
+   in BAGS (default: the robot's reference set, bags/sphere for the paper's robot, bags/ROBOT/sphere
+   for another).
 2. Train TRIC's candidates on them with the defaults (K = 30, M = 60, alpha = 1, 30, 0.001: the
    paper's but for alpha_g, see tric_learning.training.value), --jobs at once in spawned processes,
    roll each out from the demonstrations' starts and choose the model (tric_control.selection,
@@ -18,6 +19,10 @@
    chosen seeds and every candidate's score under "training"; and under "tric" and "teacher"
    each agent's summary and per-episode records),
    DIR/demo.png (grasp costs per test situation) and DIR/demo_grasp.png (one TRIC grasp).
+
+--robot: the robot (a shipped profile's name or a profile file, docs/robots.md; default
+tric_arm_hand); the sphere grid and the test spheres are then its workspace's (`make demo
+ROBOT=panda` runs the job on the Franka Panda).
 
 --viz serves a live Foxglove view of the whole run (tric_sim.visualizer_node) on ws://127.0.0.1:P
 (default 8765); the evaluations then run on one graph (--jobs 1), the one it shows.
@@ -36,7 +41,11 @@ from tric_learning.training.hyperparameters import TrainingConfig
 from tric_sim.tools.claims import claim
 from tric_sim.tools.interrupts import run_interruptible
 from tric_sim.tools.output_files import WriteFailed, check_output_folder
+from tric_sim.tools.robot_option import add_robot_option, checked_robot, reference_bags
 from tric_sim.viz.view_options import add_view_arguments
+
+#: --reuse without a folder: the robot's reference sphere bags.
+REFERENCE = "reference"
 
 
 def main(argv=None) -> int:
@@ -50,10 +59,10 @@ def run(argv) -> int:
     parser.add_argument(
         "--reuse",
         nargs="?",
-        const="bags/sphere",
+        const=REFERENCE,
         default=None,
         metavar="BAGS",
-        help="train on recorded bags instead of recording (default folder: bags/sphere)",
+        help="train on recorded bags instead of recording (default: the robot's reference bags)",
     )
     parser.add_argument("--out", default="results", help="results folder (default: results)")
     parser.add_argument(
@@ -69,6 +78,7 @@ def run(argv) -> int:
         help="candidates trained and evaluation graphs run at once (default: the number of CPUs)",
     )
     parser.add_argument("--check", action="store_true", help="exit 1 when TRIC misses its targets")
+    add_robot_option(parser)
     add_view_arguments(parser)
     args = parser.parse_args(argv)
     if args.jobs < 1:
@@ -79,6 +89,10 @@ def run(argv) -> int:
         )
         args.jobs = 1
     try:
+        args.profile = checked_robot(args)
+        args.robot = args.profile.spec
+        if args.reuse == REFERENCE:
+            args.reuse = str(reference_bags(args.profile, "sphere"))
         out = check_output_folder(args.out, "--out folder")
         from tric_control.demo import run_demo
 

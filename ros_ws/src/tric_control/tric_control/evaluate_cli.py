@@ -12,37 +12,36 @@ situation: reset the scene (/simulator/reset_scene); the teacher demonstrates it
 (/controller/execute); then the simulator judges the final state with the hidden metrics
 (/simulator/evaluate_task, with the lift test for grasps). Prints a table, and writes the
 per-episode records and their summary to the --json file. DATASET is a built-in data set
-(sphere_test, cylinder_test, obstacle_test, box_test, ...); any YAML/JSON situations file of one
-task works too. --robot: the robot (a shipped profile's name or a profile file, docs/robots.md;
-default tric_arm_hand); a model made for another robot is refused. --snapshots DIR writes a PNG
-of each final state (before the lift test). The --json
-file and the --snapshots folder are checked before the first episode (the --json file must not be
-the model or the situations file, nor exist unless --overwrite), claimed for this run (another run
-naming them is refused, naming this one's PID), with the name of every picture and bag the episodes
-will write; a result is written atomically, never over a file that appeared meanwhile unless
---overwrite. Each episode judged is kept in the --json file's .partial with the key of all that made
-it (tric_control.evaluation.partial); --resume runs only the episodes not kept with this run's key,
-naming those dropped. The nodes run in a private DDS domain unless --domain-id names one. --jobs N
-runs N such graphs at once, each in a worker process of its own on its own domain (the base one and
-the N - 1 above it), the situations shared out one at a time; the records keep the situations'
-order. The workers are spawned processes here, or Ray actors (--executor ray: a local Ray instance;
---address or RAY_ADDRESS: a Ray cluster whose machines have the project's environment, the model
-file and the code shipped to them, the records coming back; not with --snapshots, --record or --viz,
-which write on the workers' disks). --offline runs the same episodes without nodes: the controller
-core (or the teacher's) on the physics directly (tric_control.evaluation.offline), several times
-faster, for sweeps; the table and JSON are the same. --record DIR writes one bag per episode (the
-recorder node: the joint states, poses, samples and outcome, the controller's status of every tick,
-and /tf, /robot_description and /scene_markers for Foxglove to replay it in 3D). --viz serves a live
-Foxglove view of the run (tric_sim.viz.foxglove_view) on ws://127.0.0.1:P (default 8765); it shows
-one graph, so it takes --jobs 1. --record and --viz need the nodes (not --offline). --perturb puts
-each situation through perturbed trials instead (tric_sim.world.perturbation_trials): push:SIZE
-shoves the arm by SIZE rad, jump:SIZE moves the grasp target SIZE m sideways at once, drift:SIZE
-moves it at SIZE m/s, start:SIZE starts SIZE rad from the nominal start; @SECONDS sets when (default
-1 s for grasps, 4 s for boxes). Each --perturb value gives one episode per situation, named
-"<situation>_<kind><size>"; the perturbations are in the situation the episode runs (and in its bag,
-with --record). Exits 0 when every episode ran (whatever its score), 1 when one could not be run, 2
-on bad arguments.
-"""
+(sphere_test, cylinder_test, obstacle_test, box_test, ...), in the robot's workspace (its
+profile's); any YAML/JSON situations file of one task works too. --robot: the robot (a shipped
+profile's name or a profile file, docs/robots.md; default tric_arm_hand); a model made for another
+robot is refused. --snapshots DIR writes a PNG of each final state (before the lift test). The
+--json file and the --snapshots folder are checked before the first episode (the --json file must
+not be the model or the situations file, nor exist unless --overwrite), claimed for this run
+(another run naming them is refused, naming this one's PID), with the name of every picture and bag
+the episodes will write; a result is written atomically, never over a file that appeared meanwhile
+unless --overwrite. Each episode judged is kept in the --json file's .partial with the key of all
+that made it (tric_control.evaluation.partial); --resume runs only the episodes not kept with this
+run's key, naming those dropped. The nodes run in a private DDS domain unless --domain-id names one.
+--jobs N runs N such graphs at once, each in a worker process of its own on its own domain (the base
+one and the N - 1 above it), the situations shared out one at a time; the records keep the
+situations' order. The workers are spawned processes here, or Ray actors (--executor ray: a local
+Ray instance; --address or RAY_ADDRESS: a Ray cluster whose machines have the project's environment,
+the model file and the code shipped to them, the records coming back; not with --snapshots, --record
+or --viz, which write on the workers' disks). --offline runs the same episodes without nodes: the
+controller core (or the teacher's) on the physics directly (tric_control.evaluation.offline),
+several times faster, for sweeps; the table and JSON are the same. --record DIR writes one bag per
+episode (the recorder node: the joint states, poses, samples and outcome, the controller's status of
+every tick, and /tf, /robot_description and /scene_markers for Foxglove to replay it in 3D). --viz
+serves a live Foxglove view of the run (tric_sim.viz.foxglove_view) on ws://127.0.0.1:P (default
+8765); it shows one graph, so it takes --jobs 1. --record and --viz need the nodes (not --offline).
+--perturb puts each situation through perturbed trials instead (tric_sim.world.perturbation_trials):
+push:SIZE shoves the arm by SIZE rad, jump:SIZE moves the grasp target SIZE m sideways at once,
+drift:SIZE moves it at SIZE m/s, start:SIZE starts SIZE rad from the nominal start; @SECONDS sets
+when (default 1 s for grasps, 4 s for boxes). Each --perturb value gives one episode per situation,
+named "<situation>_<kind><size>"; the perturbations are in the situation the episode runs (and in
+its bag, with --record). Exits 0 when every episode ran (whatever its score), 1 when one could not
+be run, 2 on bad arguments."""
 
 import argparse
 import contextlib
@@ -193,9 +192,12 @@ def evaluate_and_report(args, executor, domain_id: int, claims: contextlib.ExitS
     view = None
     name = "teacher" if args.teacher else args.model
     try:
-        args.robot = checked_robot(args)
+        profile = checked_robot(args)
+        args.robot = profile.spec
         situations = (
-            load_situations(args.situations_file) if args.situations_file else dataset(args.dataset)
+            load_situations(args.situations_file)
+            if args.situations_file
+            else dataset(args.dataset, profile.workspace)
         )
         if args.perturb:
             from tric_sim.world.robot_model import RobotModel

@@ -234,7 +234,7 @@ def run(argv) -> int:
             selection.validate()
         if not 1 <= args.jobs <= 64:
             raise ValueError("--jobs must be in [1, 64]")
-        robot = checked_robot(args)
+        robot = checked_robot(args).spec
         choice = chosen_executor(args)
     except ValueError as error:
         print(f"{PROG}: {error}", file=sys.stderr)

@@ -53,7 +53,7 @@ def run(argv) -> int:
     add_robot_option(parser)
     args = parser.parse_args(argv)
     try:
-        args.robot = checked_robot(args)
+        args.robot = checked_robot(args).spec
         if args.top < 1:
             raise ValueError("--top must be at least 1")
         if args.feature_rank is not None and args.feature_rank < 1:

@@ -5,7 +5,8 @@
 
 Runs the simulator (lockstep), the teacher and the recorder nodes in one process: for each situation
 the teacher demonstrates (action /teacher/demonstrate) and the recorder writes one bag
-DIR/<situation>.mcap. DATASET is a built-in data set (sphere_train, cylinder_train, box_train, ...).
+DIR/<situation>.mcap. DATASET is a built-in data set (sphere_train, cylinder_train, box_train, ...),
+in the robot's workspace (its profile's; docs/robots.md).
 DIR must be new or empty unless --overwrite is given (then a bag of the same name is replaced).
 Before the first demonstration DIR is claimed for this run (another run naming it is refused, naming
 this one's PID), its room checked for the bags (which grow with --duration, at most 120 s, and
@@ -102,11 +103,12 @@ def run(argv) -> int:
         parser.error(f"--domain-id must be in [0, {MAX_DOMAIN_ID}]")
     with contextlib.ExitStack() as claims:
         try:
-            args.robot = checked_robot(args)
+            profile = checked_robot(args)
+            args.robot = profile.spec
             situations = (
                 load_situations(args.situations_file)
                 if args.situations_file
-                else dataset(args.dataset)
+                else dataset(args.dataset, profile.workspace)
             )
             out = claim_folder(args, situations, claims)
         except ValueError as error:

@@ -119,7 +119,9 @@ class SimulatorNode(Node):
         )
         self.create_service(RenderScene, "~/render_scene", self._on_render, callback_group=group)
 
-        self.world.reset(find_situation(situation_name, situations_file or None))
+        self.world.reset(
+            find_situation(situation_name, situations_file or None, self.robot.profile.workspace)
+        )
         self._state_msg = JointState(name=list(self.robot.joint_names))
         self._clock_msg = Clock()
         self._last_publish = time.monotonic()

@@ -45,8 +45,12 @@ def run(argv) -> int:
     if args.strip and not 2 <= args.strip <= 12:
         parser.error("--strip takes 2 to 12 frames")
     try:
-        robot = checked_robot(args)
-        chosen = [find_situation(name, args.situations_file) for name in args.situations]
+        profile = checked_robot(args)
+        robot = profile.spec
+        chosen = [
+            find_situation(name, args.situations_file, profile.workspace)
+            for name in args.situations
+        ]
         out = check_output_folder(args.out, "--out folder")
         held = claim(out, "--out folder", folder=True)
     except ValueError as error:

@@ -2,7 +2,7 @@
 
     tric-experiments [NAME ...] [--out DIR] [--situations N] [--jobs N] [--executor processes|ray]
                      [--address HOST:PORT] [--check | --check-only] [--report-only]
-                     [--results-page FILE]
+                     [--results-page FILE] [--robot ROBOT]
 
 NAME (default: all, in this order):
   table1    spheres: the teacher and TRIC (K = 30) on the 15 sphere test situations (paper Table 1).
@@ -29,7 +29,9 @@ NAME (default: all, in this order):
             seeds each: f along every demo, the cosines of L_g, the collision prior, kernel PCA,
             the feature scores and the mean gradients df/dy by step.
 
-Models are trained on the reference bags in bags/ (kept in DIR/models and re-used when present).
+Models are trained on the robot's reference bags (kept in DIR/models and re-used when present):
+bags/<set> for the paper's robot, bags/ROBOT/<set> for another (--robot: a shipped profile's name or
+a profile file, docs/robots.md; default tric_arm_hand), and run on its data sets, in its workspace.
 Every evaluation's episodes are kept in DIR/episodes, keyed on the model file, the situations, the
 step budget and the code of the nodes: a rerun re-uses a complete evaluation and runs only the
 episodes an interrupted one had not judged; a changed key re-uses nothing.
@@ -71,6 +73,7 @@ from tric_control.experiments import EXPERIMENT_MODULES, experiment
 from tric_sim.tools.claims import claim
 from tric_sim.tools.interrupts import run_interruptible
 from tric_sim.tools.output_files import WriteFailed, atomic_path, check_output_folder
+from tric_sim.tools.robot_option import add_robot_option, checked_robot
 
 
 def main(argv=None) -> int:
@@ -108,6 +111,7 @@ def run(argv) -> int:
         "%(default)s)",
     )
     add_executor_arguments(parser, DEFAULT_EXECUTORS["tric-experiments"])
+    add_robot_option(parser)
     parser.add_argument(
         "--check",
         action="store_true",
@@ -139,6 +143,7 @@ def run(argv) -> int:
         )
     try:
         args.executor = chosen_executor(args)
+        args.robot = checked_robot(args).spec
         out = check_output_folder(args.out, "--out folder")
     except ValueError as error:
         print(f"tric-experiments: {error}", file=sys.stderr)
@@ -172,7 +177,7 @@ def run_experiments(args, out, page) -> int:
     from tric_control.experiments.runner import Runner
 
     with open_executor(args.executor, num_cpus=args.jobs) as executor:
-        return _run_each(args, out, page, Runner(out, args.jobs, executor))
+        return _run_each(args, out, page, Runner(out, args.jobs, executor, args.robot))
 
 
 def _run_each(args, out, page, runner) -> int:

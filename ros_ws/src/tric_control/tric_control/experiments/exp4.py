@@ -4,7 +4,6 @@ training."""
 from tric_control.experiments.paper import PAPER_REPORTS
 from tric_control.experiments.rows import grasp_result, grasp_rows, spread
 from tric_control.experiments.runner import Runner
-from tric_sim.world import situations
 
 #: The experiment's heading in the report and the log.
 TITLE = (
@@ -16,7 +15,7 @@ TITLE = (
 def run(runner: Runner) -> dict:
     """The experiment's rows, table, figure(s), the paper's numbers and the discussion."""
     tric = dict(name="sphere_k30", bags="sphere")
-    rows = grasp_rows(runner, situations.dataset("obstacle_test"), {"TRIC": tric})
+    rows = grasp_rows(runner, runner.situations("obstacle_test"), {"TRIC": tric})
     return grasp_result(rows, "Exp. 4: unseen obstacle", PAPER_REPORTS["exp4"], discussion(rows))
 
 

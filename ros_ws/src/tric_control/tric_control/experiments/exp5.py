@@ -65,7 +65,7 @@ def run(runner: Runner) -> dict:
     robot = runner.robot
     rows: dict[str, dict] = {}
     for dataset, families in (("sphere_test", FAMILIES), ("box_test", BOX_FAMILIES)):
-        base = situations.dataset(dataset)[:COUNT]
+        base = runner.situations(dataset)[:COUNT]
         trials = [(family, trial) for family, chosen in families.items() for trial in chosen]
         chosen = base + [trial.apply(s, robot) for _, trial in trials for s in base]
         task = base[0].task
@@ -305,9 +305,9 @@ def _trace(runner: Runner) -> dict:
     from tric_control.evaluation.offline import OfflineEvaluator
 
     name, size = TRACE
-    nominal = situations.find_situation(name)
+    nominal = situations.find_situation(name, workspace=runner.profile.workspace)
     model = runner.model(**AGENTS["grasp"]["TRIC"], seed=SEEDS[0])
-    evaluator = OfflineEvaluator("grasp", model, TRACE_STEPS)
+    evaluator = OfflineEvaluator("grasp", model, TRACE_STEPS, robot=runner.profile.spec)
     rested: list[float] = []
     trace: dict[str, list] = {"t": [], "f": [], "speed": [], "phase": []}
 

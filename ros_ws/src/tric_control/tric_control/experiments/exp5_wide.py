@@ -51,8 +51,8 @@ def run(runner: Runner) -> dict:
     """The experiment's rows, table, figure, the paper's numbers (none) and the discussion."""
     rows: dict[str, dict] = {}
     for name, agents in SETS.items():
-        chosen = situations.dataset(name)
-        distances = [situations.outside_training_range(s) for s in chosen]
+        chosen = runner.situations(name)
+        distances = [situations.outside_training_range(s, runner.profile.workspace) for s in chosen]
         rows[name] = {"distances": distances, "agents": {}}
         for label, model in agents.items():
             by_seed = (

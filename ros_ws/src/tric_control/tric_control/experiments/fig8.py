@@ -15,12 +15,11 @@ from tric_control.experiments.rows import (  # noqa: E402
     grasp_row,
     mean_difference_is_clear,
 )
-from tric_control.experiments.runner import BAGS, Runner  # noqa: E402
+from tric_control.experiments.runner import Runner  # noqa: E402
 from tric_learning.bags.loader import load_dataset  # noqa: E402
 from tric_learning.training.dataset import Dataset  # noqa: E402
 from tric_learning.training.value import TrainingConfig  # noqa: E402
 from tric_sim.physics.metrics import GOOD_GRASP  # noqa: E402
-from tric_sim.world import situations  # noqa: E402
 
 #: The experiment's heading in the report and the log.
 TITLE = (
@@ -53,12 +52,12 @@ FIG8_SEED = 8
 
 def run(runner: Runner) -> dict:
     """The experiment's rows, table, figure(s), the paper's numbers and the discussion."""
-    dataset = load_dataset([BAGS / "sphere"], runner.robot)
+    dataset = load_dataset([runner.bags("sphere")], runner.robot)
     all_demos, most_samples = max(FIG8_DEMOS), max(FIG8_SAMPLES)
     if all_demos != len(dataset.demos):
         raise ValueError(
-            f"Fig. 8 sweeps N up to {all_demos} but {BAGS / 'sphere'} holds {len(dataset.demos)} "
-            "demos"
+            f"Fig. 8 sweeps N up to {all_demos} but {runner.bags('sphere')} holds "
+            f"{len(dataset.demos)} demos"
         )
     # nested subsets: N = 3 within N = 9 ...
     order = np.random.default_rng(FIG8_SEED).permutation(all_demos)
@@ -67,7 +66,7 @@ def run(runner: Runner) -> dict:
     settings = [(all_demos, m) for m in FIG8_SAMPLES] + [
         (n, most_samples) for n in FIG8_DEMOS if n != all_demos
     ]
-    tests = situations.dataset("sphere_test")[:FIG8_TESTS]
+    tests = runner.situations("sphere_test")[:FIG8_TESTS]
     rows = {}
     for variant, (alpha_n, alpha_g) in FIG8_VARIANTS.items():
         for demos, samples in settings:

@@ -8,7 +8,7 @@ from tric_control.experiments.paper import PAPER_REPORTS, PAPER_SELECTED_FEATURE
 from tric_control.experiments.rows import (
     spread,
 )
-from tric_control.experiments.runner import BAGS, SEEDS, Runner
+from tric_control.experiments.runner import SEEDS, Runner
 from tric_control.experiments.targets import (
     COSINE_TARGET,
     FALLING_TARGET,
@@ -39,7 +39,7 @@ def run(runner: Runner) -> dict:
     rows: dict[str, dict]
     rows, figures = {}, []
     for task, name in ANALYSIS_TASKS.items():
-        dataset = load_dataset([BAGS / task], runner.robot)
+        dataset = load_dataset([runner.bags(task)], runner.robot)
         rows[task] = {}
         for seed in SEEDS:
             loaded = ModelFile.load(

@@ -3,7 +3,8 @@ chooses them (TRIC: the best of the default selection's candidates from each gro
 tric_control.selection; DPL: one model a seed) and evaluates them through the real nodes, each
 evaluation kept under DIR/episodes, re-used when made as asked and continued after an interrupt
 (tric_control.evaluation.kept); the candidates, trainings and episodes run on an executor
-(tric_control.evaluation.executors: processes here, or Ray)."""
+(tric_control.evaluation.executors: processes here, or Ray); all of one robot (its reference bags,
+its data sets' workspace)."""
 
 import pathlib
 from dataclasses import replace
@@ -26,10 +27,10 @@ from tric_learning.training.lbfgs import torch_threads
 from tric_learning.training.value import TrainingConfig, train
 from tric_sim.ros.dds_domains import private_domain_id
 from tric_sim.tools.provenance import code_digest
+from tric_sim.tools.robot_option import reference_bags
+from tric_sim.world import situations
 from tric_sim.world.robot_model import RobotModel
-
-BAGS = pathlib.Path("bags")
-
+from tric_sim.world.robot_profile import DEFAULT_ROBOT, load_profile
 
 #: The group seeds of every model of Tables 1, 3, 4 and Exps. 4 and 5: TRIC's candidates are drawn
 #: from G, G + 1, ... (a seed draws the noisy samples and the initial weights), DPL's model from G;
@@ -37,11 +38,13 @@ BAGS = pathlib.Path("bags")
 SEEDS = (0, 100, 200)
 
 
-def trained_model_file(kind: str, dataset: Dataset, config, threads: int):
+def trained_model_file(
+    kind: str, dataset: Dataset, config, threads: int, robot_spec: str = DEFAULT_ROBOT
+):
     """The model file (model_file.ModelFile) of a training of kind ("tric" or a DPL kind) on
     dataset with config, PyTorch computing with threads threads (the caller's: the same model on
-    every executor)."""
-    robot = RobotModel()
+    every executor), for the robot robot_spec (a profile's name or file)."""
+    robot = RobotModel(robot_spec)
     with torch_threads(threads):
         if kind == "tric":
             return model_file.from_training(train(dataset, robot, config), dataset)
@@ -51,29 +54,38 @@ def trained_model_file(kind: str, dataset: Dataset, config, threads: int):
 class Runner:
     """Trains (or re-uses) models under out/models and runs evaluations with `jobs` worker graphs,
     on private DDS domains from its own one up, keeping their episodes under out/episodes; both
-    on executor (None: processes here)."""
+    on executor (None: processes here); of robot (a profile's name or file)."""
 
-    def __init__(self, out: pathlib.Path, jobs: int = 1, executor=None):
+    def __init__(self, out: pathlib.Path, jobs: int = 1, executor=None, robot: str = DEFAULT_ROBOT):
         self.out = out
         self.jobs = jobs
         self.executor = executor or ProcessExecutor()
-        self.robot = RobotModel()
+        self.profile = load_profile(robot)
+        self.robot = RobotModel(self.profile)
         self.domain_id = private_domain_id()
         self._datasets: dict[str, Dataset] = {}
-        self.candidates = CandidateStore(out / "candidates")
+        self.candidates = CandidateStore(out / "candidates", self.profile.spec)
         (out / "models").mkdir(parents=True, exist_ok=True)
 
+    def situations(self, name: str) -> list:
+        """A built-in data set in the robot's workspace."""
+        return situations.dataset(name, self.profile.workspace)
+
+    def bags(self, bags: str) -> pathlib.Path:
+        """The robot's reference bags of a set (bags/<bags>, or bags/<robot>/<bags>)."""
+        return reference_bags(self.profile, bags)
+
     def demonstrations(self, bags: str) -> Dataset:
-        """The dataset of the bags in bags/<bags>, read once."""
+        """The dataset of the robot's reference bags of a set, read once."""
         if bags not in self._datasets:
-            self._datasets[bags] = load_dataset([BAGS / bags], self.robot)
+            self._datasets[bags] = load_dataset([self.bags(bags)], self.robot)
         return self._datasets[bags]
 
     def model(
         self, name: str, bags: str, kind: str = "tric", hidden_units: int = 30, seed: int = 0
     ) -> pathlib.Path:
-        """The model file out/models/<name>_s<seed>.safetensors, made on bags/<bags>: TRIC chosen
-        by the default selection among candidates from the group seed (the defaults but
+        """The model file out/models/<name>_s<seed>.safetensors, made on the bags <bags>: TRIC
+        chosen by the default selection among candidates from the group seed (the defaults but
         hidden_units; the candidates kept, see _chosen), DPL trained with the seed's initial
         weights unless a model made as asked is there (model_file.made_as: the kind,
         hyper-parameters, dataset and training code)."""
@@ -83,13 +95,13 @@ class Runner:
             return self._chosen(path, bags, TrainingConfig(hidden_units=hidden_units, seed=seed))
         config, code = dpl.DplConfig(seed=seed), code_digest("tric_learning.training.dpl")
         if not model_file.made_as(path, kind, config.to_dict(), dataset.fingerprint, code):
-            print(f"training {name} (seed {seed}) on {BAGS / bags}", flush=True)
+            print(f"training {name} (seed {seed}) on {self.bags(bags)}", flush=True)
             self._train(kind, dataset, config).save(path)
         return path
 
     def _chosen(self, path: pathlib.Path, bags: str, config: TrainingConfig) -> pathlib.Path:
         """The model at path, chosen by the default selection among the candidates from config's
-        seed (the group's), each trained on bags/<bags> and rolled out from its demonstrations'
+        seed (the group's), each trained on the bags <bags> and rolled out from its demonstrations'
         starts: the candidates kept under out/candidates (tric_control.study.candidates), so
         that a change of the choice alone trains nothing again."""
         dataset, selection = self.demonstrations(bags), SelectionConfig()
@@ -136,7 +148,7 @@ class Runner:
 
     def _train(self, kind: str, dataset: Dataset, config):
         """trained_model_file on the executor (a Ray task, or here); its error raised."""
-        call = (kind, dataset, config, torch.get_num_threads())
+        call = (kind, dataset, config, torch.get_num_threads(), self.profile.spec)
         [(_, result)] = self.executor.run_calls(trained_model_file, [call], 1)
         if isinstance(result, Exception):
             raise result
@@ -158,6 +170,7 @@ class Runner:
                 jobs=self.jobs,
                 on_record=on_record,
                 executor=self.executor,
+                robot=self.profile.spec,
             )
 
         code = code_digest("tric_control.evaluation.graph")

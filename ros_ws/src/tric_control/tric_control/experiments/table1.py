@@ -5,7 +5,6 @@ from tric_control.experiments.paper import PAPER_REPORTS, PAPER_TEACHER, PAPER_T
 from tric_control.experiments.rows import grasp_result, grasp_rows, spread
 from tric_control.experiments.runner import Runner
 from tric_control.experiments.targets import MARGIN_TO_TEACHER, PAPER_PROTOCOL
-from tric_sim.world import situations
 
 #: The experiment's heading in the report and the log.
 TITLE = (
@@ -18,7 +17,7 @@ def run(runner: Runner) -> dict:
     """The experiment's rows, table, figure(s), the paper's numbers and the discussion."""
     rows = grasp_rows(
         runner,
-        situations.dataset("sphere_test"),
+        runner.situations("sphere_test"),
         {
             "TRIC K = 30": dict(name="sphere_k30", bags="sphere"),
             PAPER_PROTOCOL: dict(name="sphere_k30", bags="sphere", max_steps=PAPER_STEPS),

@@ -13,12 +13,11 @@ from tric_control.experiments.paper import (  # noqa: E402
     PAPER_DPL_TRAINING,
     PAPER_REPORTS,
 )
-from tric_control.experiments.runner import BAGS, Runner  # noqa: E402
+from tric_control.experiments.runner import Runner  # noqa: E402
 from tric_learning.bags.loader import load_dataset  # noqa: E402
 from tric_learning.demonstrations import demonstrate_all  # noqa: E402
 from tric_learning.model_file import ModelFile  # noqa: E402
 from tric_learning.training import dpl  # noqa: E402
-from tric_sim.world import situations  # noqa: E402
 
 #: The experiment's heading in the report and the log.
 TITLE = "DPL errors on its training demonstrations and on teacher demonstrations of the test set."
@@ -29,13 +28,18 @@ def run(runner: Runner) -> dict:
     test_bags = runner.out / "bags" / "sphere_test"
     if not sorted(test_bags.glob("*.mcap")):
         demonstrate_all(
-            situations.dataset("sphere_test"), test_bags, 0.125, 0.0, domain_id=runner.domain_id
+            runner.situations("sphere_test"),
+            test_bags,
+            0.125,
+            0.0,
+            domain_id=runner.domain_id,
+            robot=runner.profile.spec,
         )
     policy = dpl.load_policy(
         ModelFile.load(runner.model("sphere_dpl_joint", "sphere", "dpl_joint"))
     )
     rows = {}
-    for name, paths in (("training", [BAGS / "sphere"]), ("test", [test_bags])):
+    for name, paths in (("training", [runner.bags("sphere")]), ("test", [test_bags])):
         dataset = load_dataset(paths, runner.robot)
         inputs, targets = dpl.training_pairs(dataset, "dpl_joint")
         rows[name] = {

@@ -12,7 +12,6 @@ from tric_control.experiments.rows import (
 )
 from tric_control.experiments.runner import Runner
 from tric_control.experiments.targets import CYLINDER_TARGETS, PAPER_PROTOCOL, REST_TARGET
-from tric_sim.world import situations
 
 #: The experiment's heading in the report and the log.
 TITLE = (
@@ -37,10 +36,10 @@ def run(runner: Runner) -> dict:
     }
     models[SECOND_DRAW] = dict(name="cylinder_b_k30", bags="cylinder_b")
     models[PAPER_PROTOCOL] = dict(**models["TRIC K = 30"], max_steps=PAPER_STEPS)
-    rows = grasp_rows(runner, situations.dataset("cylinder_test"), models)
+    rows = grasp_rows(runner, runner.situations("cylinder_test"), models)
     validation = grasp_rows(
         runner,
-        situations.dataset("cylinder_val"),
+        runner.situations("cylinder_val"),
         {label: models[label] for label in ("TRIC K = 30", SECOND_DRAW)},
     )
     rows.update({label + VALIDATION: row for label, row in validation.items()})

@@ -20,7 +20,6 @@ from tric_control.experiments.rows import (  # noqa: E402
 )
 from tric_control.experiments.runner import Runner  # noqa: E402
 from tric_control.experiments.targets import BOX_TARGET, REST_TARGET  # noqa: E402
-from tric_sim.world import situations  # noqa: E402
 
 #: The experiment's heading in the report and the log.
 TITLE = (
@@ -36,7 +35,7 @@ TRAINING_TARGET = 9
 
 def run(runner: Runner) -> dict:
     """The experiment's rows, table, figure(s), the paper's numbers and the discussion."""
-    tests = situations.dataset("box_test")
+    tests = runner.situations("box_test")
     agents: dict[str, dict[str, Any]] = {
         "TRIC": dict(name="box_k30", bags="box"),
         "DPL joint space": dict(name="box_dpl_joint", bags="box", kind="dpl_joint"),
@@ -44,9 +43,7 @@ def run(runner: Runner) -> dict:
     }
     rows: dict[str, dict] = {}
     runs = [(name, model, tests) for name, model in agents.items()]
-    runs += [
-        (label, agents["TRIC"], situations.dataset(name)) for label, name in OTHER_SETS.items()
-    ]
+    runs += [(label, agents["TRIC"], runner.situations(name)) for label, name in OTHER_SETS.items()]
     for name, model, chosen in runs:
         by_seed = runner.over_seeds(chosen, name, **model)
         seeds = {seed: _box_row(records) for seed, records in by_seed.items()}

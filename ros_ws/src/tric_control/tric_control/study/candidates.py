@@ -21,6 +21,7 @@ from tric_control.selection.settings import CANDIDATE_THREADS
 from tric_control.study.hard_negatives import train_with_hard_negatives
 from tric_sim.tools.output_files import atomic_path
 from tric_sim.tools.provenance import code_digest
+from tric_sim.world.robot_profile import DEFAULT_ROBOT
 
 #: The code whose digest keys a candidate's rollouts and a model's episodes: the controller, the
 #: physics, the metrics and the situations.
@@ -34,10 +35,11 @@ def key_name(key: dict) -> str:
 
 class CandidateStore:
     """The candidates kept in folder: <bags>_s<seed>_<training key>.safetensors and .json (the
-    model and its training record), and <bags>_s<seed>_<rollouts key>.rollouts.json."""
+    model and its training record), and <bags>_s<seed>_<rollouts key>.rollouts.json; made for
+    robot (a profile's name or file; the training key holds its demonstrations' digest)."""
 
-    def __init__(self, folder: pathlib.Path):
-        self.folder = folder
+    def __init__(self, folder: pathlib.Path, robot: str = DEFAULT_ROBOT):
+        self.folder, self.robot = folder, robot
         folder.mkdir(parents=True, exist_ok=True)
 
     def model_path(self, bags: str, seed: int, training: dict) -> pathlib.Path:
@@ -132,7 +134,7 @@ class CandidateStore:
         if not todo:
             return
         print(f"making {len(todo)} candidates on {bags} ({executor.kind})", flush=True)
-        calls = [(*call, kept) for _, _, call, kept in todo]
+        calls = [(*call, kept, self.robot) for _, _, call, kept in todo]
         for k, result in executor.run_calls(study_candidate, calls, jobs, (dataset,)):
             training, rollouts, call, kept = todo[k]
             made[(call[0].seed, key_name(rollouts))] = result
@@ -175,12 +177,18 @@ def rollouts_key(training: dict, controller: dict, max_steps: int) -> dict:
 
 
 def study_candidate(
-    dataset, config, max_steps: int, controller_options, rounds: int, kept=None
+    dataset,
+    config,
+    max_steps: int,
+    controller_options,
+    rounds: int,
+    kept=None,
+    robot: str = DEFAULT_ROBOT,
 ) -> Candidate:
-    """A study's candidate (run on its executor): the kept model (kept: (model file bytes, its
-    training record), or None) rolled out again, or a model trained as the selection trains one,
-    or with `rounds` rounds of hard negatives (tric_control.study.hard_negatives), then rolled
-    out."""
+    """A study's candidate (run on its executor) of robot: the kept model (kept: (model file
+    bytes, its training record), or None) rolled out again, or a model trained as the selection
+    trains one, or with `rounds` rounds of hard negatives (tric_control.study.hard_negatives),
+    then rolled out."""
     if kept is not None:
         content, record = kept
         return rolled_out(
@@ -191,13 +199,14 @@ def study_candidate(
             record["train_s"],
             max_steps,
             controller_options,
+            robot=robot,
         )
     fit = (
         functools.partial(train_with_hard_negatives, rounds=rounds, max_steps=max_steps)
         if rounds
         else None
     )
-    return candidate(dataset, config, max_steps, controller_options, fit)
+    return candidate(dataset, config, max_steps, controller_options, fit, robot=robot)
 
 
 def _read(path: pathlib.Path):
