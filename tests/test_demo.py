@@ -30,7 +30,7 @@ PNG = b"\x89PNG\r\n\x1a\n"
 def cut_down(monkeypatch, train=(), test=()):
     """Make tric-demo's sphere_train and sphere_test data sets these situations."""
     chosen = {"sphere_train": list(train), "sphere_test": list(test)}
-    monkeypatch.setattr(demo, "dataset", lambda name: chosen[name])
+    monkeypatch.setattr(demo, "dataset", lambda name, workspace: chosen[name])
 
 
 @pytest.mark.slow
@@ -47,10 +47,10 @@ def test_tric_demo_on_the_reference_bags(tmp_path, monkeypatch, capsys, referenc
     cut_down(monkeypatch, test=tests)
     asked = []
 
-    def trained(bags, model, config, jobs):
+    def trained(bags, model, config, jobs, robot):
         """The session's reference training as the one candidate of a selection, rolled out from
         two of the demonstrations' starts (the tool's own selection is tested below)."""
-        asked.append((pathlib.Path(bags), config, jobs))
+        asked.append((pathlib.Path(bags), config, jobs, robot))
         demos = load_dataset(bag_paths([bags]), RobotModel())
         demos = Dataset(demos.definition, demos.demos[12:14])
         content = reference_sphere_training.path.read_bytes()
@@ -63,7 +63,7 @@ def test_tric_demo_on_the_reference_bags(tmp_path, monkeypatch, capsys, referenc
     monkeypatch.setattr(demo, "train", trained)
     out = tmp_path / "results"
     status = demo_cli.main(["--reuse", str(BAGS), "--out", str(out), "--check", "--jobs", "2"])
-    assert asked == [(BAGS, TrainingConfig(), 2)]
+    assert asked == [(BAGS, TrainingConfig(), 2, "tric_arm_hand")]
     report = json.loads((out / "demo.json").read_text())
     assert report["episodes"] == 4 and report["bags"] == str(BAGS)
     for agent in ("teacher", "tric"):
@@ -133,6 +133,43 @@ def test_tric_demo_records_its_demonstrations_and_check_fails_when_tric_misses(
     )
 
 
+@pytest.mark.slow
+def test_tric_demo_on_the_panda(tmp_path, monkeypatch, capsys):
+    """--robot panda (make demo ROBOT=panda): two of the Panda's sphere-grid demonstrations
+    recorded through the nodes, its candidates trained for one L-BFGS iteration each, one of its
+    test spheres; the bags are the Panda's (refused on the paper's robot), demo.json names it, and
+    the table has no paper row (the paper's numbers are its robot's)."""
+    panda = RobotModel("panda")
+    workspace = panda.profile.workspace
+    cut_down(
+        monkeypatch,
+        train=situations.sphere_grid(workspace)[12:14],
+        test=situations.dataset("sphere_test", workspace)[:1],
+    )
+    out = tmp_path / "results"
+    arguments = ["--robot", "panda", "--out", str(out), "--iterations", "1", "--jobs", "1"]
+    assert demo_cli.main(arguments) == 0
+    printed = capsys.readouterr().out
+    assert "mean (ours)" in printed and "mean (paper)" not in printed
+    report = json.loads((out / "demo.json").read_text())
+    assert report["robot"] == "panda" and report["episodes"] == 2
+    assert report["teacher"]["episodes"][0]["grasp_cost"] < 0.1  # the Panda's teacher grasps
+    bags = out / "demo" / "bags"
+    assert load_dataset(bag_paths([bags]), panda).definition.robot_model.startswith("panda:")
+    with pytest.raises(ValueError, match="another robot"):
+        load_dataset(bag_paths([bags]), RobotModel())
+
+
+def test_tric_demo_finds_the_robot_s_reference_bags():
+    """--reuse without a folder takes the robot's reference sphere bags."""
+    from tric_sim.tools.robot_option import reference_bags
+    from tric_sim.world.robot_profile import load_profile
+
+    assert reference_bags(load_profile(), "sphere") == pathlib.Path("bags/sphere")
+    assert reference_bags(load_profile("panda"), "sphere") == pathlib.Path("bags/panda/sphere")
+    assert (REFERENCE_BAGS / "panda" / "sphere" / "sphere_grid_00.mcap").is_file()
+
+
 def test_tric_demo_refuses_bad_arguments(tmp_path, capsys):
     with pytest.raises(SystemExit) as refused:
         demo_cli.main(["--jobs", "0", "--out", str(tmp_path / "results")])
@@ -151,4 +188,6 @@ def test_tric_demo_refuses_bad_arguments(tmp_path, capsys):
         demo_cli.main(["--reuse", str(tmp_path / "none"), "--out", str(tmp_path / "results")]) == 2
     )
     assert capsys.readouterr().err.endswith(f"tric-demo: {tmp_path / 'none'} does not exist\n")
+    assert demo_cli.main(["--robot", "no_robot", "--out", str(tmp_path / "results")]) == 2
+    assert "tric-demo: no robot profile 'no_robot'" in capsys.readouterr().err
     assert not list(tmp_path.rglob("*.json")) and not list(tmp_path.rglob("*.png"))

@@ -1,8 +1,8 @@
 """Another robot, end to end: the paper's robot under another profile's name (the same URDF) is
 another robot. Its demonstrations are recorded through the nodes with the `robot` parameter, a
 model is trained on them with tric-train --robot, run offline and through tric-eval --robot; the
-bags and the model are refused on the default robot, naming both robots, and a node refuses a
-robot it cannot load."""
+bags and the model are refused on the default robot, naming both robots, a node refuses a robot it
+cannot load, and a node finds a named situation in its robot's workspace."""
 
 import contextlib
 import io
@@ -98,3 +98,22 @@ def test_a_node_refuses_a_robot_it_cannot_load(ros_context):
         SimulatorNode(
             context=ros_context, parameter_overrides=[Parameter("robot", value="no_robot")]
         )
+
+
+def test_a_simulator_node_finds_a_named_situation_in_its_robot_s_workspace(ros_context):
+    """The built-in data sets are the robot's own: the Panda's simulator starts in the Panda's
+    sphere_test_00 (a 3 cm sphere in its grid), not the paper's."""
+    node = SimulatorNode(
+        context=ros_context,
+        parameter_overrides=[
+            Parameter("robot", value="panda"),
+            Parameter("situation", value="sphere_test_00"),
+        ],
+    )
+    try:
+        panda = RobotModel("panda").profile.workspace
+        assert node.world.situation == situations.dataset("sphere_test", panda)[0]
+        assert node.world.situation != situations.dataset("sphere_test")[0]
+        assert node.world.situation.object_dimensions == (panda.sphere_radius,)
+    finally:
+        node.destroy_node()
