@@ -5,6 +5,7 @@ import json
 import math
 
 import numpy as np
+import pytest
 
 from tric_control.experiments import cli
 from tric_control.experiments.checks import check_results, check_table
@@ -177,6 +178,39 @@ def test_report_only_writes_the_report_and_a_results_page_elsewhere(tmp_path):
     text = page.read_text()
     assert "TRIC grasps 5/5/5." in text and "The paper: no collision." in text
     assert "![fig8](../run/fig8.png)" in text  # the figure linked relative to the page
+    assert "# TRIC experiments on the robot tric_arm_hand" in (out / "REPORT.md").read_text()
+
+
+def _result(discussion: str, robot: str | None) -> str:
+    data = {"rows": {}, "table": "t", "paper": "p", "discussion": discussion}
+    data.update(date="2026-12-05 10:00", wall_s=1.0, **({"robot": robot} if robot else {}))
+    return json.dumps(data)
+
+
+def test_the_results_page_puts_another_robot_s_results_beside(tmp_path, capsys):
+    """--beside DIR: another robot's results folder, a section of its own on the results page
+    after the paper's robot's, named by the robot its JSON records; a folder without a report is
+    refused, and results that mix robots too."""
+    paper, panda = tmp_path / "paper", tmp_path / "panda"
+    for folder, robot, text in ((paper, None, "paper robot"), (panda, "panda", "panda robot")):
+        folder.mkdir()
+        (folder / "fig8.json").write_text(_result(text, robot))
+    page = tmp_path / "results.md"
+    assert cli.main(["--report-only", "--out", str(panda), "--results-page", str(page)]) == 0
+    arguments = ["--report-only", "--out", str(paper), "--results-page", str(page)]
+    assert cli.main(arguments + ["--beside", str(panda)]) == 0
+    text = page.read_text()
+    assert (
+        text.index("paper robot") < text.index("## On the robot panda") < text.index("panda robot")
+    )
+    assert "### fig8:" in text and "![fig8](panda/fig8.png)" in text
+    assert "# TRIC experiments on the robot panda" in (panda / "REPORT.md").read_text()
+    with pytest.raises(SystemExit):
+        cli.main(arguments + ["--beside", str(tmp_path / "none")])
+    assert "--beside takes results folders" in capsys.readouterr().err
+    (paper / "fig9.json").write_text(_result("mixed", "panda"))
+    assert cli.main(arguments) == 2
+    assert "the results mix robots ['panda', 'tric_arm_hand']" in capsys.readouterr().err
 
 
 def test_the_push_trace_tells_rest_the_push_and_rest_again():

@@ -2,7 +2,7 @@
 
     tric-experiments [NAME ...] [--out DIR] [--situations N] [--jobs N] [--executor processes|ray]
                      [--address HOST:PORT] [--check | --check-only] [--report-only]
-                     [--results-page FILE] [--robot ROBOT]
+                     [--results-page FILE [--beside DIR ...]] [--robot ROBOT]
 
 NAME (default: all, in this order):
   table1    spheres: the teacher and TRIC (K = 30) on the 15 sphere test situations (paper Table 1).
@@ -45,7 +45,9 @@ DIR is claimed for the run before any work (another run naming it is refused, na
 table and a discussion composed from its numbers; DIR/REPORT.md is then rewritten from every
 experiment's JSON found in DIR, each table beside the paper's numbers and followed by its
 discussion, and the results page (default DIR/results.md; --results-page FILE: elsewhere, its
-figures linked relative to it): each experiment's discussion, the paper's numbers and its figures.
+figures linked relative to it): each experiment's discussion, the paper's numbers and its figures,
+then the same for each results folder --beside names (another robot's, each a section of its own).
+Each experiment's JSON names the robot.
 An experiment that fails (a ValueError or RuntimeError) is named on stderr and the others still
 run; the run then exits 2 after writing the report.
 --check then compares every experiment's results found in DIR with the design's targets, each for
@@ -131,6 +133,13 @@ def run(argv) -> int:
         metavar="FILE",
         help="write the results page here (default: DIR/results.md)",
     )
+    parser.add_argument(
+        "--beside",
+        nargs="+",
+        default=[],
+        metavar="DIR",
+        help="other robots' results folders, each a section of the results page",
+    )
     args = parser.parse_args(argv)
     if not 1 <= args.situations <= 300:
         parser.error("--situations must be in [1, 300]")
@@ -141,6 +150,9 @@ def run(argv) -> int:
         parser.error(
             f"unknown experiment(s) {', '.join(unknown)} (known: {', '.join(EXPERIMENT_MODULES)})"
         )
+    missing = [folder for folder in args.beside if not pathlib.Path(folder, "REPORT.md").is_file()]
+    if missing:
+        parser.error(f"--beside takes results folders (with a REPORT.md): not {', '.join(missing)}")
     try:
         args.executor = chosen_executor(args)
         args.robot = checked_robot(args).spec
@@ -154,7 +166,7 @@ def run(argv) -> int:
     try:
         with claim(out, "--out folder", folder=True):
             if args.report_only:
-                write_pages(out, page)
+                write_pages(out, page, args.beside)
                 return check_folder(out) if args.check_only else 0
             return run_experiments(args, out, page)
     except (ValueError, WriteFailed, ConnectionError) as error:
@@ -162,11 +174,13 @@ def run(argv) -> int:
         return 2
 
 
-def write_pages(out, page) -> None:
-    """Rewrite out/REPORT.md and the results page from the experiments' JSON in out."""
+def write_pages(out, page, beside=()) -> None:
+    """Rewrite out/REPORT.md and the results page from the experiments' JSON in out (and in each
+    results folder beside)."""
     from tric_control.experiments.report import write_report, write_results_page
 
-    print(f"wrote {write_report(out)} and {write_results_page(out, page)}")
+    folders = tuple(pathlib.Path(folder) for folder in beside)
+    print(f"wrote {write_report(out)} and {write_results_page(out, page, folders)}")
 
 
 def run_experiments(args, out, page) -> int:
@@ -204,13 +218,17 @@ def _run_each(args, out, page, runner) -> int:
             with atomic_path(out / f"{name}.png") as temporary:
                 result["figure"].savefig(temporary, dpi=110)
             plt.close(result.pop("figure"))
-        result.update(date=time.strftime("%Y-%m-%d %H:%M"), wall_s=time.monotonic() - started)
+        result.update(
+            date=time.strftime("%Y-%m-%d %H:%M"),
+            wall_s=time.monotonic() - started,
+            robot=runner.profile.name,
+        )
         write_json(out / f"{name}.json", result)
         print(result["table"])
         print(f"paper: {result['paper']}")
         print(f"discussion: {result['discussion']}")
         print(f"({name}: {result['wall_s']:.0f} s)", flush=True)
-    write_pages(out, page)
+    write_pages(out, page, args.beside)
     if failed:
         print(f"tric-experiments: failed: {', '.join(failed)}", file=sys.stderr)
         return 2
