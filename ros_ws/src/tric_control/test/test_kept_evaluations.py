@@ -167,3 +167,27 @@ def test_a_sparse_kept_file_is_refused_before_it_is_read_whole(tmp_path):
         file.truncate(300 * 2**20)
     with pytest.raises(ValueError, match="is larger than 16 MiB"):
         kept_evaluation(folder, tests, None, 0, CODE, StandIn(None, 0))
+
+
+def test_the_experiments_runner_of_another_robot_uses_its_bags_data_sets_and_nodes(
+    tmp_path, monkeypatch
+):
+    """tric-experiments --robot panda: the Panda's reference bags (bags/panda/<set>), its data
+    sets in its workspace, its candidates and its nodes (the robot parameter of the evaluation)."""
+    from tric_control.experiments import runner as runner_module
+
+    asked = []
+
+    def nodes_stand_in(chosen, model, max_steps, on_record=None, robot=None, **options):
+        asked.append(robot)
+        return StandIn(model, max_steps)(chosen, on_record)
+
+    monkeypatch.setattr(runner_module, "evaluate", nodes_stand_in)
+    runner = runner_module.Runner(tmp_path / "results", robot="panda")
+    workspace = runner.profile.workspace
+    assert runner.bags("sphere").as_posix() == "bags/panda/sphere"
+    assert runner.situations("sphere_test") == situations.dataset("sphere_test", workspace)
+    assert runner.candidates.robot == "panda" and runner.robot.profile.name == "panda"
+    runner.evaluate(runner.situations("sphere_test")[:2], None, "teacher")
+    assert asked == ["panda"]
+    assert runner_module.Runner(tmp_path / "paper").bags("sphere").as_posix() == "bags/sphere"
