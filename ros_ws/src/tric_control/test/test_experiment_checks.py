@@ -241,3 +241,9 @@ def test_the_push_trace_tells_rest_the_push_and_rest_again():
     never = {**trace, "phase": phase[:301] + ["descending"] * 299, "rested_at_s": None}
     assert "did not come to rest before the push" in trace_text(never)
     assert "does not come to rest again before its budget" in trace_text(never)
+
+
+def test_tric_experiments_refuses_a_robot_it_cannot_load(tmp_path, capsys):
+    assert cli.main(["table1", "--robot", "no_robot", "--out", str(tmp_path / "run")]) == 2
+    assert "tric-experiments: no robot profile 'no_robot'" in capsys.readouterr().err
+    assert not (tmp_path / "run").exists()
