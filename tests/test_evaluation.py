@@ -227,9 +227,11 @@ def test_a_failed_experiment_leaves_the_others_run(tmp_path, capsys, monkeypatch
         "table4": types.SimpleNamespace(TITLE="passes", run=passing),
     }
     monkeypatch.setattr(cli, "experiment", modules.__getitem__)
-    args = argparse.Namespace(names=["table2", "table4"], situations=30, check=False)
-    assert cli._run_each(args, tmp_path, tmp_path / "results.md", runner=None) == 2
-    assert json.loads((tmp_path / "table4.json").read_text())["table"] == "boxes 25"
+    args = argparse.Namespace(names=["table2", "table4"], situations=30, check=False, beside=[])
+    runner = types.SimpleNamespace(profile=types.SimpleNamespace(name="panda"))
+    assert cli._run_each(args, tmp_path, tmp_path / "results.md", runner) == 2
+    kept = json.loads((tmp_path / "table4.json").read_text())
+    assert kept["table"] == "boxes 25" and kept["robot"] == "panda"
     assert not (tmp_path / "table2.json").exists()
     assert "boxes 25" in (tmp_path / "REPORT.md").read_text()
     err = capsys.readouterr().err
