@@ -40,9 +40,9 @@ def counted(monkeypatch):
     runs = {"trained": [], "rolled out": [], "measured": []}
     train, evaluate = study_candidates.study_candidate, study_runs.evaluate_offline
 
-    def counting_train(dataset, config, max_steps, options, rounds, kept):
+    def counting_train(dataset, config, max_steps, options, rounds, kept, robot):
         runs["trained" if kept is None else "rolled out"].append(config.seed)
-        return train(dataset, config, max_steps, options, rounds, kept)
+        return train(dataset, config, max_steps, options, rounds, kept, robot)
 
     def counting_evaluate(*args, desc, **kwargs):
         runs["measured"].append(desc)
