@@ -447,7 +447,7 @@ class StudyRuns(Machine):
         self.patch(study_runs, "evaluate_offline", self.episodes)
 
     @staticmethod
-    def candidate(dataset, config, max_steps, options, rounds, kept=None) -> Candidate:
+    def candidate(dataset, config, max_steps, options, rounds, kept=None, robot=None) -> Candidate:
         """The stand-in of a study's candidate: a value function of weights decided by the config,
         on the demonstrations' scaling, and rollouts that end where the demonstrations end."""
         rng = np.random.default_rng(int(digest_number(config.to_dict()) * 2**32))
