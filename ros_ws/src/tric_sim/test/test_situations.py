@@ -16,11 +16,13 @@ def test_data_set_sizes_and_grid():
     assert len(S.dataset("cylinder_train")) == 10
     assert len(S.dataset("box_test")) == 25
     positions = np.array([s.object_position for s in S.sphere_grid()])
-    assert np.allclose(positions.min(0), S.GRID_LOW) and np.allclose(positions.max(0), S.GRID_HIGH)
+    assert np.allclose(positions.min(0), S.PAPER.sphere_grid[0]) and np.allclose(
+        positions.max(0), S.PAPER.sphere_grid[1]
+    )
     assert len({tuple(p) for p in positions}) == 27
     for s in S.dataset("sphere_test"):
-        assert np.all(np.asarray(s.object_position) >= S.GRID_LOW)
-        assert np.all(np.asarray(s.object_position) <= S.GRID_HIGH)
+        assert np.all(np.asarray(s.object_position) >= S.PAPER.sphere_grid[0])
+        assert np.all(np.asarray(s.object_position) <= S.PAPER.sphere_grid[1])
 
 
 def test_generators_are_reproducible_and_seeded():
@@ -39,7 +41,7 @@ def test_cylinders_turn_about_y_within_a_quarter_turn():
 def test_boxes_are_cubes_on_the_table():
     for s in S.dataset("box_test"):
         side = s.object_dimensions[0]
-        assert S.BOX_SIDE_RANGE[0] <= side <= S.BOX_SIDE_RANGE[1]
+        assert S.PAPER.box_side[0] <= side <= S.PAPER.box_side[1]
         assert math.isclose(s.object_position[2], side / 2)
 
 
@@ -103,9 +105,11 @@ def test_wide_sets_lie_where_they_say_outside_the_training_ranges():
     assert all(-S.WIDE_TILT <= t <= math.pi / 2 + S.WIDE_TILT for t in tilts)
     boxes = S.dataset("box_wide")
     yaws = [2 * math.atan2(s.object_orientation[2], s.object_orientation[3]) for s in boxes]
-    assert max(abs(y) for y in yaws) <= S.WIDE_BOX_YAW and max(abs(y) for y in yaws) > S.BOX_YAW
+    assert (
+        max(abs(y) for y in yaws) <= S.WIDE_BOX_YAW and max(abs(y) for y in yaws) > S.PAPER.box_yaw
+    )
     xs = [s.object_position[0] for s in boxes]
-    assert S.widened(*S.BOX_X_RANGE)[0] <= min(xs) and max(xs) <= S.widened(*S.BOX_X_RANGE)[1]
+    assert S.widened(*S.PAPER.box_x)[0] <= min(xs) and max(xs) <= S.widened(*S.PAPER.box_x)[1]
     assert sum(S.outside_training_range(s) > 0 for s in boxes) > len(boxes) / 2
 
 

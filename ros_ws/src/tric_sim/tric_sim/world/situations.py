@@ -20,17 +20,9 @@ from tric_sim.world.situation_files import load_situations
 #: cm on the table, their centres within ranges of x and y, turned about z within +-0.4 rad. A
 #: robot profile may give its own (its `workspace` entry).
 PAPER = Workspace()
-SPHERE_RADIUS = PAPER.sphere_radius
-GRID_LOW, GRID_HIGH = (np.array(corner) for corner in PAPER.sphere_grid)
-BOX_SIDE_RANGE, BOX_X_RANGE, BOX_Y_RANGE, BOX_YAW = (
-    PAPER.box_side,
-    PAPER.box_x,
-    PAPER.box_y,
-    PAPER.box_yaw,
-)
 
 
-def sphere(name, position, seed=0, radius=SPHERE_RADIUS) -> Situation:
+def sphere(name, position, seed=0, radius=PAPER.sphere_radius) -> Situation:
     return Situation(
         name=name,
         task="grasp",
