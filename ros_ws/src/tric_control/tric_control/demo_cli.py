@@ -44,8 +44,8 @@ from tric_sim.tools.output_files import WriteFailed, check_output_folder
 from tric_sim.tools.robot_option import add_robot_option, checked_robot, reference_bags
 from tric_sim.viz.view_options import add_view_arguments
 
-#: --reuse without a folder: the robot's reference sphere bags.
-REFERENCE = "reference"
+#: --reuse without a folder: the robot's reference sphere bags (a marker no folder name can be).
+REFERENCE = object()
 
 
 def main(argv=None) -> int:
@@ -91,7 +91,7 @@ def run(argv) -> int:
     try:
         args.profile = checked_robot(args)
         args.robot = args.profile.spec
-        if args.reuse == REFERENCE:
+        if args.reuse is REFERENCE:
             args.reuse = str(reference_bags(args.profile, "sphere"))
         out = check_output_folder(args.out, "--out folder")
         from tric_control.demo import run_demo

@@ -100,7 +100,7 @@ def write_results_page(out: pathlib.Path, page: pathlib.Path, beside: tuple = ()
         lines += [
             f"## On the robot {robot_of(results)}",
             "",
-            f"The same experiments on another robot ([Bring your own robot](robots.md)): the "
+            f"The same experiments on another robot (see docs/robots.md): the "
             f"tables with every group's numbers are in [{relative / 'REPORT.md'}]"
             f"({relative / 'REPORT.md'}). The paper's numbers are its robot's.",
             "",
