@@ -84,7 +84,7 @@ def test_load_model_refuses_bad_files_and_keeps_the_current_model(
     controller = make_controller(ros_context)
     observer = spin(controller, Observer(ros_context))[1]
     good = load(observer, model_path)
-    assert good.success, good.message
+    assert good.success and "another version" not in good.message, good.message
     assert (good.model_kind, good.task) == ("tric", "grasp")
     grasp = FeatureDefinition.for_task("grasp", robot)
     assert good.fingerprint == grasp.fingerprint and good.input_features == grasp.size == 224
@@ -112,6 +112,17 @@ def test_load_model_refuses_bad_files_and_keeps_the_current_model(
         assert not response.success and reason in response.message, response.message
         assert f"keeping {model_path}" in response.message
     assert controller.model.path == model_path
+
+    # trained with another version of this robot's profile: loaded, and the response says so
+    trained = model_file.ModelFile.load(model_path)
+    assert trained.info["robot_profile"] == robot.profile.identity
+    trained.info["robot_profile"] = f"{robot.profile.name}:{'0' * 64}"
+    edited = trained.save(tmp_path / "edited_profile.safetensors")
+    response = load(observer, str(edited))
+    assert response.success, response.message
+    assert "another version of the robot profile 'tric_arm_hand'" in response.message
+    assert f"now {robot.profile.digest[:12]}" in response.message
+    assert controller.model.path == str(edited)
 
 
 def test_lockstep_episode_on_the_simulator(ros_context, spin, robot, model_path):

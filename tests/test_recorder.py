@@ -65,6 +65,9 @@ def test_a_five_second_demonstration_is_forty_samples(recorded):
         and info.custom_data["tric.task"] == "grasp"
         and "tric.outcome" in info.custom_data
     )
+    # the profile the bag was made with, by name and digest
+    assert info.custom_data["tric.robot_profile"] == RobotModel().profile.identity
+    assert all(d.robot_profile == RobotModel().profile.identity for d in dataset.demos)
     assert info.topics["/joint_states"].message_count >= 499  # every control period of the 5 s
     # nothing after the episode's END (the lift test that follows it moves the robot on)
     stamps = {
@@ -74,6 +77,28 @@ def test_a_five_second_demonstration_is_forty_samples(recorded):
     end_ns = stamps["/episode"][1]
     assert max(stamps["/joint_states"] + stamps["/object_poses"]) <= end_ns
     assert max(stamps[SAMPLES_TOPIC]) < end_ns
+
+
+def test_bags_of_another_version_of_the_profile_load_with_a_notice(recorded, tmp_path):
+    """The bags load on the robot of an edited profile (a pre-shape changed: the same URDF and
+    landmarks), each named with the profile's two digests; on the profile they were made with,
+    quietly."""
+    out, _ = recorded
+    paths = [out / "sphere_grid_03.mcap", out / "sphere_grid_04.mcap"]
+    notices: list = []
+    load_dataset(paths, RobotModel(), notice=notices.append)
+    assert notices == []
+    profile = RobotModel().profile
+    data = yaml.safe_load(profile.path.read_text())
+    data.update(urdf=str(profile.urdf_path), srdf=str(profile.srdf_path))
+    data["preshapes"]["sphere"]["finger_1_distal_joint"] += 0.01
+    (tmp_path / "edited.yaml").write_text(yaml.safe_dump(data))
+    edited = RobotModel(tmp_path / "edited.yaml")
+    dataset = load_dataset(paths, edited, notice=notices.append)
+    assert len(dataset.demos) == 2 and len(notices) == 2
+    for path, notice in zip(paths, notices):
+        assert notice.startswith(f"{path} was made with another version of the robot profile")
+        assert f"(digest {profile.digest[:12]}, now {edited.profile.digest[:12]})" in notice
 
 
 def test_rosbags_reads_the_same_samples(recorded, tmp_path):

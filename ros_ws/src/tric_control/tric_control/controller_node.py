@@ -18,7 +18,8 @@ Services and actions:
 - ~/load_model (tric_msgs/srv/LoadModel): load a model file. Refused, keeping the current model,
   when the file is unreadable, was trained on another feature definition than this controller's
   task, is of a kind the controller cannot run (see tric_control.objectives.RUNNABLE_KINDS), or
-  while an episode runs.
+  while an episode runs. A model trained with another version of this robot's profile loads with
+  a warning, in the log and the response's message.
 - ~/execute (tric_msgs/action/Execute): one episode from the current state, until the controller
   converges (the robot came to rest), the step budget is spent, the goal is canceled, or something
   fails (no model, no situation, no joint states for state_timeout_s). Feedback every 10 ticks. One
@@ -188,6 +189,12 @@ class ControllerNode(Node):
         response.fingerprint = definition.fingerprint
         response.input_features = definition.size
         self.get_logger().info(response.message)
+        change = self.robot.profile.change_since(
+            loaded.file.info.get("robot_profile", ""), f"model {loaded.path}"
+        )
+        if change:
+            response.message += f" ({change})"
+            self.get_logger().warning(change)
         return response
 
     def _on_situation(self, msg: SituationMsg):

@@ -126,6 +126,7 @@ def test_training_is_deterministic_and_its_model_file_round_trips(robot, sphere_
     assert info["dataset_fingerprint"] == sphere_dataset.fingerprint
     assert info["losses"] == first.losses and info["iterations"] == first.iterations
     assert info["targets"] == list(robot.joint_names)
+    assert info["robot_profile"] == robot.profile.identity
     assert info["sample_period_s"] == pytest.approx(0.125, abs=1e-3)
     assert info["train_time_s"] == first.train_time_s > 0
     inputs, targets = dpl.training_pairs(sphere_dataset, "dpl_joint")

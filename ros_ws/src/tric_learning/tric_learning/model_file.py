@@ -2,7 +2,8 @@
 
 A model file holds the arrays of a learned model and a "tric" metadata entry: the model kind, the
 feature definition it was trained with, the kept features and their scaling, the hyper-parameters,
-the dataset's fingerprint, the final loss terms, training times, the controller's delta, and each
+the dataset's fingerprint, the robot profile it was trained on (name and digest: its info's
+"robot_profile"), the final loss terms, training times, the controller's delta, and each
 kept feature's score s(y) (Sec. 5.5.1), and a digest of the arrays (tensor_digest). Loading checks
 the digest, and the file against the feature definition it is used with, and refuses anything else
 with a message that says why. A file written before model files carried a digest loads with a
@@ -225,6 +226,7 @@ def from_training(result, dataset) -> ModelFile:
             "sampling_time_s": result.sampling_time_s,
             "optimization_time_s": result.optimization_time_s,
             "train_time_s": result.train_time_s,
+            "robot_profile": result.robot_profile,
             "delta": result.delta,
             "rho": result.rho,
             "selected_features": result.selected_features,

@@ -35,6 +35,24 @@ def test_the_default_profile_is_the_paper_robot():
     assert load_profile(PROFILE_DIR / "tric_arm_hand.yaml").digest == profile.digest
 
 
+def test_a_change_of_the_profile_since_a_file_was_made_is_named(tmp_path, profile_data):
+    """A bag or model records the profile's identity (name:digest); an edited profile of the same
+    robot (here one pre-shape angle) is named with both digests; the same identity, none recorded
+    (older files) or another robot's (refused by its feature definition) give no note."""
+    profile = load_profile()
+    assert profile.identity == f"tric_arm_hand:{profile.digest}" and len(profile.digest) == 64
+    profile_data["preshapes"]["sphere"]["finger_1_proximal_joint"] += 0.01
+    path = tmp_path / "tric_arm_hand.yaml"
+    path.write_text(yaml.safe_dump(profile_data))
+    edited = load_profile(path)
+    assert edited.name == profile.name and edited.digest != profile.digest
+    note = edited.change_since(profile.identity, "model m.safetensors")
+    assert note.startswith("model m.safetensors was made with another version of the robot ")
+    assert f"'tric_arm_hand' (digest {profile.digest[:12]}, now {edited.digest[:12]})" in note
+    for recorded in (edited.identity, "", f"panda:{profile.digest}", "tric_arm_hand"):
+        assert edited.change_since(recorded, "bag") == ""
+
+
 def test_the_hand_geometries_are_the_hand_links():
     robot = RobotModel()
     frames = robot.model.frames

@@ -83,6 +83,7 @@ def choose(
                 np.mean([file.info["mean_samples_per_step"] for file in files])
             ),
             rest=rest_info(ensemble, dataset),
+            robot_profile=files[0].info.get("robot_profile", ""),
         )
         chosen = model_file.from_training(result, dataset)
     provenance = _provenance(rows, best, selection, config)

@@ -13,7 +13,8 @@ A bag holds (topic: type):
                                                             controller
 and the scene topics for 3D replay (tric_learning.scene_recording: /robot_description, /tf_static,
 /tf, /scene_markers), and in its rosbag2 custom data: tric.episode_id, tric.source, tric.task,
-tric.fingerprint and, once known, tric.outcome (the metrics as JSON).
+tric.fingerprint, tric.robot_profile (the robot profile's name and digest,
+RobotProfile.identity) and, once known, tric.outcome (the metrics as JSON).
 """
 
 from sensor_msgs.msg import JointState

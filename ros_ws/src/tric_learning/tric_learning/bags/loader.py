@@ -76,7 +76,8 @@ def load_dataset(
     are read up to their damage instead of refused. Bags skipped, read tolerantly or taken despite
     their outcome are named through notice(text) (default: logged as a warning). progress(done,
     total) after each bag. With a robot, each bag's recorded y and dphi/dq must be today's
-    FeatureMap on its own q and object poses (check_features)."""
+    FeatureMap on its own q and object poses (check_features), and a bag recorded with another
+    version of the robot's profile is named through notice."""
     notice = notice or _log.warning
     files = bag_paths(paths, tolerant, notice)
     origin: dict[str, pathlib.Path]
@@ -108,6 +109,8 @@ def load_dataset(
         origin[demo.name] = path
         if feature_map is not None:
             check_features(demo, feature_map)
+        if robot is not None and (change := robot.profile.change_since(demo.robot_profile, path)):
+            notice(change)
         outcome = _outcome_problem(demo.metrics)
         if outcome:
             failed.append(f"{path} ({outcome})")
@@ -221,5 +224,6 @@ def _load_demo(path: pathlib.Path, tolerant: bool = False, notice=None):
         metrics=metrics,
         source=source,
         bag=str(path),
+        robot_profile=info.custom_data.get("tric.robot_profile", ""),
     )
     return demo, definition

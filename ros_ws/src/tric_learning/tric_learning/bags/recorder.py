@@ -57,6 +57,7 @@ class BagRecorder:
                 "tric.source": source,
                 "tric.task": situation.task,
                 "tric.fingerprint": self.definition.fingerprint,
+                "tric.robot_profile": robot.profile.identity,
             },
             overwrite=overwrite,
         )

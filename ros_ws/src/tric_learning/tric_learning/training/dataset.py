@@ -22,7 +22,9 @@ class Demo:
     q: (T, n) joint positions, rad. y: (T, d) features. jacobians: (T, d, n) dy/dq.
     object_poses: T dicts {object name: (position, xyzw)} the features were computed with.
     stamps_ns: (T,) simulated time of each sample. metrics: the teacher's outcome (plain dict).
-    bag: the file it was read from ("" when it was not read from a bag).
+    bag: the file it was read from ("" when it was not read from a bag). robot_profile: the
+    identity of the robot profile it was recorded with (RobotProfile.identity; "" when the bag
+    predates its record).
     """
 
     name: str
@@ -35,6 +37,7 @@ class Demo:
     metrics: dict = field(default_factory=dict)
     source: str = ""
     bag: str = ""
+    robot_profile: str = ""
 
     @property
     def length(self) -> int:

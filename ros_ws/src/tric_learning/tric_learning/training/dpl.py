@@ -69,7 +69,8 @@ class DplPolicy:
 class DplResult:
     """A trained policy with its record: losses ("mse": the training mean squared error per output,
     rad^2 or m^2; "mean_abs_error": likewise |.|; "total": the minimized objective; "l2": |W1|^2 +
-    |W2|^2 of the normalized network), the RMS of the targets, the sample period (s), times (s)."""
+    |W2|^2 of the normalized network), the RMS of the targets, the sample period (s), times (s), the
+    identity of the robot profile it was trained on (RobotProfile.identity)."""
 
     policy: DplPolicy
     kind: str
@@ -79,6 +80,7 @@ class DplResult:
     target_rms: float
     sample_period_s: float
     optimization_time_s: float
+    robot_profile: str
 
     @property
     def train_time_s(self) -> float:
@@ -187,6 +189,7 @@ def train_dpl(
         target_rms=target_rms,
         sample_period_s=sample_period(dataset),
         optimization_time_s=time.perf_counter() - start,
+        robot_profile=robot.profile.identity,
     )
 
 
@@ -253,6 +256,7 @@ def to_model_file(result: DplResult, dataset: Dataset) -> ModelFile:
             "iterations": result.iterations,
             "optimization_time_s": result.optimization_time_s,
             "train_time_s": result.train_time_s,
+            "robot_profile": result.robot_profile,
             "target_rms": result.target_rms,
             "sample_period_s": result.sample_period_s,
             "targets": target_names(dataset.definition, result.kind),

@@ -57,8 +57,9 @@ RHO_GAIN = 100.0
 @dataclass
 class TrainingResult:
     """A trained model with its record: loss terms (L_n and L_g per demonstration step, |w|_1),
-    times (s), the controller's delta and rho, counts, and its rest rule (training.rest.RestRule's
-    dict; None where the demonstrations are too short to give one)."""
+    times (s), the controller's delta and rho, counts, its rest rule (training.rest.RestRule's
+    dict; None where the demonstrations are too short to give one) and the identity of the robot
+    profile it was trained on (RobotProfile.identity)."""
 
     model: ValueFunction
     config: TrainingConfig
@@ -71,6 +72,7 @@ class TrainingResult:
     selected_features: int
     mean_samples_per_step: float
     rest: dict | None
+    robot_profile: str
 
     @property
     def train_time_s(self) -> float:
@@ -128,6 +130,7 @@ def train(
         selected_features=selected_count(model),
         mean_samples_per_step=float(kept_per_step[_later_steps(dataset)].mean()),
         rest=rest_info(model, dataset),
+        robot_profile=robot.profile.identity,
     )
 
 

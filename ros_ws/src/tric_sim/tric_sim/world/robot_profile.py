@@ -102,6 +102,25 @@ class RobotProfile:
     digest: str
 
     @property
+    def identity(self) -> str:
+        """'<name>:<digest>': what bags and model files record of the profile they were made
+        with."""
+        return f"{self.name}:{self.digest}"
+
+    def change_since(self, recorded: str, what: str) -> str:
+        """A note when what (a bag, a model file) recorded this robot's profile with another
+        digest: the profile or its URDF changed since it was made; "" when recorded is this
+        identity, empty (made before files recorded it) or another robot's (whose feature
+        definition refuses it, naming both)."""
+        name, _, digest = recorded.partition(":")
+        if name != self.name or not digest or digest == self.digest:
+            return ""
+        return (
+            f"{what} was made with another version of the robot profile '{self.name}' (digest "
+            f"{digest[:12]}, now {self.digest[:12]}): its profile or URDF changed since"
+        )
+
+    @property
     def spec(self) -> str:
         """What names this profile to load_profile in another process: its name when it is the
         shipped profile of that name, else its file's path."""
