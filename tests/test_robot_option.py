@@ -1,22 +1,27 @@
 """Another robot, end to end: the paper's robot under another profile's name (the same URDF) is
 another robot. Its demonstrations are recorded through the nodes with the `robot` parameter, a
 model is trained on them with tric-train --robot, run offline and through tric-eval --robot; the
-bags and the model are refused on the default robot, naming both robots, a node refuses a robot it
-cannot load, and a node finds a named situation in its robot's workspace."""
+bags and the model are refused on the default robot, naming both robots; tric-study --robot chooses
+and measures a model of it on its own bags; a node refuses a robot it cannot load, and a node finds
+a named situation in its robot's workspace."""
 
 import contextlib
 import io
 import json
 import re
+import shutil
 
 import pytest
 import yaml
 from rclpy.parameter import Parameter
 
+from conftest import REFERENCE_BAGS
 from tric_control import evaluate_cli, train_cli
 from tric_control.evaluation.offline import OfflineEvaluator
+from tric_control.study import cli as study_cli
 from tric_learning.bags.loader import load_dataset
 from tric_learning.demonstrations import demonstrate_all
+from tric_learning.model_file import ModelFile
 from tric_sim.simulator_node import SimulatorNode
 from tric_sim.world import situations
 from tric_sim.world.robot_model import RobotModel
@@ -91,6 +96,36 @@ def test_tric_eval_runs_a_model_on_its_robot_and_refuses_it_on_another(
     assert re.search(OTHER_ROBOT, capsys.readouterr().err)
     assert evaluate_cli.main(common + ["--robot", "no_robot", "--overwrite"]) == 2
     assert "no robot profile 'no_robot'" in capsys.readouterr().err
+
+
+def test_tric_study_runs_on_the_robot_s_own_bags_and_keeps_one_robot_per_folder(
+    other_arm, recorded, tmp_path, monkeypatch, capsys
+):
+    """tric-study --robot reads bags/ROBOT/<set> of the working directory: a task without them is
+    refused before any work; a tiny study of other_arm chooses a model of other_arm and measures it
+    on the obstacle set; the paper's robot's study is refused in that folder."""
+    bags, _ = recorded
+    shutil.copytree(bags, tmp_path / "bags" / "other_arm" / "sphere")
+    (tmp_path / "bags" / "sphere").symlink_to(REFERENCE_BAGS / "sphere")
+    monkeypatch.chdir(tmp_path)
+    out = tmp_path / "study"
+    common = ["--variant", "tiny=candidates=1,max_iterations=3,noisy_samples=3,grasp_steps=40"]
+    common += ["--seeds", "0", "--jobs", "1", "--executor", "processes", "--out", str(out)]
+    assert study_cli.main([*common, "--robot", other_arm, "--tasks", "box"]) == 2
+    assert "no reference bags of the robot 'other_arm' in bags/other_arm/box" in (
+        capsys.readouterr().err
+    )
+    assert study_cli.main([*common, "--robot", other_arm, "--tasks", "obstacle"]) == 0
+    results = json.loads((out / "study.json").read_text())
+    assert results["robot"] == "other_arm" and results["failed"] == {}
+    row = results["rows"]["tiny/obstacle/0"]
+    assert row["sets"]["obstacle_val"]["episodes"] == 10
+    chosen = ModelFile.load(next((out / "models").glob("*.safetensors")))
+    assert chosen.definition.robot_model.startswith("other_arm:")
+    assert chosen.info["robot_profile"] == RobotModel(other_arm).profile.identity
+    capsys.readouterr()
+    assert study_cli.main([*common, "--tasks", "obstacle"]) == 2
+    assert "holds a study of the robot 'other_arm', not 'tric_arm_hand'" in capsys.readouterr().err
 
 
 def test_a_node_refuses_a_robot_it_cannot_load(ros_context):

@@ -9,6 +9,7 @@ import concurrent.futures
 import multiprocessing
 
 from tric_control.evaluation.records import EpisodeRecord, unjudged_fields
+from tric_sim.tools.interrupts import end_workers_with_their_own
 
 #: Seconds a starting worker process waits for its index.
 WORKER_INDEX_TIMEOUT_S = 60.0
@@ -91,7 +92,8 @@ def _run_pool(spawn, situations, pending, records, snapshot, jobs, ended, make_e
 
 def _start_worker(make_evaluator, workers, args):
     """Worker initializer: build this process's evaluator, with the next free index of workers (a
-    queue)."""
+    queue); SIGTERM ends the worker's own workers with it (end_workers_with_their_own)."""
+    end_workers_with_their_own()
     try:
         _worker["evaluator"] = make_evaluator(workers.get(timeout=WORKER_INDEX_TIMEOUT_S), *args)
     # an initializer's exception would only break the pool, without its message
@@ -131,7 +133,9 @@ def calls_in_workers(function, calls: list, jobs: int, shared: tuple):
 
 
 def _keep_shared(shared: tuple) -> None:
-    """Worker initializer of calls_in_workers: keep the calls' shared arguments."""
+    """Worker initializer of calls_in_workers: keep the calls' shared arguments; SIGTERM ends the
+    worker's own workers with it (end_workers_with_their_own)."""
+    end_workers_with_their_own()
     _worker["shared"] = shared
 
 

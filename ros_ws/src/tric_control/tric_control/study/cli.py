@@ -2,7 +2,7 @@
 independent groups of candidates.
 
     tric-study [--variant NAME=OPTIONS ...] [--seeds G ...] [--tasks TASK ...] [--every-candidate]
-    [--out DIR] [--jobs N] [--executor processes|ray] [--address HOST:PORT]
+    [--out DIR] [--jobs N] [--executor processes|ray] [--address HOST:PORT] [--robot ROBOT]
 
 A variant is a name and TrainingConfig fields to change from the defaults, e.g.
 `--variant balanced=per_step_weights=true,optimizer=lbfgsb,alpha_g=3` (no options: the defaults);
@@ -24,6 +24,10 @@ demonstrations' starts, the best kept. It is measured:
   cylinder_b_train, cylinder_val; cylinder_strat and cylinder_strat_b (both draws stratified over
   the angles) likewise; box -> box_train, box_val; obstacle -> obstacle_val (with the sphere
   model).
+All of one robot (--robot: a shipped profile's name or a profile file, docs/robots.md; default
+tric_arm_hand): its reference bags (bags/<set> for the paper's robot, bags/ROBOT/<set> for another;
+a task without them is refused before any work) and its data sets, in its workspace. DIR holds
+one robot's study: another robot's study.json there is refused.
 
 With --every-candidate each candidate is measured on the sets too, and the selection's study is
 printed (tric_control.study.selection_report): how each score ranks the candidates against their
@@ -68,6 +72,7 @@ from tric_sim.tools.claims import claim
 from tric_sim.tools.file_names import check_file_names
 from tric_sim.tools.interrupts import run_interruptible
 from tric_sim.tools.output_files import WriteFailed, check_output_file, check_output_folder
+from tric_sim.tools.robot_option import add_robot_option, checked_robot, reference_bags
 
 
 def format_row(row: dict) -> str:
@@ -165,6 +170,7 @@ def run(argv) -> int:
         help="trainings and offline episodes run at once (default: the number of CPUs)",
     )
     add_executor_arguments(parser, DEFAULT_EXECUTORS["tric-study"])
+    add_robot_option(parser)
     args = parser.parse_args(argv)
     try:
         variants = [parse_variant(text) for text in args.variant or ["default="]]
@@ -172,6 +178,14 @@ def run(argv) -> int:
             raise ValueError("seeds must be in [0, 2^32)")
         if not 1 <= args.jobs <= 64:
             raise ValueError("--jobs must be in [1, 64]")
+        profile = checked_robot(args)
+        missing = {str(reference_bags(profile, TASKS[task][0])) for task in args.tasks}
+        missing = {folder for folder in missing if not os.path.isdir(folder)}
+        if missing:
+            raise ValueError(
+                f"no reference bags of the robot '{profile.name}' in {', '.join(sorted(missing))} "
+                "(relative to the working directory; bags/README.md says how to record them)"
+            )
         choice = chosen_executor(args)
         with contextlib.ExitStack() as claims:
             out = claim_folder(args, variants, claims)
@@ -184,7 +198,7 @@ def run(argv) -> int:
                 for seed in args.seeds
             ]
             with open_executor(choice, num_cpus=args.jobs) as executor:
-                study = Study(out, args.jobs, executor, args.every_candidate)
+                study = Study(out, args.jobs, executor, args.every_candidate, profile.spec)
                 stale = study.stale_rows(cells)
                 if stale:
                     print(f"tric-study: {stale_line(stale)}", file=sys.stderr, flush=True)

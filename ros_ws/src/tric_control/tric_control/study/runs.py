@@ -6,11 +6,13 @@ the selection's own study (tric_control.study.selection_report). Candidates and 
 executor (tric_control.evaluation.executors: processes here, or Ray), and every finished cell is
 merged into DIR/study.json at once.
 
+All of one robot (its profile's name or file): its reference bags and its workspace's data sets.
 Nothing stale is re-used: a candidate is keyed on its training options, seed, the bags' digest,
 its rollouts' controller options and step budget, and the digests of the training, selection and
 episode code (tric_sim.tools.provenance.code_digest), and kept under DIR/candidates
-(tric_control.study.candidates); a model's measures on a set on its arrays' digest, the controller
-options, step budget and episode code; a finished cell on all of these and its selection settings.
+(tric_control.study.candidates); a model's measures on a set on the robot's profile (its
+identity), its arrays' digest, the controller options, step budget and episode code; a finished
+cell on all of these and its selection settings.
 An interrupted study run again does only the cells whose key has no finished row; a cell that fails
 is named with its error, and the others are kept."""
 
@@ -49,11 +51,11 @@ from tric_learning.bags.loader import bag_paths, load_dataset
 from tric_learning.model_file import tensor_digest
 from tric_learning.training.value import TrainingConfig
 from tric_sim.tools.provenance import code_digest
+from tric_sim.tools.robot_option import reference_bags
 from tric_sim.tools.untrusted import read_data_file
 from tric_sim.world.robot_model import RobotModel
+from tric_sim.world.robot_profile import DEFAULT_ROBOT, load_profile
 from tric_sim.world.situations import dataset
-
-BAGS = pathlib.Path("bags")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -91,11 +93,11 @@ class Cell:
         return [self.seed + k for k in range(self.selection.candidates)]
 
 
-def bags_digest(bags: str) -> str:
-    """A digest of the contents of the bags in bags/<bags> (relative to the working directory): a
-    model trained on other bags of the same name is not re-used."""
+def bags_digest(folder: pathlib.Path) -> str:
+    """A digest of the contents of the bags in folder: a model trained on other bags of the same
+    name is not re-used."""
     digest = hashlib.sha1()
-    for path in bag_paths([BAGS / bags]):
+    for path in bag_paths([folder]):
         digest.update(path.name.encode())
         digest.update(path.read_bytes())
     return digest.hexdigest()[:12]
@@ -104,31 +106,50 @@ def bags_digest(bags: str) -> str:
 class Study:
     """Runs a study's cells on an executor (tric_control.evaluation.executors) with jobs workers;
     candidates under out/candidates, the chosen models under out/models, results merged into
-    out/study.json. every_candidate: measure every candidate on the task's sets too."""
+    out/study.json (named for the robot; ValueError if it holds another robot's). every_candidate:
+    measure every candidate on the task's sets too. robot: a profile's name or file; its reference
+    bags (tric_sim.tools.robot_option.reference_bags, relative to the working directory) and its
+    workspace's data sets."""
 
-    def __init__(self, out: pathlib.Path, jobs: int, executor, every_candidate: bool = False):
+    def __init__(
+        self,
+        out: pathlib.Path,
+        jobs: int,
+        executor,
+        every_candidate: bool = False,
+        robot: str = DEFAULT_ROBOT,
+    ):
         self.out, self.jobs, self.executor = out, jobs, executor
         self.every_candidate = every_candidate
-        self.robot = RobotModel()
+        self.profile = load_profile(robot)
+        self.robot = RobotModel(self.profile)
         self.path = out / "study.json"
         self.results = self._read()
+        made_for = self.results.get("robot", self.profile.name)
+        if made_for != self.profile.name:
+            raise ValueError(
+                f"{self.path} holds a study of the robot '{made_for}', not '{self.profile.name}': "
+                "give another --out"
+            )
         self.failed: dict[str, str] = {}
         self.cleared: set[str] = set()
-        self.store = CandidateStore(out / "candidates")
+        self.store = CandidateStore(out / "candidates", self.profile.spec)
         self._bags_digests: dict[str, str] = {}
         self._datasets: dict = {}
         (out / "models").mkdir(parents=True, exist_ok=True)
 
     def demonstrations(self, bags: str):
-        """The dataset of bags/<bags>, read once."""
+        """The dataset of the robot's reference bags of a set, read once."""
         if bags not in self._datasets:
-            self._datasets[bags] = load_dataset(bag_paths([BAGS / bags]), self.robot)
+            self._datasets[bags] = load_dataset(
+                bag_paths([reference_bags(self.profile, bags)]), self.robot
+            )
         return self._datasets[bags]
 
     def training_key(self, cell: Cell, seed: int) -> dict:
         """Everything that makes one of the cell's candidates' model (candidates.training_key)."""
         if cell.bags not in self._bags_digests:
-            self._bags_digests[cell.bags] = bags_digest(cell.bags)
+            self._bags_digests[cell.bags] = bags_digest(reference_bags(self.profile, cell.bags))
         config = TrainingConfig(**training_part(cell.changes), seed=seed)
         rounds = cell.changes.get("hard_negative_rounds", 0)
         return training_key(config, self._bags_digests[cell.bags], rounds, cell.max_steps)
@@ -144,9 +165,10 @@ class Study:
         return {k: v for k, v in cell.changes.items() if k in CONTROLLER_OPTIONS}
 
     def cell_key(self, cell: Cell) -> dict:
-        """Everything that makes the cell's row: its candidates' keys, its selection, the sets and
-        the analysis code."""
+        """Everything that makes the cell's row: the robot's profile, its candidates' keys, its
+        selection, the sets and the analysis code."""
         return {
+            "robot": self.profile.identity,
             "candidates": [self.rollouts_key(cell, seed) for seed in cell.seeds],
             "selection": cell.selection.to_dict(),
             "every_candidate": self.every_candidate,
@@ -286,6 +308,7 @@ class Study:
         for name in TASKS[cell.task][1]:
             key = key_name(
                 {
+                    "robot": self.profile.identity,
                     "arrays": tensor_digest(arrays),
                     "set": name,
                     "controller": self.controller_key(cell),
@@ -296,13 +319,14 @@ class Study:
             kept = self.results.get("evaluations", {}).get(key)
             if kept is None:
                 records = evaluate_offline(
-                    dataset(name),
+                    dataset(name, self.profile.workspace),
                     str(path),
                     cell.max_steps,
                     jobs=self.jobs,
                     desc=f"{label} {name}",
                     controller_options=options,
                     executor=self.executor,
+                    robot=self.profile.spec,
                 )
                 kept = self.results.setdefault("evaluations", {})[key] = measure_set(records)
             sets[name] = kept
@@ -337,5 +361,6 @@ class Study:
             merged.setdefault(part, {}).update(self.results.get(part, {}))
         failed = {**merged.get("failed", {}), **self.failed}
         merged["failed"] = {k: v for k, v in failed.items() if k not in self.cleared}
+        merged["robot"] = self.profile.name
         self.results = merged
         write_json(self.path, merged)

@@ -4,8 +4,9 @@ process the signal ended), leaving every finished file complete and nothing unfi
 final name.
 
 Run as a command (end_commands_on_signals), the tool ends at once from the signal handler: its
-worker processes are ended, the temporary files of writes in progress and its lock files removed
-(tric_sim.tools.output_files, tric_sim.tools.claims), the named semaphores of its process pools
+worker processes are ended (each of them ending its own first: end_workers_with_their_own), the
+temporary files of writes in progress and its lock files removed (tric_sim.tools.output_files,
+tric_sim.tools.claims), the named semaphores of its process pools
 unlinked (so that multiprocessing's resource tracker has nothing left to warn about), and the
 process exits without tearing its ROS nodes down one by one (destroying nodes under their running
 threads crashed rclpy: a segmentation fault in 1 of 3 interrupted tric-eval runs). Every result is
@@ -109,6 +110,22 @@ def _unlink_semaphores() -> None:
                 finalizer()
             except OSError:  # unlinked already
                 pass
+
+
+def end_workers_with_their_own() -> None:
+    """In a tool's worker process: SIGTERM, with which the tool ends its workers (end_at_once), ends
+    this worker's own worker processes first (a training's forked sampling workers, which were left
+    running, orphaned, when only their parent ended), removes its temporary and lock files, and
+    ends it with status 143 and no line (the tool prints its own)."""
+
+    def end(signum, frame):
+        try:
+            _clean_up()
+        except Exception:  # a module caught half imported: end all the same
+            pass
+        os._exit(exit_status(signum))
+
+    signal.signal(signal.SIGTERM, end)
 
 
 def end_commands_on_signals(prog: str, kept: str = "") -> None:
