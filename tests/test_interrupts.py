@@ -13,7 +13,6 @@ import signal
 import subprocess
 import sys
 import tempfile
-import time
 
 import pytest
 from hypothesis import HealthCheck, settings
@@ -283,8 +282,8 @@ test_recording_interrupted_at_any_moment = RecordingInterrupted.TestCase
 
 
 #: A tool whose worker process (calls_in_workers, as a study's or the experiments' trainings run)
-#: has worker processes of its own (a training's forked sampling pool): it writes their ids, then
-#: waits.
+#: has worker processes of its own (a training's forked sampling pool): it prints their ids on a
+#: line of stdout, then waits.
 WORKER_TREE = """
 import os, sys, time
 from tric_sim.tools.interrupts import end_commands_on_signals
@@ -294,20 +293,18 @@ from tric_learning.training.samples import worker_pool
 def sleep(seconds):
     time.sleep(seconds)
 
-def training(path):
+def training():
     pool = worker_pool(2)
+    started = [pool.submit(os.getpid) for _ in range(2)]  # the pool's processes are all up
+    [future.result() for future in started]
     for _ in range(2):
         pool.submit(sleep, 600)
-    while len(pool._processes) < 2:
-        time.sleep(0.05)
-    with open(path + ".part", "w") as file:
-        file.write(" ".join(str(pid) for pid in [os.getpid(), *pool._processes]))
-    os.rename(path + ".part", path)
+    print(" ".join(str(pid) for pid in [os.getpid(), *pool._processes]), flush=True)
     time.sleep(600)
 
 if __name__ == "__main__":  # as a console script runs a tool: a spawned worker re-imports this
     end_commands_on_signals("tree")
-    for _ in calls_in_workers(training, [(sys.argv[1],)], 1, ()):
+    for _ in calls_in_workers(training, [()], 1, ()):
         pass
 """
 
@@ -316,19 +313,19 @@ def test_a_terminated_tool_s_workers_end_their_own_workers(tmp_path):
     """SIGTERM ends the tool, its worker and the worker's own workers: before, the tool ended its
     worker processes only, and a training's forked sampling workers ran on, orphaned, for an hour
     after `tric-experiments` was terminated."""
-    script, pids, stderr = tmp_path / "tree.py", tmp_path / "pids", tmp_path / "stderr"
+    script, stderr = tmp_path / "tree.py", tmp_path / "stderr"
     script.write_text(WORKER_TREE)
-    # stderr to a file: a worker left running would hold a pipe open past the tool's end
+    # stderr to a file, and stdout read for one line only: a worker left running would hold a pipe
+    # open past the tool's end
+    pids: list = []
     with stderr.open("w") as file:
-        tool = subprocess.Popen([sys.executable, str(script), str(pids)], stderr=file)
+        tool = subprocess.Popen(
+            [sys.executable, str(script)], stdout=subprocess.PIPE, stderr=file, text=True
+        )
     try:
-        for _ in range(int(HANG_S / 0.05)):
-            if pids.exists() or tool.poll() is not None:
-                break
-            time.sleep(0.05)
-        assert pids.exists(), stderr.read_text()
-        worker, *its_workers = map(int, pids.read_text().split())
-        assert len(its_workers) == 2
+        pids = [int(pid) for pid in tool.stdout.readline().split()]
+        assert len(pids) == 3, stderr.read_text()
+        worker, *its_workers = pids
         tool.send_signal(signal.SIGTERM)
         tool.wait(timeout=HANG_S)
         rest = stderr.read_text()
@@ -337,6 +334,7 @@ def test_a_terminated_tool_s_workers_end_their_own_workers(tmp_path):
         assert outlived == []
     finally:
         tool.kill()
-        for pid in map(int, pids.read_text().split()) if pids.exists() else ():
+        tool.stdout.close()
+        for pid in pids:
             with contextlib.suppress(ProcessLookupError):
                 os.kill(pid, signal.SIGKILL)
