@@ -318,6 +318,7 @@ def test_tric_train_writes_a_loadable_model(cli_run):
     assert status == 0
     for expected in (
         f"model      {model}",
+        f"robot      tric_arm_hand (profile digest {RobotModel().profile.digest[:12]})",
         "kept",
         "selected",
         "chosen     the best of 2 candidates by the score 'landmarks'",

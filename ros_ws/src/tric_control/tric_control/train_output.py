@@ -90,8 +90,10 @@ def summary(run) -> str:
     config = info["hyperparameters"]
     steps = sum(demo.length for demo in run.dataset.demos)
     selection = provenance["config"]
+    robot, _, digest = info.get("robot_profile", "").partition(":")
     lines = [
         f"model      {run.path}",
+        *([f"robot      {robot} (profile digest {digest[:12]})"] if digest else []),
         f"data       {len(run.dataset.demos)} demonstrations, {steps} steps, "
         f"{info['mean_samples_per_step']:.1f} noisy samples per step",
         f"chosen     {chosen_text(selection)} "
