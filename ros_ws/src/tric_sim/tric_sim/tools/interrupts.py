@@ -61,10 +61,7 @@ def end_at_once(prog: str, signum: int, kept: str = "") -> None:
     printed, exit status 128 + signum. The cleaning up is done as far as it can be: the signal may
     come in the middle of any import, with modules not yet whole, and nothing it meets there may
     keep the tool from its line and its end."""
-    try:
-        _clean_up()
-    except Exception:  # a module caught half imported: what it holds is not worth a traceback
-        pass
+    _clean_up()
     try:
         sys.stdout.flush()
     except (OSError, ValueError):  # stdout closed, or a pipe whose reader left
@@ -75,16 +72,20 @@ def end_at_once(prog: str, signum: int, kept: str = "") -> None:
 
 def _clean_up() -> None:
     """End the worker processes, remove the temporary and lock files, unlink the semaphores; the
-    modules that hold them are looked up, not imported (one not imported yet holds nothing)."""
-    multiprocessing = sys.modules.get("multiprocessing")
-    for child in multiprocessing.active_children() if multiprocessing else ():
-        child.terminate()
-    for module, cleanup in (
-        ("tric_sim.tools.output_files", "remove_temporaries"),
-        ("tric_sim.tools.claims", "remove_lock_files"),
-    ):
-        getattr(sys.modules.get(module), cleanup, lambda: None)()
-    _unlink_semaphores()
+    modules that hold them are looked up, not imported (one not imported yet holds nothing). Done
+    as far as it can be: nothing it meets may keep the process from its end."""
+    try:
+        multiprocessing = sys.modules.get("multiprocessing")
+        for child in multiprocessing.active_children() if multiprocessing else ():
+            child.terminate()
+        for module, cleanup in (
+            ("tric_sim.tools.output_files", "remove_temporaries"),
+            ("tric_sim.tools.claims", "remove_lock_files"),
+        ):
+            getattr(sys.modules.get(module), cleanup, lambda: None)()
+        _unlink_semaphores()
+    except Exception:  # a module caught half imported: what it holds is not worth a traceback
+        pass
 
 
 def _unlink_semaphores() -> None:
@@ -119,10 +120,7 @@ def end_workers_with_their_own() -> None:
     ends it with status 143 and no line (the tool prints its own)."""
 
     def end(signum, frame):
-        try:
-            _clean_up()
-        except Exception:  # a module caught half imported: end all the same
-            pass
+        _clean_up()
         os._exit(exit_status(signum))
 
     signal.signal(signal.SIGTERM, end)
