@@ -25,9 +25,10 @@ pink_tick_p50_ms, pink_tick_p99_ms: the same step with pin-pink, the same task u
   "proxqp") with TRIC's value as one scalar task (Jacobian g = (df/dy)(dphi/dq), error delta, cost
   sqrt(2 rho), damping 2: the minimizer of rho (g dq + delta)^2 + |dq|^2; computed by the same
   ValueObjective, domain rows included), the soft side of contact as a second task, and as limits
-  pink's joint position limits (shrunk by JOINT_MARGIN, gain 1) and velocity limits and this
-  controller's collision and domain dampers (the same classes, their rows handed to pink). Our tick,
-  in place of pink's solve_ik, warm-starts one fixed-size QP and bounds the step by a box.
+  pink's joint position limits (shrunk by the controller's joint margins, gain 1) and velocity
+  limits and this controller's collision and domain dampers (the same classes, their rows handed to
+  pink). Our tick, in place of pink's solve_ik, warm-starts one fixed-size QP and bounds the step
+  by a box.
 controller_replay_p50_ms: our tick in the replay, ms.
 controller_vs_pink: controller_replay_p50_ms / pink_tick_p50_ms. Target: < 1.
 pink_bare_tick_p50_ms: pink doing less, as the first version of this benchmark had it: the value
@@ -45,7 +46,7 @@ from pink.limits import ConfigurationLimit, Limit, VelocityLimit
 from pink.tasks import Task
 
 from tric_control.limits import CollisionDamper, DomainDamper, SoftContact, StepState
-from tric_control.motion_rate import INFLUENCE, JOINT_MARGIN, MotionRateController, default_limits
+from tric_control.motion_rate import INFLUENCE, MotionRateController, default_limits, joint_margins
 from tric_control.objectives import COMPILED, make_objective
 from tric_learning import model_file
 from tric_learning.bags.loader import load_dataset
@@ -193,8 +194,8 @@ class PinkStep:
             self.limits.append(ConfigurationLimit(robot.model, config_limit_gain=1.0))
             return
         margined = robot.model.copy()
-        margined.lowerPositionLimit = robot.lower + JOINT_MARGIN
-        margined.upperPositionLimit = robot.upper - JOINT_MARGIN
+        margined.lowerPositionLimit = robot.lower + joint_margins(robot)
+        margined.upperPositionLimit = robot.upper - joint_margins(robot)
         self.limits.append(ConfigurationLimit(margined, config_limit_gain=1.0))
         self.proximity = Proximity(robot, situation)
         defaults = default_limits(robot, self.proximity.contacts)

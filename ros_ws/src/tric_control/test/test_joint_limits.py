@@ -1,8 +1,9 @@
 """JointLimits: the step's box keeps the reference plus the step within the joint limits less the
 margin and within the step bound, always allows holding still, and names the joints whose position
-bound stops the step. Units: rad."""
+bound stops the step. Units: rad (m for a prismatic joint)."""
 
 import numpy as np
+import pytest
 
 from tric_control.limits import JointLimits, StepState
 
@@ -55,3 +56,15 @@ def test_the_box_only_tightens_what_it_is_given():
     )
     limits.bound(state, low, high)
     assert np.allclose(low, [-0.01, -0.1, -0.1, -0.1]) and np.allclose(high, [0.1, 0.02, 0.1, 0.1])
+
+
+def test_each_joint_may_keep_a_margin_of_its_own():
+    """Margins per joint (a prismatic joint's in m beside revolute joints' in rad): near its upper
+    limit each joint's step stops at its own margin; a negative margin is refused."""
+    limits = JointLimits(LOWER, UPPER, NAMES, np.array([0.02, 0.002, 0.02, 0.0]))
+    state = StepState(reference=np.array([0.95, 0.95, 0.95, 1.95]), max_step=np.full(4, 0.1))
+    low, high = np.full(4, -np.inf), np.full(4, np.inf)
+    limits.bound(state, low, high)
+    np.testing.assert_allclose(high, [0.03, 0.048, 0.03, 0.05])
+    with pytest.raises(ValueError, match="margin must be >= 0"):
+        JointLimits(LOWER, UPPER, NAMES, np.array([0.02, -0.001, 0.02, 0.02]))

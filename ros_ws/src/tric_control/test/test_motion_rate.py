@@ -16,11 +16,13 @@ from tric_control.motion_rate import (
     DOMAIN_MARGIN,
     DOMAIN_ROWS,
     JOINT_MARGIN,
+    PRISMATIC_JOINT_MARGIN,
     SAFETY,
     STEP_QUANTUM,
     MotionRateController,
     StepQP,
     default_limits,
+    joint_margins,
 )
 from tric_control.objectives import Objective, ValueObjective, make_objective
 from tric_learning.features import FeatureDefinition, FeatureMap
@@ -206,6 +208,29 @@ def test_targets_stay_within_joint_and_velocity_limits_under_an_adversarial_obje
                     sign * direction > 0, robot.upper - JOINT_MARGIN, robot.lower + JOINT_MARGIN
                 )
                 assert np.allclose(target, pushed_limit, atol=1e-9)
+
+
+def test_a_sliding_finger_keeps_millimetres_from_its_limits_not_the_arm_s_radians():
+    """The Panda's gripper finger slides 0 to 4 cm: pushed shut and then open, it stops
+    PRISMATIC_JOINT_MARGIN (2 mm) inside each limit, as the arm's joints stop JOINT_MARGIN (rad)
+    inside theirs; a margin of 0.02 read as metres would hold it at 2 cm, half open, both ways."""
+    panda = RobotModel("panda")
+    finger = panda.joint_names.index("panda_finger_joint1")
+    assert list(np.flatnonzero(panda.prismatic)) == [finger]
+    margins = joint_margins(panda)
+    assert margins[finger] == PRISMATIC_JOINT_MARGIN and np.all(
+        np.delete(margins, finger) == JOINT_MARGIN
+    )
+    objective = Push(-np.ones(panda.n_joints))
+    controller = MotionRateController(panda, NoPairs(), objective)
+    q = panda.home.copy()
+    for sign, limit in ((-1.0, panda.lower), (1.0, panda.upper)):
+        objective.direction = sign * np.ones(panda.n_joints)
+        for _ in range(700):  # the widest arm range takes 600 full steps
+            q = controller.tick(q, {}).target
+        assert q[finger] == pytest.approx(limit[finger] - sign * PRISMATIC_JOINT_MARGIN, abs=1e-9)
+        arm = panda.arm_indices
+        np.testing.assert_allclose(q[arm], (limit - sign * JOINT_MARGIN)[arm], atol=1e-9)
 
 
 # --- collision rows ----------------------------------------------------------------------------

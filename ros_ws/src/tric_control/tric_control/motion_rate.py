@@ -59,8 +59,11 @@ SAFETY = 0.01
 SELF_SAFETY = 0.002
 #: The dampers' gain: the fraction of its margin a distance (or a feature's) may lose per tick.
 DAMPING = 0.3
-#: The joint limits less this margin bound the command, rad.
+#: The joint limits less this margin bound the command: rad for a revolute joint, m for a
+#: prismatic one (2 mm of, say, a parallel gripper finger's 40 mm: a margin in radians read as
+#: metres would take half of it; docs/robots.md).
 JOINT_MARGIN = 0.02
+PRISMATIC_JOINT_MARGIN = 0.002
 #: How far the command may lead the measured arm and hand joints, rad (see the module docstring).
 MAX_LEAD = 0.03
 MAX_HAND_LEAD = 0.03
@@ -83,9 +86,15 @@ def default_limits(robot: RobotModel, contacts: dict, domain_damper: bool = True
     return [
         CollisionDamper(rules, COLLISION_ROWS, SAFETY, SELF_SAFETY, DAMPING),
         *([DomainDamper(DOMAIN_ROWS, DAMPING)] if domain_damper else []),
-        JointLimits(robot.lower, robot.upper, robot.joint_names, JOINT_MARGIN),
+        JointLimits(robot.lower, robot.upper, robot.joint_names, joint_margins(robot)),
         SoftContact(rules),
     ]
+
+
+def joint_margins(robot: RobotModel) -> np.ndarray:
+    """The margin (n,) kept from each joint's limits: JOINT_MARGIN rad for a revolute joint,
+    PRISMATIC_JOINT_MARGIN m for a prismatic one."""
+    return np.where(robot.prismatic, PRISMATIC_JOINT_MARGIN, JOINT_MARGIN)
 
 
 @dataclass

@@ -42,6 +42,13 @@ def test_the_profile_names_a_gripper_finger_moved_by_a_mimic_joint(robot):
     assert profile.closing_signs == {"left_finger_joint": -1.0}
 
 
+def test_the_model_knows_which_joints_slide(robot):
+    """The left finger's joint is prismatic (m), the arm's revolute (rad); the paper's robot has
+    no prismatic joint."""
+    assert robot.prismatic.tolist() == [False, False, False, True]
+    assert not RobotModel().prismatic.any()
+
+
 def test_a_gripper_closes_as_its_joint_falls(robot):
     """The fingers close as the left finger's joint falls (its profile's closing -1): closing moves
     it down, to its lower limit at most, and the fingers' flexion grows as they close."""

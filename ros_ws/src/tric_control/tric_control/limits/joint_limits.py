@@ -1,5 +1,5 @@
 """The joints' position limits, kept with a margin, and their per-tick step bound (velocity limit
-times control period) as the box of the step. ROS-free. Units: rad, s."""
+times control period) as the box of the step. ROS-free. Units: rad (m for a prismatic joint), s."""
 
 import numpy as np
 
@@ -11,13 +11,14 @@ REACHED = 1e-9
 
 class JointLimits(Limit):
     """The box low <= dq <= high of a step from the reference: within [lower + margin, upper -
-    margin] (rad, the robot's limits) and within the step bound max_step (n,) of each joint. It
+    margin] (the robot's limits; margin one for all joints or (n,), rad or m as each joint moves)
+    and within the step bound max_step (n,) of each joint. It
     always holds dq = 0 (from a reference outside the margin, the step may stay there but not go
     further). A joint is active where the step sits on a position bound tighter than its step
     bound."""
 
-    def __init__(self, lower: np.ndarray, upper: np.ndarray, joint_names, margin: float):
-        if not margin >= 0:
+    def __init__(self, lower: np.ndarray, upper: np.ndarray, joint_names, margin):
+        if not np.all(np.asarray(margin) >= 0):
             raise ValueError(f"the joint limit margin must be >= 0, got {margin!r}")
         self.lowest, self.highest = np.asarray(lower) + margin, np.asarray(upper) - margin
         self.joint_names = list(joint_names)

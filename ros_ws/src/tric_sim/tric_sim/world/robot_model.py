@@ -81,7 +81,8 @@ class RobotModel:
         profile: the robot's RobotProfile.
         joint_names: the n actuated joints, in the order of q.
         home: the profile's start configuration (n,), rad.
-        lower, upper: joint limits (n,), rad.
+        lower, upper: joint limits (n,), rad (m for a prismatic joint).
+        prismatic: (n,) bool, which joints slide (their q in m) rather than turn (rad).
         velocity_limits: (n,) rad/s; effort_limits: (n,) N m.
         mimic_joints: URDF joints driven by another joint (not part of q).
         hand_geometries: (G,) bool, which collision geometries are on the hand (its profile's
@@ -133,6 +134,9 @@ class RobotModel:
         signs = self.profile.closing_signs
         self.closing_signs = np.array([signs.get(j, 1.0) for j in self.joint_names])
         self._chain = self._kinematic_chain()
+        self.prismatic = np.zeros(len(self.joint_names), dtype=bool)
+        for *_, sliding, source, _multiplier, _offset in self._chain:
+            self.prismatic[source] |= sliding
         self.joint_supports, self.extended_to_q = self._jacobian_columns()
         columns = self.model.nvExtended
         # (3, E, 4)
