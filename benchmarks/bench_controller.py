@@ -193,9 +193,9 @@ class PinkStep:
         if bare:
             self.limits.append(ConfigurationLimit(robot.model, config_limit_gain=1.0))
             return
-        margined = robot.model.copy()
-        margined.lowerPositionLimit = robot.lower + joint_margins(robot)
-        margined.upperPositionLimit = robot.upper - joint_margins(robot)
+        margined, margins = robot.model.copy(), joint_margins(robot)
+        margined.lowerPositionLimit = robot.lower + margins
+        margined.upperPositionLimit = robot.upper - margins
         self.limits.append(ConfigurationLimit(margined, config_limit_gain=1.0))
         self.proximity = Proximity(robot, situation)
         defaults = default_limits(robot, self.proximity.contacts)

@@ -12,10 +12,9 @@ REACHED = 1e-9
 class JointLimits(Limit):
     """The box low <= dq <= high of a step from the reference: within [lower + margin, upper -
     margin] (the robot's limits; margin one for all joints or (n,), rad or m as each joint moves)
-    and within the step bound max_step (n,) of each joint. It
-    always holds dq = 0 (from a reference outside the margin, the step may stay there but not go
-    further). A joint is active where the step sits on a position bound tighter than its step
-    bound."""
+    and within the step bound max_step (n,) of each joint. It always holds dq = 0 (from a
+    reference outside the margin, the step may stay there but not go further). A joint is active
+    where the step sits on a position bound tighter than its step bound."""
 
     def __init__(self, lower: np.ndarray, upper: np.ndarray, joint_names, margin):
         if not np.all(np.asarray(margin) >= 0):
