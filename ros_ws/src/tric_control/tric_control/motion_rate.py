@@ -61,7 +61,7 @@ SELF_SAFETY = 0.002
 DAMPING = 0.3
 #: The joint limits less this margin bound the command: rad for a revolute joint, m for a
 #: prismatic one (2 mm of, say, a parallel gripper finger's 40 mm: a margin in radians read as
-#: metres would take half of it; docs/robots.md).
+#: metres would take half of it; docs/decisions/joint-margins.md).
 JOINT_MARGIN = 0.02
 PRISMATIC_JOINT_MARGIN = 0.002
 #: How far the command may lead the measured arm and hand joints, rad (see the module docstring).
