@@ -2,6 +2,7 @@
 
 import pytest
 
+from tric_control.fall_pace import FallPace
 from tric_control.study import cli as study
 from tric_control.study import measures as study_measures
 from tric_control.study import variants as study_variants
@@ -84,6 +85,16 @@ def test_rho_scale_is_a_controller_option_passed_to_the_objective():
     assert study_measures.controller_options(changes, "sphere", RobotModel()) == {"rho_scale": 3.0}
     with pytest.raises(ValueError, match="rho_scale must be in"):
         study_variants.parse_variant("r=rho_scale=0")
+
+
+def test_the_fall_pace_is_a_controller_option_given_by_its_knee():
+    name, changes = study_variants.parse_variant("p=fall_pace=0.25")
+    assert changes == {"fall_pace": 0.25} and study_variants.training_part(changes) == {}
+    options = study_measures.controller_options(changes, "sphere", RobotModel())
+    assert options == {"fall_pace": FallPace(knee=0.25)}
+    for bad in ("0", "1.5"):
+        with pytest.raises(ValueError, match="fall_pace"):
+            study_variants.parse_variant(f"p=fall_pace={bad}")
 
 
 def test_controller_settings_are_variant_options_that_do_not_change_the_training():

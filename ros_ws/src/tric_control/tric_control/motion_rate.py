@@ -33,6 +33,7 @@ import daqp
 import numpy as np
 import proxsuite
 
+from tric_control.fall_pace import FallPace, PaceState
 from tric_control.limits import (
     UNBOUNDED_BELOW,
     CollisionDamper,
@@ -217,7 +218,9 @@ class MotionRateController:
     (tric_control.limits.Limit), default default_limits(robot, contacts, domain_damper); the
     inequality rows are stacked in their order.
     max_lead: how far the command may lead the measured joints, rad, one for all or (n,); default
-    MAX_LEAD on the arm and MAX_HAND_LEAD on the hand.
+    MAX_LEAD on the arm and MAX_HAND_LEAD on the hand. fall_pace: ask a share of the objective's
+    delta that follows the fall f has made (tric_control.fall_pace.FallPace), or None (default:
+    delta every tick, the paper's; an objective without a delta takes none).
     """
 
     def __init__(
@@ -231,7 +234,12 @@ class MotionRateController:
         limits: list | None = None,
         max_lead=None,
         domain_damper: bool = True,
+        fall_pace: FallPace | None = None,
     ):
+        if fall_pace is not None and not getattr(objective, "delta", 0) > 0:
+            raise ValueError("a fall pace needs an objective that asks a fall (TRIC's delta)")
+        self.fall_pace = fall_pace
+        self._pace: PaceState | None = None
         self.robot, self.proximity, self.objective, self.period = (
             robot,
             proximity,
@@ -286,6 +294,7 @@ class MotionRateController:
         self.reference = np.array(q, dtype=float)
         self.values = []
         self.history = []
+        self._pace = None if self.fall_pace is None else self.fall_pace.start()
 
     def tick(self, q: np.ndarray, object_poses: dict) -> Tick:
         """One control step from the measured joint positions q (n,) and the objects' poses."""
@@ -302,6 +311,8 @@ class MotionRateController:
         hessian, linear = self._hessian, self._linear
         np.add(model.hessian, self._step_metric, out=hessian)
         linear[:] = model.linear
+        if self._pace is not None:
+            linear *= self._pace.share(model.value, self.objective.delta)
         for limit in self._costs:
             limit.add_cost(state, hessian, linear)
         low, high = self._low, self._high

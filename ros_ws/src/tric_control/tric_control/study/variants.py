@@ -53,8 +53,9 @@ MODEL_MEASURES = (
 #: the task's contact rules (tric_sim.world.scene.TASK_CONTACTS): how deep the hand may press into a
 #: grasp target and its cushion (m), how deep into the lid (m) and whether only from beneath;
 #: whether the domain damper (tric_control.limits.DomainDamper) is among the limits; a factor on
-#: the model's rho (tric_control.objectives.make_objective); and whether the task's grip closes the
-#: hand once at rest (tric_sim.world.scene.task_grip).
+#: the model's rho (tric_control.objectives.make_objective); whether the task's grip closes the
+#: hand once at rest (tric_sim.world.scene.task_grip); and the fall pace's knee
+#: (tric_control.fall_pace.FallPace, its other settings the defaults; absent: no pace).
 CONTROLLER_OPTIONS = {
     "hand_lead": float,
     "grasp_steps": int,
@@ -66,6 +67,7 @@ CONTROLLER_OPTIONS = {
     "domain_damper": bool,
     "rho_scale": float,
     "grip": bool,
+    "fall_pace": float,
 }
 #: Training procedures beyond TrainingConfig: rounds of hard negatives
 #: (tric_control.study.hard_negatives).
@@ -152,6 +154,8 @@ def parse_variant(text: str):
         raise ValueError(f"variant '{name}': contact depths and cushions must be in [0, 0.05] m")
     if changes.get("hard_negative_rounds", 0) < 0:
         raise ValueError(f"variant '{name}': hard_negative_rounds must be >= 0")
+    if not 0 < changes.get("fall_pace", 1.0) <= 1:
+        raise ValueError(f"variant '{name}': fall_pace (its knee) must be in (0, 1]")
     if not 0.001 <= changes.get("rho_scale", 1.0) <= 1000:
         raise ValueError(f"variant '{name}': rho_scale must be in [0.001, 1000]")
     return name, changes
