@@ -17,9 +17,6 @@ down to floor, and the step with it, until f falls as asked again.
 
 from dataclasses import dataclass
 
-#: Below this asked fall (a share of delta, averaged) the ratio is not formed: no ask, no ratio.
-_SMALLEST_ASK = 1e-9
-
 
 @dataclass(frozen=True)
 class FallPace:
@@ -63,6 +60,7 @@ class PaceState:
             self.realized += weight * ((self.previous - value) / delta - self.realized)
             self.asked += weight * (self.asked_share - self.asked)
         self.previous = value
-        ratio = self.realized / self.asked if self.asked > _SMALLEST_ASK else 1.0
+        # the asked average is one of shares of at least floor, so never below it
+        ratio = self.realized / self.asked
         self.asked_share = min(max(ratio / pace.knee, pace.floor), 1.0)
         return self.asked_share

@@ -220,7 +220,7 @@ class MotionRateController:
     max_lead: how far the command may lead the measured joints, rad, one for all or (n,); default
     MAX_LEAD on the arm and MAX_HAND_LEAD on the hand. fall_pace: ask a share of the objective's
     delta that follows the fall f has made (tric_control.fall_pace.FallPace), or None (default:
-    delta every tick, the paper's; an objective without a delta takes none).
+    delta every tick, the paper's); refused with an objective that has no delta (DPL's).
     """
 
     def __init__(
