@@ -46,7 +46,7 @@ def contact_rules(changes: dict, task: str):
 def controller_options(changes: dict, task: str, robot: RobotModel) -> dict:
     """The keyword arguments of MotionRateController that a variant's controller settings make for
     the task (OfflineEvaluator's controller_options)."""
-    options = {}
+    options: dict = {}
     if "hand_lead" in changes:
         lead = np.full(robot.n_joints, MAX_LEAD)
         lead[robot.hand_indices] = changes["hand_lead"]
