@@ -1,24 +1,11 @@
 """The asked fall's pace (tric_control.fall_pace): the share of delta it asks on hand-made falls of
-f, and the controller with it where the world follows its steps and where it does not."""
+f (the controller with it: test_motion_rate.py)."""
 
-import numpy as np
 import pytest
 
 from tric_control.fall_pace import FallPace
-from tric_control.motion_rate import MotionRateController
-from tric_control.objectives import Objective, ValueObjective
-from tric_learning.features import FeatureDefinition, FeatureMap
-from tric_learning.value_function import Scaling, ValueFunction
-from tric_sim.world import situations
-from tric_sim.world.proximity import Proximity
-from tric_sim.world.robot_model import RobotModel
 
 DELTA = 0.002
-
-
-@pytest.fixture(scope="module")
-def robot():
-    return RobotModel()
 
 
 def shares(pace: FallPace, falls) -> list:
@@ -77,61 +64,3 @@ def test_f_rising_counts_as_no_fall():
 def test_bad_settings_are_refused_by_name(settings, word):
     with pytest.raises(ValueError, match=word):
         FallPace(**settings)
-
-
-def palm_distance_objective(robot: RobotModel) -> ValueObjective:
-    """f = the palm's scaled distance to the object, asked to fall by DELTA a tick."""
-    definition = FeatureDefinition.for_task("grasp", robot)
-    kept = np.array([definition.feature_names.index("d[palm,object]")])
-    value_function = ValueFunction(
-        Scaling(kept, np.array([0.25]), np.array([1.0]), definition.size),
-        np.zeros((0, 1)),
-        np.zeros(0),
-        np.array([1.0]),
-    )
-    return ValueObjective(FeatureMap(definition, robot), value_function, DELTA, rho=100.0)
-
-
-def run(robot, pace, blocked_from: int, ticks: int = 400):
-    """The steps' norms of a controller descending palm_distance_objective towards a sphere; from
-    tick blocked_from on the measured joints no longer follow the command (the robot is held)."""
-    situation = situations.sphere("sphere", (0.55, 0.0, 0.45))
-    poses = {"object": (situation.object_position, situation.object_orientation)}
-    objective = palm_distance_objective(robot)
-    controller = MotionRateController(robot, Proximity(robot, situation), objective, fall_pace=pace)
-    q, norms, values = robot.home.copy(), [], []
-    for k in range(ticks):
-        tick = controller.tick(q, poses)
-        norms.append(float(np.linalg.norm(tick.step)))
-        values.append(tick.value)
-        if k < blocked_from:
-            q = tick.target
-    return np.array(norms), np.array(values)
-
-
-def test_the_controller_keeps_the_paper_s_descent_while_the_world_follows(robot):
-    paced, values = run(robot, FallPace(), blocked_from=10**6, ticks=150)
-    plain, plain_values = run(robot, None, blocked_from=10**6, ticks=150)
-    np.testing.assert_array_equal(paced, plain)
-    assert (values[0] - values[100]) / 100 == pytest.approx(DELTA, rel=0.1)
-
-
-def test_a_held_robot_s_steps_shrink_with_the_pace_and_not_without_it(robot):
-    """Held from tick 100 (f stops falling): the paper's controller asks the same step on and on;
-    with the pace the step shrinks to a small share of it within a few windows."""
-    paced, _ = run(robot, FallPace(knee=0.25, window_ticks=50, floor=0.05), blocked_from=100)
-    plain, _ = run(robot, None, blocked_from=100)
-    assert plain[-1] == pytest.approx(plain[150], rel=1e-6) and plain[-1] > 0
-    assert paced[-1] < 0.1 * plain[-1]
-    np.testing.assert_array_equal(paced[:100], plain[:100])
-
-
-def test_a_pace_needs_an_objective_that_asks_a_fall(robot):
-    class NoFall:
-        def __call__(self, q, object_poses):
-            n = len(q)
-            return Objective(np.zeros((n, n)), np.zeros(n), 0.0, 0.0)
-
-    situation = situations.sphere("sphere", (0.55, 0.0, 0.45))
-    with pytest.raises(ValueError, match="delta"):
-        MotionRateController(robot, Proximity(robot, situation), NoFall(), fall_pace=FallPace())

@@ -8,6 +8,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
+from tric_control.fall_pace import FallPace
 from tric_control.limits import Limit, damper_bounds
 from tric_control.motion_rate import (
     COLLISION_ROWS,
@@ -483,3 +484,57 @@ def test_a_value_with_a_minimum_brings_the_controller_to_rest_there_and_only_the
     assert abs(us[-1] - u_star) < 0.02, (us[-1], u_star)
     assert us[0] - u_star > 0.05  # it had a way to go
     assert not any(tick.converged for tick in ticks[:-1])
+
+
+# --- the fall pace (tric_control.fall_pace) ---------------------------------------------------
+
+
+PACE_DELTA = 0.002
+
+
+def paced_run(robot, pace, blocked_from: int, ticks: int = 400):
+    """The steps' norms and f of a controller descending f = the palm's scaled distance to a sphere
+    (palm_distance_value) by PACE_DELTA a tick, with the fall pace pace (or None); from tick
+    blocked_from on the measured joints no longer follow the command (the robot is held)."""
+    situation = situations.sphere("sphere", (0.55, 0.0, 0.45))
+    poses = {"object": (situation.object_position, situation.object_orientation)}
+    definition = FeatureDefinition.for_task("grasp", robot)
+    value_function = palm_distance_value(definition, 0.25, 1.0)
+    objective = ValueObjective(FeatureMap(definition, robot), value_function, PACE_DELTA, rho=100.0)
+    controller = MotionRateController(robot, Proximity(robot, situation), objective, fall_pace=pace)
+    q, norms, values = robot.home.copy(), [], []
+    for k in range(ticks):
+        tick = controller.tick(q, poses)
+        norms.append(float(np.linalg.norm(tick.step)))
+        values.append(tick.value)
+        if k < blocked_from:
+            q = tick.target
+    return np.array(norms), np.array(values)
+
+
+def test_the_controller_keeps_the_paper_s_descent_while_the_world_follows(robot):
+    paced, values = paced_run(robot, FallPace(), blocked_from=10**6, ticks=150)
+    plain, _ = paced_run(robot, None, blocked_from=10**6, ticks=150)
+    np.testing.assert_array_equal(paced, plain)
+    assert (values[0] - values[100]) / 100 == pytest.approx(PACE_DELTA, rel=0.1)
+
+
+def test_a_held_robot_s_steps_shrink_with_the_pace_and_not_without_it(robot):
+    """Held from tick 100 (f stops falling): the paper's controller asks the same step on and on;
+    with the pace the step shrinks to a small share of it within a few windows."""
+    paced, _ = paced_run(robot, FallPace(knee=0.25, window_ticks=50, floor=0.05), blocked_from=100)
+    plain, _ = paced_run(robot, None, blocked_from=100)
+    assert plain[-1] == pytest.approx(plain[150], rel=1e-6) and plain[-1] > 0
+    assert paced[-1] < 0.1 * plain[-1]
+    np.testing.assert_array_equal(paced[:100], plain[:100])
+
+
+def test_a_pace_needs_an_objective_that_asks_a_fall(robot):
+    class NoFall:
+        def __call__(self, q, object_poses):
+            n = len(q)
+            return Objective(np.zeros((n, n)), np.zeros(n), 0.0, 0.0)
+
+    situation = situations.sphere("sphere", (0.55, 0.0, 0.45))
+    with pytest.raises(ValueError, match="delta"):
+        MotionRateController(robot, Proximity(robot, situation), NoFall(), fall_pace=FallPace())
