@@ -13,6 +13,7 @@ from sensor_msgs.msg import JointState
 
 from conftest import HANG_S, call, run_action, run_periods, wait_for, wait_future
 from tric_control.controller_node import ControllerNode
+from tric_control.fall_pace import FallPace
 from tric_learning import model_file
 from tric_learning.features import FeatureDefinition
 from tric_learning.recording import record_offline
@@ -422,11 +423,29 @@ def test_an_episode_interrupted_aborts_with_the_reason_and_an_abort_event(
         ("max_steps", "many", "an integer"),
         ("state_timeout_s", -1.0, "state_timeout_s"),
         ("model_path", "/no/such/model.safetensors", "does not exist"),
+        ("fall_pace_knee", 1.5, r"fall_pace_knee must be in \[0, 1\]"),
+        ("fall_pace_knee", -0.1, r"fall_pace_knee must be in \[0, 1\]"),
     ],
 )
 def test_bad_parameters_are_refused(ros_context, name, value, reason):
     with pytest.raises(ValueError, match=reason):
         make_controller(ros_context, **{name: value})
+
+
+def test_the_fall_pace_is_the_node_s_by_default_and_none_at_knee_zero_or_without_delta(
+    ros_context, model_path
+):
+    """The value model's objective asks a fall: the node paces it with its knee (0.25 unless set),
+    not at all at knee 0 (the paper's constant delta); an objective that asks no fall (DPL's) runs
+    without."""
+    default = make_controller(ros_context, model_path=model_path)
+    objective = default.model.objective
+    assert objective.delta > 0
+    assert default.parameters.fall_pace(objective) == FallPace(knee=0.25)
+    assert default.parameters.fall_pace(object()) is None
+    half = make_controller(ros_context, fall_pace_knee=0.5).parameters
+    assert half.fall_pace(objective) == FallPace(knee=0.5)
+    assert make_controller(ros_context, fall_pace_knee=0).parameters.fall_pace(objective) is None
 
 
 @pytest.mark.parametrize("mode", ["lockstep", "realtime"])

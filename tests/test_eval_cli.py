@@ -20,6 +20,11 @@ from tric_sim.world.situations import dataset
 
 #: Control ticks per episode here: enough to be judged, short enough for a test.
 TICKS = "20"
+#: Why --resume runs an episode again that ran another way (tric_control.evaluation.partial).
+ANOTHER_WAY = (
+    "it ran another way (through the nodes or offline, on another robot, or with other controller "
+    "settings)"
+)
 
 
 @pytest.fixture(scope="module")
@@ -67,12 +72,13 @@ def evaluation(model, situations_file, out, *more) -> list:
     ]
 
 
-@pytest.mark.parametrize("change", ["model", "situation", "budget"])
+@pytest.mark.parametrize("change", ["model", "situation", "budget", "pace"])
 def test_a_resume_after_a_change_reruns_exactly_what_changed(
     tmp_path, models, monkeypatch, capsys, change
 ):
     """Interrupted after two episodes; then the model file replaced by another, or the second
-    situation moved 15 cm in the YAML, or the step budget changed: --resume keeps the episodes
+    situation moved 15 cm in the YAML, or the step budget changed, or the controller's fall pace
+    turned off (the paper's constant delta): --resume keeps the episodes
     still made as asked, runs exactly the others again and names them (before: "2 episodes kept",
     and a result mixing the old model's costs with the new one's)."""
     first, second = models
@@ -87,7 +93,7 @@ def test_a_resume_after_a_change_reruns_exactly_what_changed(
     ran = []
     monkeypatch.setattr(offline, "evaluate_offline", _counting(ran))
     capsys.readouterr()
-    budget = TICKS
+    budget, more = TICKS, []
     if change == "model":
         model.write_bytes(second.read_bytes())  # the same path, another model
         rerun, why = ["sphere_test_00", "sphere_test_01", "sphere_test_02"], "the model changed"
@@ -96,13 +102,17 @@ def test_a_resume_after_a_change_reruns_exactly_what_changed(
         moved = dataclasses.replace(situations[1], object_position=(x, y + 0.15, z))
         save_situations(path, [situations[0], moved, situations[2]])
         rerun, why = ["sphere_test_01", "sphere_test_02"], "the situation changed"
-    else:
+    elif change == "budget":
         budget = "30"
         rerun, why = (
             ["sphere_test_00", "sphere_test_01", "sphere_test_02"],
             "the step budget changed",
         )
-    arguments = evaluation(model, path, out, "--resume")
+    else:
+        more = ["--fall-pace-knee", "0"]
+        rerun = ["sphere_test_00", "sphere_test_01", "sphere_test_02"]
+        why = ANOTHER_WAY
+    arguments = evaluation(model, path, out, "--resume", *more)
     arguments[arguments.index("--max-steps") + 1] = budget
     assert evaluate_cli.main(arguments) == 0
     assert ran == [rerun]
@@ -172,6 +182,24 @@ def test_a_step_budget_past_the_goal_s_field_is_refused(capsys):
     assert capsys.readouterr().err.endswith(
         f"tric-eval: error: --max-steps must be in [0, {2**32 - 1}] (0: the controller's default)\n"
     )
+
+
+@pytest.mark.parametrize(
+    "arguments, message",
+    [
+        (["--fall-pace-knee", "1.5"], "--fall-pace-knee must be in [0, 1]"),
+        (["--fall-pace-knee", "-0.1"], "--fall-pace-knee must be in [0, 1]"),
+        (["--protocol", "paper", "--fall-pace-knee", "0.5"], "not with --max-steps or --fall-pace"),
+        (["--protocol", "paper", "--max-steps", "800"], "not with --max-steps or --fall-pace"),
+    ],
+)
+def test_a_fall_pace_out_of_range_or_beside_the_paper_s_protocol_is_refused(
+    arguments, message, capsys
+):
+    with pytest.raises(SystemExit) as ended:
+        evaluate_cli.main(["--teacher", "sphere_test", *arguments])
+    assert ended.value.code == 2
+    assert message in capsys.readouterr().err
 
 
 def test_tric_eval_refuses_before_work(tmp_path, monkeypatch, capsys):

@@ -46,7 +46,10 @@ def test_partial_records_round_trip_with_their_keys(tmp_path):
 
 
 #: Why a run through the nodes drops what ran offline (or on another robot).
-ANOTHER_WAY = "it ran another way (through the nodes or offline, or on another robot)"
+ANOTHER_WAY = (
+    "it ran another way (through the nodes or offline, on another robot, or with other controller "
+    "settings)"
+)
 
 
 @pytest.mark.parametrize(

@@ -2,7 +2,6 @@
 
 import pytest
 
-from tric_control.fall_pace import FallPace
 from tric_control.study import cli as study
 from tric_control.study import measures as study_measures
 from tric_control.study import variants as study_variants
@@ -91,8 +90,10 @@ def test_the_fall_pace_is_a_controller_option_given_by_its_knee():
     name, changes = study_variants.parse_variant("p=fall_pace=0.25")
     assert changes == {"fall_pace": 0.25} and study_variants.training_part(changes) == {}
     options = study_measures.controller_options(changes, "sphere", RobotModel())
-    assert options == {"fall_pace": FallPace(knee=0.25)}
-    for bad in ("0", "1.5"):
+    assert options == {"fall_pace_knee": 0.25}
+    _, off = study_variants.parse_variant("paper=fall_pace=0")
+    assert study_measures.controller_options(off, "sphere", RobotModel()) == {"fall_pace_knee": 0}
+    for bad in ("-0.1", "1.5"):
         with pytest.raises(ValueError, match="fall_pace"):
             study_variants.parse_variant(f"p=fall_pace={bad}")
 

@@ -34,6 +34,10 @@ Parameters:
 - max_steps (default: the task's, tric_control.episode_runner.DEFAULT_MAX_STEPS: 1200 for grasps,
   2000 for boxes): an episode's step budget when the goal gives none.
 - state_timeout_s (default 10): wall seconds without joint states before an episode aborts.
+- fall_pace_knee (default 0.25, in [0, 1]): the controller asks a share of its delta that follows
+  the fall f makes once f falls less than this share of what it asks
+  (tric_control.fall_pace.FallPace, docs/decisions/fall-pace.md); 0: the paper's constant delta.
+  Models that ask no fall (DPL) run without.
 - use_sim_time: as usual. Realtime mode's timer and staleness test run on the node clock, which must
   be the clock the joint states are stamped with (with the simulator: use_sim_time true).
 
@@ -56,13 +60,14 @@ from rclpy.action import ActionServer, CancelResponse, GoalResponse
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
 
-from tric_control.episode_runner import DEFAULT_MAX_STEPS, EpisodeRunner
+from tric_control.controller_parameters import declare_parameters
+from tric_control.episode_runner import EpisodeRunner
 from tric_control.loops.episode import Episode, Loaded, Scene
 from tric_control.loops.lockstep import LockstepLoop
 from tric_control.loops.realtime import RealtimeLoop
 from tric_control.motion_rate import MotionRateController
 from tric_control.objectives import make_objective
-from tric_learning.features import TASKS, FeatureDefinition
+from tric_learning.features import FeatureDefinition
 from tric_learning.model_file import ModelFile
 from tric_msgs.action import Execute
 from tric_msgs.msg import ControllerStatus, EpisodeEvent
@@ -70,12 +75,11 @@ from tric_msgs.msg import Situation as SituationMsg
 from tric_msgs.srv import LoadModel
 from tric_sim.ros import messages
 from tric_sim.ros.graph import EVENT_QOS, LATCHED_QOS, STATE_QOS, run_node
-from tric_sim.ros.parameters import AT_LEAST_ONE, POSITIVE, Range, declare, declare_robot
+from tric_sim.ros.parameters import declare_robot
 from tric_sim.ros.topic_poller import command_msg
 from tric_sim.world.proximity import Proximity
 from tric_sim.world.scene import task_grip
 
-MODES = ("lockstep", "realtime")
 FEEDBACK_EVERY = 10
 
 
@@ -84,28 +88,11 @@ class ControllerNode(Node):
 
     def __init__(self, **kwargs):
         super().__init__("controller", **kwargs)
-        self.task = declare(self, "task", "grasp", "the task models must match", TASKS)
-        model_path = declare(self, "model_path", "", "a model file to load at start (empty: none)")
-        self.mode = declare(
-            self, "mode", "lockstep", "answer every joint state, or tick on a timer", MODES
-        )
-        rate = declare(
-            self, "control_rate_hz", 100.0, "control ticks per second", Range(1.0, 1000.0)
-        )
-        self.max_steps = declare(
-            self,
-            "max_steps",
-            DEFAULT_MAX_STEPS[self.task],
-            "an episode's default step budget",
-            AT_LEAST_ONE,
-        )
-        self.state_timeout = declare(
-            self,
-            "state_timeout_s",
-            10.0,
-            "wall seconds without joint states before an episode aborts",
-            POSITIVE,
-        )
+        self.parameters = declare_parameters(self)
+        self.task, self.mode = self.parameters.task, self.parameters.mode
+        self.max_steps = self.parameters.max_steps
+        self.state_timeout = self.parameters.state_timeout_s
+        model_path, rate = self.parameters.model_path, self.parameters.control_rate_hz
         self.period = 1.0 / rate
         self.period_ns = int(round(1e9 / rate))
         self.robot = declare_robot(self)
@@ -255,7 +242,13 @@ class ControllerNode(Node):
                 f"the current situation '{scene.situation.name}' is a "
                 f"'{scene.situation.task}' task; this controller runs '{self.task}'",
             )
-        controller = MotionRateController(self.robot, scene.proximity, model.objective, self.period)
+        controller = MotionRateController(
+            self.robot,
+            scene.proximity,
+            model.objective,
+            self.period,
+            fall_pace=self.parameters.fall_pace(model.objective),
+        )
         max_steps = int(goal.max_steps) or self.max_steps
         runner = EpisodeRunner(
             self.robot,

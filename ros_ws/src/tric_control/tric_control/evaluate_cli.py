@@ -1,7 +1,8 @@
 """tric-eval: run a model (or the teacher) on situations through the real nodes, and judge it.
 
     tric-eval (--model MODEL | --teacher) (DATASET | --situations-file FILE) [--json OUT
-              [--overwrite]] [--max-steps N | --protocol paper] [--snapshots DIR]
+              [--overwrite]] [--max-steps N] [--fall-pace-knee K | --protocol paper]
+              [--snapshots DIR]
               [--domain-id N] [--jobs N] [--robot ROBOT]
               [--executor processes|ray] [--address HOST:PORT] [--offline] [--record DIR]
               [--viz [--viz-port P]] [--perturb KIND:SIZE[@SECONDS] ...]
@@ -113,9 +114,16 @@ def run(argv) -> int:
         "--protocol",
         choices=("ours", "paper"),
         default="ours",
-        help="paper: every episode 500 ticks at most, the paper's (Sec. 5.2.3: delta makes 500 "
-        "ticks from a demonstration's start to its end); ours: the controller's budgets "
-        "(default %(default)s)",
+        help="paper: every episode 500 ticks at most, with the paper's constant delta (Sec. "
+        "5.2.3: delta makes 500 ticks from a demonstration's start to its end; no fall pace); "
+        "ours: the controller's budgets and pace (default %(default)s)",
+    )
+    parser.add_argument(
+        "--fall-pace-knee",
+        type=float,
+        metavar="K",
+        help="the controller's fall_pace_knee parameter in [0, 1] (default: the node's, 0.25; 0: "
+        "the paper's constant delta; docs/decisions/fall-pace.md)",
     )
     parser.add_argument("--snapshots", help="write a PNG of each final state into this folder")
     parser.add_argument(
@@ -158,12 +166,19 @@ def run(argv) -> int:
         parser.error("--resume continues a run that keeps its episodes: give its --json file")
     if not 0 <= args.max_steps <= MAX_STEPS:
         parser.error(f"--max-steps must be in [0, {MAX_STEPS}] (0: the controller's default)")
+    if args.fall_pace_knee is not None and not 0 <= args.fall_pace_knee <= 1:
+        parser.error("--fall-pace-knee must be in [0, 1] (0: the paper's constant delta)")
+    controller = {} if args.fall_pace_knee is None else {"fall_pace_knee": args.fall_pace_knee}
     if args.protocol == "paper":
-        if args.max_steps:
-            parser.error("--protocol paper sets the budget: not with --max-steps")
+        if args.max_steps or controller:
+            parser.error(
+                "--protocol paper sets the budget and delta: not with --max-steps or "
+                "--fall-pace-knee"
+            )
         from tric_control.episode_runner import PAPER_STEPS
 
-        args.max_steps = PAPER_STEPS
+        args.max_steps, controller = PAPER_STEPS, {"fall_pace_knee": 0.0}
+    args.controller = controller
     domain_id = private_domain_id() if args.domain_id is None else args.domain_id
     if not 1 <= args.jobs <= 64:
         parser.error("--jobs must be in [1, 64]")
@@ -235,6 +250,7 @@ def evaluate_and_report(args, executor, domain_id: int, claims: contextlib.ExitS
                         on_record=on_record,
                         executor=workers,
                         robot=args.robot,
+                        controller_options=args.controller,
                     )
                 else:
                     new = evaluate(
@@ -249,6 +265,7 @@ def evaluate_and_report(args, executor, domain_id: int, claims: contextlib.ExitS
                         on_record=on_record,
                         executor=workers,
                         robot=args.robot,
+                        controller=args.controller,
                     )
         judged = {**done, **{record.situation: record for record in new}}
         records = [judged[situation.name] for situation in situations]
@@ -320,6 +337,7 @@ def kept_records(args, model, situations):
 
     # the robot's profile file and URDF are part of what made an episode
     runs = f"{'offline' if args.offline else 'nodes'}, robot {load_profile(args.robot).digest}"
+    runs += "".join(f", {name} {value!r}" for name, value in sorted(args.controller.items()))
     code = code_digest(f"tric_control.evaluation.{'offline' if args.offline else 'graph'}")
     kept = PartialRecords(args.json, agent_digest(model), situations, args.max_steps, runs, code)
     if not args.resume:

@@ -46,7 +46,9 @@ class Evaluator:
     model: a model file for the controller, or None to evaluate the teacher; domain_id: the DDS
     domain of the graph (None: the environment's); view: a FoxgloveView to show the episodes in
     (None: no visualizer); record: a folder for one bag per episode (None: no recorder); robot: the
-    robot, a profile's name or file (docs/robots.md), a parameter of every node."""
+    robot, a profile's name or file (docs/robots.md), a parameter of every node; controller: the
+    controller node's other parameters by name (e.g. {"fall_pace_knee": 0.0}; None: its
+    defaults)."""
 
     def __init__(
         self,
@@ -57,6 +59,7 @@ class Evaluator:
         view=None,
         record=None,
         robot: str = DEFAULT_ROBOT,
+        controller: dict | None = None,
     ):
         self.task, self.model = task, model
         robot_parameter = Parameter("robot", value=robot)
@@ -103,6 +106,7 @@ class Evaluator:
                             Parameter("task", value=task),
                             Parameter("mode", value="lockstep"),
                             robot_parameter,
+                            *(Parameter(k, value=v) for k, v in (controller or {}).items()),
                         ],
                     )
                 )
@@ -328,6 +332,7 @@ def evaluate(
     on_record=None,
     executor=None,
     robot: str = DEFAULT_ROBOT,
+    controller: dict | None = None,
 ):
     """Run the agent (model file, or the teacher if None) of robot (a profile's name or file) on
     every situation; [EpisodeRecord] in the situations' order; on_record(record) (if given) as each
@@ -335,7 +340,7 @@ def evaluate(
     (tric_control.evaluation.executors; None: spawned processes here), worker k with its own
     Evaluator on DDS domain domain_id + k (domain_id None: the environment's ROS_DOMAIN_ID, else
     0). view: a FoxgloveView to show the run in (jobs 1 only); record: a folder for one bag per
-    episode."""
+    episode; controller: the controller node's other parameters (Evaluator's)."""
     task = evaluated_task(situations, jobs)
     jobs = min(jobs, len(situations))
     if view is not None and jobs > 1:
@@ -344,10 +349,10 @@ def evaluate(
     bar = tqdm(total=len(situations), desc=desc, unit="episode", disable=not progress)
     try:
         if jobs > 1 or getattr(executor, "kind", "processes") != "processes":
-            graphs = (task, model, max_steps, domain_id, record, robot)
+            graphs = (task, model, max_steps, domain_id, record, robot, controller)
             run = (situations, snapshot, jobs, bar, on_record)
             return _evaluate_in_workers(*run, executor or ProcessExecutor(), graphs)
-        evaluator = Evaluator(task, model, max_steps, domain_id, view, record, robot)
+        evaluator = Evaluator(task, model, max_steps, domain_id, view, record, robot, controller)
         records = []
         try:
             for situation in situations:
@@ -365,27 +370,28 @@ def evaluate(
 
 def _evaluate_in_workers(situations, snapshot, jobs, bar, on_record, executor, graphs) -> list:
     """The situations shared out over jobs workers (_worker_evaluator), one at a time; graphs: what
-    the workers' evaluation graphs are made of, (task, model, max_steps, domain_id, record, robot)
-    as evaluate's."""
-    task, model, max_steps, domain_id, record, robot = graphs
+    the workers' evaluation graphs are made of, (task, model, max_steps, domain_id, record, robot,
+    controller) as evaluate's."""
+    task, model, max_steps, domain_id, record, robot, controller = graphs
     base = int(os.environ.get("ROS_DOMAIN_ID", "0")) if domain_id is None else domain_id
     if not 0 <= base <= MAX_DOMAIN_ID - jobs + 1:
         raise ValueError(
             f"{jobs} workers from DDS domain {base} on would pass the last domain {MAX_DOMAIN_ID}"
         )
     record = None if record is None else str(pathlib.Path(record).resolve())
-    arguments = (task, executor.ship(model), max_steps, base, record, robot)
+    arguments = (task, executor.ship(model), max_steps, base, record, robot, controller)
     agent = "teacher" if model is None else "model"
     return executor.run_episodes(
         situations, snapshot, jobs, bar, _worker_evaluator, lambda: arguments, agent, on_record
     )
 
 
-def _worker_evaluator(worker, task, model, max_steps, base_domain, record, robot) -> Evaluator:
+def _worker_evaluator(
+    worker, task, model, max_steps, base_domain, record, robot, controller
+) -> Evaluator:
     """Worker k's Evaluator (see tric_control.evaluation.executors), on DDS domain base_domain + k;
     closed at the worker's exit."""
-    evaluator = Evaluator(
-        task, local_path(model), max_steps, base_domain + worker, record=record, robot=robot
-    )
+    domain, model = base_domain + worker, local_path(model)
+    evaluator = Evaluator(task, model, max_steps, domain, None, record, robot, controller)
     multiprocessing.util.Finalize(None, evaluator.close, exitpriority=10)
     return evaluator

@@ -1,6 +1,7 @@
 """Evaluations kept on disk (tric-experiments): an evaluation is keyed on everything that makes its
 episodes (the model file's bytes or the teacher, the situations' plain data in their order, the
-step budget and a digest of the code that runs and judges the episodes) and its records are kept
+step budget, the controller node's parameters given and a digest of the code that runs and judges
+the episodes) and its records are kept
 under FOLDER/<key>.json once it is complete, so that a rerun re-uses them. While it runs, each
 episode judged is kept in FOLDER/<key>.json.partial as it ends, so that a rerun after an interrupt
 runs only the episodes not yet judged. A changed key re-uses nothing. ROS-free."""
@@ -18,10 +19,11 @@ from tric_sim.tools.untrusted import read_data_file
 KEY_LENGTH = 16
 
 
-def evaluation_key(model, situations, max_steps: int, code: str) -> tuple:
+def evaluation_key(model, situations, max_steps: int, code: str, controller=None) -> tuple:
     """(key, what it is made of) of an evaluation of model (a model file's path, or None: the
-    teacher) on situations with max_steps ticks at most (0: the task's default), run and judged by
-    the code of digest code (tric_sim.tools.provenance.code_digest)."""
+    teacher) on situations with max_steps ticks at most (0: the task's default), the controller
+    node's parameters controller (a dict; None: its defaults), run and judged by the code of
+    digest code (tric_sim.tools.provenance.code_digest)."""
     agent = "teacher"
     if model is not None:
         agent = "sha256:" + hashlib.sha256(pathlib.Path(model).read_bytes()).hexdigest()
@@ -29,20 +31,24 @@ def evaluation_key(model, situations, max_steps: int, code: str) -> tuple:
         "agent": agent,
         "situations": [situation.to_dict() for situation in situations],
         "max_steps": max_steps,
+        "controller": controller or {},
         "code": code,
     }
     text = json.dumps(made_of, sort_keys=True)
     return hashlib.sha256(text.encode()).hexdigest()[:KEY_LENGTH], made_of
 
 
-def kept_evaluation(folder, situations, model, max_steps: int, code: str, run) -> list:
+def kept_evaluation(
+    folder, situations, model, max_steps: int, code: str, run, controller=None
+) -> list:
     """The EpisodeRecords of model (None: the teacher) on situations, in their order: those kept in
     folder/<key>.json (evaluation_key) when that evaluation is complete; else run(situations,
     on_record), which evaluates and returns their records and calls on_record(record) as each
     episode ends, on the situations not yet kept in folder/<key>.json.partial. Situations of one
     name (fig9's repeated positions) are run in separate calls, so that each episode kept is known
-    by its name. ValueError for a kept file that is not this evaluation's."""
-    key, made_of = evaluation_key(model, situations, max_steps, code)
+    by its name; controller: the controller node's parameters given (evaluation_key's).
+    ValueError for a kept file that is not this evaluation's."""
+    key, made_of = evaluation_key(model, situations, max_steps, code, controller)
     folder = pathlib.Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     path, partial = folder / f"{key}.json", folder / f"{key}.json.partial"

@@ -21,6 +21,7 @@ from tric_control.episode_runner import DEFAULT_MAX_STEPS, EpisodeRunner
 from tric_control.evaluation.executors import ProcessExecutor
 from tric_control.evaluation.records import EpisodeRecord, evaluated_task, unjudged_fields
 from tric_control.evaluation.shipped_files import local_path
+from tric_control.fall_pace import FallPace
 from tric_control.motion_rate import MotionRateController
 from tric_control.objectives import CONTROL_PERIOD, make_objective
 from tric_learning.features import FeatureDefinition
@@ -46,8 +47,10 @@ class OfflineEvaluator:
             controller node's).
         period: the control period, s.
         controller_options: keyword arguments of MotionRateController (e.g. max_lead), for studies,
-            "rho_scale": make_objective's, and "grip": False leaves out the task's grip once at
-            rest (tric_sim.world.scene.task_grip).
+            "rho_scale": make_objective's, "grip": False leaves out the task's grip once at
+            rest (tric_sim.world.scene.task_grip), and "fall_pace_knee": the knee of the asked
+            fall's pace (tric_control.fall_pace.FallPace; default its knee, as the controller
+            node's parameter; 0: the paper's constant delta; none for a model that asks no fall).
         lift_test: whether a grasp is judged with the lift test (False: its success is the grasp
             cost's alone and lift_passed is None; the final state is the same either way).
         robot: the robot, a profile's name or file (docs/robots.md); a model made for another
@@ -71,6 +74,7 @@ class OfflineEvaluator:
         self.max_steps = max_steps or DEFAULT_MAX_STEPS[task]
         self.robot = RobotModel(robot)
         gripping = self.controller_options.pop("grip", True)
+        knee = self.controller_options.pop("fall_pace_knee", FallPace.knee)
         self.grip = task_grip(task, self.robot.profile) if gripping else None
         self.objective = None
         self.kind: str = "teacher"
@@ -84,6 +88,8 @@ class OfflineEvaluator:
                 for source in model_file.definition.landmark_sources
                 if source.startswith("object/")
             )
+            if knee > 0 and getattr(self.objective, "delta", 0) > 0:
+                self.controller_options["fall_pace"] = FallPace(knee=knee)
         self.world = PhysicsWorld(self.robot, control_rate_hz=1.0 / period)
 
     @property

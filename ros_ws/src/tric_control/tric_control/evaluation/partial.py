@@ -24,7 +24,8 @@ KEY_PARTS = {
     "agent": "the model changed",
     "situation": "the situation changed",
     "max_steps": "the step budget changed",
-    "runs": "it ran another way (through the nodes or offline, or on another robot)",
+    "runs": "it ran another way (through the nodes or offline, on another robot, or with other "
+    "controller settings)",
     "code": "the code changed",
 }
 #: The partial file's format name.

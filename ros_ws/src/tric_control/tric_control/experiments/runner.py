@@ -125,12 +125,18 @@ class Runner:
             choice.model.save(path)
         return path
 
-    def over_seeds(self, tests, label: str, max_steps: int = 0, **model) -> dict:
+    def over_seeds(
+        self, tests, label: str, max_steps: int = 0, controller: dict | None = None, **model
+    ) -> dict:
         """{seed: [EpisodeRecord]} of the model (Runner.model's arguments) made from each of
-        SEEDS."""
+        SEEDS, max_steps and controller as evaluate's."""
         return {
             seed: self.evaluate(
-                tests, self.model(**model, seed=seed), f"{label}, group {seed}", max_steps
+                tests,
+                self.model(**model, seed=seed),
+                f"{label}, group {seed}",
+                max_steps,
+                controller,
             )
             for seed in SEEDS
         }
@@ -154,10 +160,11 @@ class Runner:
             raise result
         return result
 
-    def evaluate(self, chosen, model, desc: str, max_steps: int = 0):
+    def evaluate(self, chosen, model, desc: str, max_steps: int = 0, controller=None):
         """[EpisodeRecord] of model (None: the teacher) on the situations chosen, max_steps ticks at
-        most (0: the task's default): those kept under out/episodes for the same model file,
-        situations, max_steps and code of the nodes that run and judge the episodes, the others
+        most (0: the task's default), the controller node's parameters controller (a dict; None:
+        its defaults): those kept under out/episodes for the same model file, situations,
+        max_steps, controller and code of the nodes that run and judge the episodes, the others
         run (kept_evaluation)."""
 
         def run(situations, on_record):
@@ -171,7 +178,9 @@ class Runner:
                 on_record=on_record,
                 executor=self.executor,
                 robot=self.profile.spec,
+                controller=controller,
             )
 
         code = code_digest("tric_control.evaluation.graph")
-        return kept_evaluation(self.out / "episodes", chosen, model, max_steps, code, run)
+        folder = self.out / "episodes"
+        return kept_evaluation(folder, chosen, model, max_steps, code, run, controller)

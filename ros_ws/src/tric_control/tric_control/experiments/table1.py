@@ -1,10 +1,9 @@
 """Table 1, spheres: the teacher and TRIC (K = 30) on the 15 sphere test situations."""
 
-from tric_control.episode_runner import PAPER_STEPS
 from tric_control.experiments.paper import PAPER_REPORTS, PAPER_TEACHER, PAPER_TRIC
 from tric_control.experiments.rows import grasp_result, grasp_rows, spread
 from tric_control.experiments.runner import Runner
-from tric_control.experiments.targets import MARGIN_TO_TEACHER, PAPER_PROTOCOL
+from tric_control.experiments.targets import MARGIN_TO_TEACHER, PAPER_PROTOCOL, PAPER_RUN
 
 #: The experiment's heading in the report and the log.
 TITLE = (
@@ -20,7 +19,7 @@ def run(runner: Runner) -> dict:
         runner.situations("sphere_test"),
         {
             "TRIC K = 30": dict(name="sphere_k30", bags="sphere"),
-            PAPER_PROTOCOL: dict(name="sphere_k30", bags="sphere", max_steps=PAPER_STEPS),
+            PAPER_PROTOCOL: dict(name="sphere_k30", bags="sphere", **PAPER_RUN),
         },
     )
     return grasp_result(rows, "Table 1: spheres", PAPER_REPORTS["table1"], discussion(rows))

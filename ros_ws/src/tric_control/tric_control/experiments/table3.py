@@ -2,7 +2,6 @@
 only) and the validation cylinders, with TRIC K = 30 also trained on a second draw of the training
 cylinders (the paper draws their angles at random, so a result must hold over draws)."""
 
-from tric_control.episode_runner import PAPER_STEPS
 from tric_control.experiments.paper import PAPER_REPORTS
 from tric_control.experiments.rows import (
     grasp_result,
@@ -11,7 +10,12 @@ from tric_control.experiments.rows import (
     spread,
 )
 from tric_control.experiments.runner import Runner
-from tric_control.experiments.targets import CYLINDER_TARGETS, PAPER_PROTOCOL, REST_TARGET
+from tric_control.experiments.targets import (
+    CYLINDER_TARGETS,
+    PAPER_PROTOCOL,
+    PAPER_RUN,
+    REST_TARGET,
+)
 
 #: The experiment's heading in the report and the log.
 TITLE = (
@@ -35,7 +39,7 @@ def run(runner: Runner) -> dict:
         for units in (0, 30)
     }
     models[SECOND_DRAW] = dict(name="cylinder_b_k30", bags="cylinder_b")
-    models[PAPER_PROTOCOL] = dict(**models["TRIC K = 30"], max_steps=PAPER_STEPS)
+    models[PAPER_PROTOCOL] = dict(**models["TRIC K = 30"], **PAPER_RUN)
     rows = grasp_rows(runner, runner.situations("cylinder_test"), models)
     validation = grasp_rows(
         runner,

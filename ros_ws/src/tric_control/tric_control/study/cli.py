@@ -10,7 +10,8 @@ how the model is chosen: candidates (S), members (the best N kept) and score
 (tric_control.selection, the training's defaults otherwise); and controller settings: hand_lead
 (rad: how far the command may lead the measured hand joints, motion_rate.MAX_HAND_LEAD by
 default), grasp_steps and box_steps (the episodes' step budgets), the contact options, fall_pace
-(the knee of tric_control.fall_pace.FallPace: the asked fall follows the fall made), and
+(the knee of tric_control.fall_pace.FallPace: the asked fall follows the fall made; 0: the paper's
+constant delta), and
 hard_negative_rounds (rounds of training again on the controller's own rollouts in the training
 situations: tric_control.study.hard_negatives).
 For each variant, group seed G and task, a model is chosen as a training chooses it: S candidates

@@ -9,7 +9,6 @@ import math
 import numpy as np
 
 from tric_control.evaluation.records import task_done
-from tric_control.fall_pace import FallPace
 from tric_control.motion_rate import MAX_LEAD
 from tric_sim.physics.metrics import GOOD_GRASP, LID_OPEN_ANGLE
 from tric_sim.world.robot_model import RobotModel
@@ -54,7 +53,7 @@ def controller_options(changes: dict, task: str, robot: RobotModel) -> dict:
     if "domain_damper" in changes:
         options["domain_damper"] = changes["domain_damper"]
     if "fall_pace" in changes:
-        options["fall_pace"] = FallPace(knee=changes["fall_pace"])
+        options["fall_pace_knee"] = changes["fall_pace"]
     for option in ("rho_scale", "grip"):
         if option in changes:
             options[option] = changes[option]

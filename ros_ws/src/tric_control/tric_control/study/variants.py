@@ -55,7 +55,8 @@ MODEL_MEASURES = (
 #: whether the domain damper (tric_control.limits.DomainDamper) is among the limits; a factor on
 #: the model's rho (tric_control.objectives.make_objective); whether the task's grip closes the
 #: hand once at rest (tric_sim.world.scene.task_grip); and the fall pace's knee
-#: (tric_control.fall_pace.FallPace, its other settings the defaults; absent: no pace).
+#: (tric_control.fall_pace.FallPace, its other settings the defaults; absent: the default knee, as
+#: the controller node's; 0: no pace, the paper's constant delta).
 CONTROLLER_OPTIONS = {
     "hand_lead": float,
     "grasp_steps": int,
@@ -154,8 +155,8 @@ def parse_variant(text: str):
         raise ValueError(f"variant '{name}': contact depths and cushions must be in [0, 0.05] m")
     if changes.get("hard_negative_rounds", 0) < 0:
         raise ValueError(f"variant '{name}': hard_negative_rounds must be >= 0")
-    if not 0 < changes.get("fall_pace", 1.0) <= 1:
-        raise ValueError(f"variant '{name}': fall_pace (its knee) must be in (0, 1]")
+    if not 0 <= changes.get("fall_pace", 1.0) <= 1:
+        raise ValueError(f"variant '{name}': fall_pace (its knee; 0: none) must be in [0, 1]")
     if not 0.001 <= changes.get("rho_scale", 1.0) <= 1000:
         raise ValueError(f"variant '{name}': rho_scale must be in [0.001, 1000]")
     return name, changes

@@ -1,0 +1,72 @@
+"""The controller node's parameters (docs: the node's module and the package README), declared and
+checked in one place, and the controller settings they make."""
+
+from dataclasses import dataclass
+
+from tric_control.episode_runner import DEFAULT_MAX_STEPS
+from tric_control.fall_pace import FallPace
+from tric_learning.features import TASKS
+from tric_sim.ros.parameters import AT_LEAST_ONE, POSITIVE, Range, declare
+
+MODES = ("lockstep", "realtime")
+#: The parameters that make the paper's controller (Sec. 5.2.3): a constant delta, no pace.
+PAPER_DELTA = {"fall_pace_knee": 0.0}
+
+
+@dataclass(frozen=True)
+class ControllerParameters:
+    """The node's checked parameters: task, model_path, mode, control_rate_hz (Hz), max_steps
+    (ticks), state_timeout_s (wall s) and fall_pace_knee (the knee of the asked fall's pace, in
+    [0, 1]; 0: the paper's constant delta)."""
+
+    task: str
+    model_path: str
+    mode: str
+    control_rate_hz: float
+    max_steps: int
+    state_timeout_s: float
+    fall_pace_knee: float
+
+    def fall_pace(self, objective) -> FallPace | None:
+        """The pace the controller asks its falls with on objective: none where the knee is 0 or
+        the objective asks no fall (a DPL model's)."""
+        if self.fall_pace_knee == 0 or not getattr(objective, "delta", 0) > 0:
+            return None
+        return FallPace(knee=self.fall_pace_knee)
+
+
+def declare_parameters(node) -> ControllerParameters:
+    """Declares the controller's parameters on node; ValueError for a bad value."""
+    task = declare(node, "task", "grasp", "the task models must match", TASKS)
+    return ControllerParameters(
+        task=task,
+        model_path=declare(node, "model_path", "", "a model file to load at start (empty: none)"),
+        mode=declare(
+            node, "mode", "lockstep", "answer every joint state, or tick on a timer", MODES
+        ),
+        control_rate_hz=declare(
+            node, "control_rate_hz", 100.0, "control ticks per second", Range(1.0, 1000.0)
+        ),
+        max_steps=declare(
+            node,
+            "max_steps",
+            DEFAULT_MAX_STEPS[task],
+            "an episode's default step budget",
+            AT_LEAST_ONE,
+        ),
+        state_timeout_s=declare(
+            node,
+            "state_timeout_s",
+            10.0,
+            "wall seconds without joint states before an episode aborts",
+            POSITIVE,
+        ),
+        fall_pace_knee=declare(
+            node,
+            "fall_pace_knee",
+            FallPace.knee,
+            "the asked fall follows the fall f makes below this share of it (0: the paper's "
+            "constant delta)",
+            Range(0.0, 1.0),
+        ),
+    )
