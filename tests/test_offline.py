@@ -11,7 +11,7 @@ from conftest import REFERENCE_BAGS as BAGS
 from conftest import record_fields
 from tric_control import evaluate_cli
 from tric_control.evaluation import graph as graph_evaluation
-from tric_control.evaluation.offline import evaluate_offline
+from tric_control.evaluation.offline import OfflineEvaluator, evaluate_offline
 from tric_learning.training.value import TrainingConfig, train_from_bags
 from tric_sim.ros.topic_poller import TopicPoller
 from tric_sim.world import situations
@@ -114,3 +114,13 @@ def test_offline_evaluation_refuses_mixed_tasks_and_bad_jobs():
         evaluate_offline(mixed, None, progress=False)
     with pytest.raises(ValueError, match="jobs must be at least 1"):
         evaluate_offline(mixed[:1], None, jobs=0, progress=False)
+
+
+def test_the_offline_evaluator_refuses_a_fall_pace_out_of_range(models):
+    """A knee the controller node would refuse is refused offline too, naming it (a negative one
+    was taken as no pace)."""
+    for knee in (-0.1, 1.5):
+        with pytest.raises(ValueError, match="knee must be in"):
+            OfflineEvaluator(
+                "grasp", str(models["grasp"]), controller_options={"fall_pace_knee": knee}
+            )
