@@ -175,9 +175,10 @@ def run(argv) -> int:
                 "--protocol paper sets the budget and delta: not with --max-steps or "
                 "--fall-pace-knee"
             )
+        from tric_control.controller_parameters import PAPER_DELTA
         from tric_control.episode_runner import PAPER_STEPS
 
-        args.max_steps, controller = PAPER_STEPS, {"fall_pace_knee": 0.0}
+        args.max_steps, controller = PAPER_STEPS, dict(PAPER_DELTA)
     args.controller = controller
     domain_id = private_domain_id() if args.domain_id is None else args.domain_id
     if not 1 <= args.jobs <= 64:

@@ -1,10 +1,10 @@
 """Evaluations kept on disk (tric-experiments): an evaluation is keyed on everything that makes its
 episodes (the model file's bytes or the teacher, the situations' plain data in their order, the
 step budget, the controller node's parameters given and a digest of the code that runs and judges
-the episodes) and its records are kept
-under FOLDER/<key>.json once it is complete, so that a rerun re-uses them. While it runs, each
-episode judged is kept in FOLDER/<key>.json.partial as it ends, so that a rerun after an interrupt
-runs only the episodes not yet judged. A changed key re-uses nothing. ROS-free."""
+the episodes) and its records are kept under FOLDER/<key>.json once it is complete, so that a rerun
+re-uses them. While it runs, each episode judged is kept in FOLDER/<key>.json.partial as it ends,
+so that a rerun after an interrupt runs only the episodes not yet judged. A changed key re-uses
+nothing. ROS-free."""
 
 import collections
 import hashlib
