@@ -52,7 +52,7 @@ def test_tric_eval_refuses_an_impossible_perturbation_before_any_episode(tmp_pat
     box = tmp_path / "box.yaml"
     save_situations(box, situations.dataset("box_test")[:1])
     for arguments, reason in (
-        (["sphere_test", "--perturb", "kick:0.2"], "is not KIND:SIZE[@SECONDS]"),
+        (["sphere_test", "--perturb", "shove:0.2"], "is not KIND:SIZE[@SECONDS]"),
         (["sphere_test", "--perturb", "push:-1"], "SIZE must be >= 0"),
         (["--situations-file", str(box), "--perturb", "jump:0.05"], "has no grasp target to move"),
         (["sphere_test", "--perturb", "start:9"], "no start 9 rad from its own"),

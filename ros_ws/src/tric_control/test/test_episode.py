@@ -1,6 +1,7 @@
 """The ROS-free episode runner: safe commands, holds, outcomes and statistics, on a scripted
 controller."""
 
+import dataclasses
 import math
 
 import numpy as np
@@ -13,6 +14,9 @@ from tric_control.episode_runner import (
     EpisodeRunner,
 )
 from tric_control.motion_rate import Tick
+from tric_sim.physics.simulation import PhysicsWorld
+from tric_sim.world import situations
+from tric_sim.world.perturbations import Perturbation, min_steps_for
 from tric_sim.world.robot_model import RobotModel
 from tric_sim.world.scene import task_grip
 
@@ -225,6 +229,39 @@ def test_an_episode_that_must_go_on_holds_at_rest_and_steps_again_when_pushed(ro
     ended = next(k for k, outcome in enumerate(outcomes) if outcome is not None)
     assert outcomes[ended][0] == "converged" and runner.stats.steps >= 60
     assert runner.stats.rest_step == 41 + 2  # rested again two ticks after the push
+
+
+def test_a_jolt_at_rest_is_seen_before_the_episode_ends(robot):
+    """On the physics: the controller rests at its third tick and is held there; a jolt of 0.2 rad
+    on two arm joints, within one period at 0.3 s, moves the held arm past LEAVE_REST_RAD a few
+    periods later, and the episode (min_steps_for its perturbation: SETTLE_S past it) is still
+    running to see it and step again."""
+    offset = np.zeros(robot.n_joints)
+    offset[robot.arm_indices[1:3]] = 0.2
+    jolt = Perturbation("push", 0.3, tuple(offset), 0.0)
+    situation = dataclasses.replace(situations.dataset("sphere_test")[0], perturbations=(jolt,))
+    world = PhysicsWorld(robot)
+    try:
+        world.reset(situation)
+        q = world.joint_state()[0]
+        controller = ScriptedController([q], converge_at=3)
+        min_steps = min_steps_for(situation.perturbations, PERIOD)
+        runner = EpisodeRunner(robot, controller, 200, PERIOD, min_steps=min_steps)
+        stepped_at, outcome = [], None
+        while outcome is None:
+            decided = runner.step(world.joint_state()[0], world.object_poses())
+            if decided.tick is not None:
+                stepped_at.append(runner.stats.steps)
+            outcome = decided.outcome
+            world.command(decided.command)
+            world.step()
+    finally:
+        world.close()
+    assert min_steps * PERIOD >= 0.3 + 0.5
+    # at rest from tick 3; the jolt acts in the 31st period and the servos carry the arm past
+    # LEAVE_REST_RAD within a few more: the episode would have ended at the jolt without SETTLE_S
+    assert stepped_at[:3] == [1, 2, 3] and 31 < stepped_at[3] <= 41, stepped_at[:4]
+    assert runner.stats.rests_left == 1 and outcome[0] == "step_budget"
 
 
 def test_bad_input_is_refused_with_a_reason(robot):

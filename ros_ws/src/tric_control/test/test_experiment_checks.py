@@ -213,8 +213,8 @@ def test_the_results_page_puts_another_robot_s_results_beside(tmp_path, capsys):
     assert "the results mix robots ['panda', 'tric_arm_hand']" in capsys.readouterr().err
 
 
-def test_the_push_trace_tells_rest_the_push_and_rest_again():
-    """exp5's trace text on a hand-made trace: at rest and gripped at 2 s, pushed at 3 s (f rises
+def test_the_jolt_trace_tells_rest_the_jolt_and_rest_again():
+    """exp5's trace text on a hand-made trace: at rest and gripped at 2 s, jolted at 3 s (f rises
     from 0.8 to 1.5 and falls back), at rest again at 4.5 s; and on one that never rests again."""
     from tric_control.experiments.exp5 import trace_text
 
@@ -235,11 +235,11 @@ def test_the_push_trace_tells_rest_the_push_and_rest_again():
     }
     text = trace_text(trace)
     assert "it came to rest and gripped at 2.00 s" in text
-    assert "pushed at 3.00 s, f rises from 0.8 to 1.5" in text
-    assert "back below 0.8 1.40 s after the push" in text
+    assert "jolted at 3.00 s, f rises from 0.8 to 1.5" in text
+    assert "back below 0.8 1.40 s after the jolt" in text
     assert "it comes to rest and grips again at 4.50 s" in text
     never = {**trace, "phase": phase[:301] + ["descending"] * 299, "rested_at_s": None}
-    assert "did not come to rest before the push" in trace_text(never)
+    assert "did not come to rest before the jolt" in trace_text(never)
     assert "does not come to rest again before its budget" in trace_text(never)
 
 

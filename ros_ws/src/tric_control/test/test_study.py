@@ -219,3 +219,18 @@ def test_stale_rows_are_named_with_what_changed():
         stale_line(["a/sphere/0 (x)"])
         == "1 kept row made otherwise, measured again: a/sphere/0 (x)"
     )
+
+
+def test_a_candidates_training_key_names_the_rollout_code_only_with_hard_negatives():
+    """Without rounds of hard negatives a candidate is training code alone: an edit of the
+    controller or the episodes keeps its key (and its model); with rounds, their code is named."""
+    from tric_control.study.candidates import training_key
+    from tric_learning.training.value import TrainingConfig
+    from tric_sim.tools.provenance import code_digest
+
+    training = code_digest("tric_learning.training.value")
+    rolling = code_digest("tric_learning.training.value", "tric_control.study.hard_negatives")
+    assert training != rolling
+    assert training_key(TrainingConfig(), "d")["training_code"] == training
+    with_rounds = training_key(TrainingConfig(), "d", rounds=2, max_steps=800)
+    assert with_rounds["training_code"] == rolling and with_rounds["hard_negative_rounds"] == 2

@@ -37,12 +37,13 @@ every tick, and /tf, /robot_description and /scene_markers for Foxglove to repla
 serves a live Foxglove view of the run (tric_sim.viz.foxglove_view) on ws://127.0.0.1:P (default
 8765); it shows one graph, so it takes --jobs 1. --record and --viz need the nodes (not --offline).
 --perturb puts each situation through perturbed trials instead (tric_sim.world.perturbation_trials):
-push:SIZE shoves the arm by SIZE rad, jump:SIZE moves the grasp target SIZE m sideways at once,
-drift:SIZE moves it at SIZE m/s, start:SIZE starts SIZE rad from the nominal start; @SECONDS sets
-when (default 1 s for grasps, 4 s for boxes). Each --perturb value gives one episode per situation,
-named "<situation>_<kind><size>"; the perturbations are in the situation the episode runs (and in
-its bag, with --record). Exits 0 when every episode ran (whatever its score), 1 when one could not
-be run, 2 on bad arguments."""
+push:SIZE shoves the arm by SIZE rad over 0.1 s, jolt:SIZE within one control period (it moves an
+arm held at rest), jump:SIZE moves the grasp target SIZE m sideways at once, drift:SIZE moves it at
+SIZE m/s, start:SIZE starts SIZE rad from the nominal start; @SECONDS sets when (default 1 s for
+grasps, 4 s for boxes); the episode runs at least 0.5 s past its last perturbation. Each --perturb
+value gives one episode per situation, named "<situation>_<kind><size>"; the perturbations are in
+the situation the episode runs (and in its bag, with --record). Exits 0 when every episode ran
+(whatever its score), 1 when one could not be run, 2 on bad arguments."""
 
 import argparse
 import contextlib
@@ -155,7 +156,7 @@ def run(argv) -> int:
         action="append",
         type=_trial,
         default=[],
-        help="run each situation perturbed: push:RAD, jump:M, drift:M_PER_S or start:RAD "
+        help="run each situation perturbed: push:RAD, jolt:RAD, jump:M, drift:M_PER_S or start:RAD "
         "(repeatable: one episode per value and situation)",
     )
     add_view_arguments(parser)

@@ -11,7 +11,7 @@ from tric_sim.physics.simulation import PhysicsWorld
 from tric_sim.ros import messages
 from tric_sim.world import situations as S
 from tric_sim.world.perturbation_trials import Trial, parse_trial
-from tric_sim.world.perturbations import Perturbation
+from tric_sim.world.perturbations import SETTLE_S, Perturbation, min_steps_for
 from tric_sim.world.robot_model import RobotModel
 from tric_sim.world.scene_check import check_scene
 from tric_sim.world.situation import Situation
@@ -177,3 +177,16 @@ def test_trials_are_reproducible_and_grow_along_one_direction(robot):
     assert np.linalg.norm(q0 - robot.home) == pytest.approx(0.2)
     assert np.all(q0 >= robot.lower) and np.all(q0 <= robot.upper)
     assert Trial("jump", 0.0).apply(sphere, robot).perturbations == ()
+    [jolt] = Trial("jolt", 0.4, at_s=7.5).apply(sphere, robot).perturbations
+    assert jolt.kind == "push" and jolt.start_s == 7.5 and jolt.duration_s == 0.0
+    assert np.linalg.norm(jolt.offset) == pytest.approx(0.4)
+    assert parse_trial("jolt:0.4@7.5") == Trial("jolt", 0.4, 7.5)
+
+
+def test_an_episode_runs_past_its_last_perturbation_by_the_settling_time(robot):
+    """min_steps_for: none for no perturbation; else the ticks until the last one has acted (a
+    push from 1.0 s over 0.1 s, a jump at 2.0 s) and SETTLE_S more, at a 10 ms period."""
+    assert min_steps_for((), 0.01) == 0
+    assert min_steps_for((push(robot, 0, 0.1, 1.0, 0.1),), 0.01) == round(110 + SETTLE_S * 100) + 1
+    jump = Perturbation("move_target", 2.0, (0.05, 0.0, 0.0))
+    assert min_steps_for((push(robot, 0, 0.1, 1.0, 0.1), jump), 0.01) == 251

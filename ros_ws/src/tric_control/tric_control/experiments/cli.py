@@ -21,7 +21,7 @@ NAME (default: all, in this order):
             target jumping (2, 5, 10 cm) or drifting (2 cm/s) mid-approach, from random starts
             (0.1, 0.2, 0.4 rad), and 10 test boxes pushed with the finger under the lip: TRIC, DPL
             in joint space (three groups each) and the teacher; success against the perturbation's
-            size, and f and the joint speed through a push.
+            size, and f and the joint speed through a jolt at rest.
   exp5_wide wider situations than the training sets' (box_wide, sphere_wide, cylinder_wide): the
             models of Tables 1, 3, 4 and DPL (three groups each) and the teacher; success against
             the distance from the training range.

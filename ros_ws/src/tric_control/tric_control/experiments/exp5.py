@@ -52,11 +52,12 @@ AGENTS: dict[str, dict[str, dict[str, Any]]] = {
         "DPL joint space": dict(name="box_dpl_joint", bags="box", kind="dpl_joint"),
     },
 }
-#: The push of the trace figure (f and the joint speed through it): TRIC, first group, on this
-#: situation, pushed by this much half a second after it first came to rest and gripped (or at the
-#: task's usual time when it does not come to rest).
+#: The jolt of the trace figure (f and the joint speed through it): TRIC, first group, on this
+#: situation, jolted by this much (rad) half a second after it first came to rest and gripped (or at
+#: the task's usual time when it does not come to rest). A jolt, not a push: at rest the position
+#: hold takes a push over 0.1 s back as it comes (docs/decisions/perturbations.md).
 TRACE = ("sphere_test_00", 0.4)
-#: The trace's episodes' budget, ticks: long enough to rest, be pushed, and rest again.
+#: The trace's episodes' budget, ticks: long enough to rest, be jolted, and rest again.
 TRACE_STEPS = 2500
 
 
@@ -193,15 +194,15 @@ def _successes(cells: dict) -> str:
 
 
 def trace_text(trace: dict) -> str:
-    """What the trace of TRACE's push shows: when TRIC first came to rest and gripped, f's rise at
-    the push, how soon f is back below its value before it, and whether the controller left rest,
+    """What the trace of TRACE's jolt shows: when TRIC first came to rest and gripped, f's rise at
+    the jolt, how soon f is back below its value before it, and whether the controller left rest,
     descended, and came to rest and gripped again."""
     t, f = (np.asarray(trace[key], dtype=float) for key in ("t", "f"))
     phases, at = trace["phase"], trace["push_at_s"]
     before = f[t <= at][np.isfinite(f[t <= at])]
-    text = f"Through the push of {trace['situation']} (TRIC, first group): "
+    text = f"Through the jolt of {trace['situation']} (TRIC, first group): "
     if trace["rested_at_s"] is None:
-        text += "it did not come to rest before the push (pushed at the usual time); "
+        text += "it did not come to rest before the jolt (jolted at the usual time); "
     else:
         text += f"it came to rest and gripped at {trace['rested_at_s']:.2f} s; "
     rests = [
@@ -214,9 +215,9 @@ def trace_text(trace: dict) -> str:
     if before.size and after.any():
         back = t[after & (f < before[-1])]
         text += (
-            f"pushed at {at:.2f} s, f rises from {before[-1]:.1f} to {np.max(f[after]):.1f} as the "
+            f"jolted at {at:.2f} s, f rises from {before[-1]:.1f} to {np.max(f[after]):.1f} as the "
             "controller leaves rest, and is back below "
-            + (f"{before[-1]:.1f} {back[0] - at:.2f} s after the push" if back.size else "never")
+            + (f"{before[-1]:.1f} {back[0] - at:.2f} s after the jolt" if back.size else "never")
             + "; "
         )
     text += (
@@ -299,9 +300,9 @@ def discussion(rows: dict, trace: dict | None = None) -> str:
 
 
 def _trace(runner: Runner) -> dict:
-    """f, the arm's joint speed and the controller's phase through TRACE's push, TRIC chosen from
+    """f, the arm's joint speed and the controller's phase through TRACE's jolt, TRIC chosen from
     the first group, offline (the same controller core as the node's): the situation is run once
-    to find when TRIC first comes to rest, then pushed half a second after that."""
+    to find when TRIC first comes to rest, then jolted half a second after that."""
     from tric_control.evaluation.offline import OfflineEvaluator
 
     name, size = TRACE
@@ -327,7 +328,7 @@ def _trace(runner: Runner) -> dict:
     try:
         evaluator.run(nominal, on_period=first_rest)
         at_s = rested[0] + 0.5 if rested else None
-        situation = Trial("push", size, at_s).apply(nominal, runner.robot)
+        situation = Trial("jolt", size, at_s).apply(nominal, runner.robot)
         record = evaluator.run(situation, on_period=on_period)
     finally:
         evaluator.close()
@@ -388,7 +389,7 @@ def _trace_figure(trace: dict):
     speed.plot(t, trace["speed"], color="tab:orange", linewidth=0.8)
     speed.set_ylabel("arm joint speed (rad/s)", color="tab:orange")
     axis.set_title(
-        f"{trace['situation']}: f and speed through the push "
+        f"{trace['situation']}: f and speed through the jolt "
         f"({'success' if trace['success'] else 'failure'}, {trace['outcome']})",
         fontsize=9,
     )

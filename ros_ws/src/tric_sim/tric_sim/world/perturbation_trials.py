@@ -3,6 +3,9 @@
 
 A trial is a kind and a size:
     push:SIZE     the arm is shoved by SIZE rad (norm over the arm's joints) in PUSH_DURATION_S
+    jolt:SIZE     the same shove within one control period: faster than the joint servos take it
+                  back, so it moves an arm that the controller holds at rest (a push over
+                  PUSH_DURATION_S does not: docs/decisions/perturbations.md)
     jump:SIZE     the grasp target jumps SIZE m sideways (horizontal)
     drift:SIZE    the grasp target moves sideways at SIZE m/s for DRIFT_DURATION_S
     start:SIZE    the episode starts SIZE rad (norm over the arm's joints) from its nominal start,
@@ -22,7 +25,7 @@ from tric_sim.world.perturbations import Perturbation
 from tric_sim.world.scene_check import check_scene
 from tric_sim.world.situation import Situation
 
-KINDS = ("push", "jump", "drift", "start")
+KINDS = ("push", "jump", "drift", "start", "jolt")
 #: A push acts over this long, s (an impulse on a position-controlled arm).
 PUSH_DURATION_S = 0.1
 #: A drifting target moves for this long, s.
@@ -60,7 +63,7 @@ class Trial:
             [zlib.crc32(situation.name.encode()), situation.seed, KINDS.index(self.kind)]
         )
         changed: dict[str, Any] = {"name": name}
-        if self.kind in ("push", "start"):
+        if self.kind in ("push", "start", "jolt"):
             direction = np.zeros(robot.n_joints)
             arm = rng.standard_normal(len(robot.arm_indices))
             direction[robot.arm_indices] = arm / np.linalg.norm(arm)
@@ -69,9 +72,10 @@ class Trial:
             direction = np.array([np.cos(angle), np.sin(angle), 0.0])
         if self.size == 0:
             pass
-        elif self.kind == "push":
+        elif self.kind in ("push", "jolt"):
+            duration = PUSH_DURATION_S if self.kind == "push" else 0.0
             changed["perturbations"] = situation.perturbations + (
-                Perturbation("push", at_s, _floats(self.size * direction), PUSH_DURATION_S),
+                Perturbation("push", at_s, _floats(self.size * direction), duration),
             )
         elif self.kind == "jump":
             changed["perturbations"] = situation.perturbations + (
@@ -99,7 +103,7 @@ def parse_trial(text: str) -> Trial:
     if kind not in KINDS or not size_text:
         raise ValueError(
             f"perturbation '{text}' is not KIND:SIZE[@SECONDS] with KIND one of {', '.join(KINDS)} "
-            "(e.g. push:0.2, jump:0.05@1.5, drift:0.02, start:0.3)"
+            "(e.g. push:0.2, jump:0.05@1.5, drift:0.02, start:0.3, jolt:0.4@7.5)"
         )
     try:
         size = float(size_text)

@@ -22,6 +22,10 @@ MAX_DURATION_S = 600.0
 #: a perturbation is not a disturbance but another task.
 MAX_PUSH_RAD = 2.0
 MAX_MOVE_M = 0.5
+#: An episode runs at least this long after its last perturbation has acted, s: the rest rule's
+#: window (tric_control.motion_rate), so that a controller at rest that the perturbation moved is
+#: seen to leave rest, and one that stayed at rest is seen holding.
+SETTLE_S = 0.5
 
 
 @dataclass(frozen=True)
@@ -129,8 +133,9 @@ def target_displacement(perturbations) -> np.ndarray:
 
 
 def min_steps_for(perturbations, period: float) -> int:
-    """The control ticks an episode must run at least for all of perturbations to have acted (0
-    for none): a controller that came to rest before them is still there, holding, when they come
-    (tric_control.episode_runner's min_steps). period: the control period, s."""
+    """The control ticks an episode must run at least for all of perturbations to have acted and
+    SETTLE_S more (0 for none): a controller that came to rest before them is still there, holding,
+    when they come, and what they did shows before the episode ends (tric_control.episode_runner's
+    min_steps). period: the control period, s."""
     end = max((p.start_s + p.duration_s for p in perturbations), default=0.0)
-    return int(np.ceil(end / period)) + 1 if perturbations else 0
+    return int(np.ceil((end + SETTLE_S) / period)) + 1 if perturbations else 0
