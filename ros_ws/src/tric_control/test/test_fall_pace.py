@@ -64,3 +64,19 @@ def test_f_rising_counts_as_no_fall():
 def test_bad_settings_are_refused_by_name(settings, word):
     with pytest.raises(ValueError, match=word):
         FallPace(**settings)
+
+
+def test_a_pace_is_asked_only_with_a_knee_and_of_an_objective_that_asks_a_fall():
+    """FallPace.for_objective: knee 0 is the paper's constant delta, and an objective without a
+    delta (a DPL model's) or with none to ask (0) gets no pace; a TRIC objective gets the knee's."""
+
+    class Objective:
+        def __init__(self, delta):
+            self.delta = delta
+
+    assert FallPace.for_objective(0.0, Objective(0.3)) is None
+    assert FallPace.for_objective(0.25, object()) is None
+    assert FallPace.for_objective(0.25, Objective(0.0)) is None
+    assert FallPace.for_objective(0.5, Objective(0.3)) == FallPace(knee=0.5)
+    with pytest.raises(ValueError, match="knee"):
+        FallPace.for_objective(1.5, Objective(0.3))

@@ -28,11 +28,8 @@ class ControllerParameters:
     fall_pace_knee: float
 
     def fall_pace(self, objective) -> FallPace | None:
-        """The pace the controller asks its falls with on objective: none where the knee is 0 or
-        the objective asks no fall (a DPL model's)."""
-        if self.fall_pace_knee == 0 or not getattr(objective, "delta", 0) > 0:
-            return None
-        return FallPace(knee=self.fall_pace_knee)
+        """The pace the controller asks its falls with on objective (FallPace.for_objective)."""
+        return FallPace.for_objective(self.fall_pace_knee, objective)
 
 
 def declare_parameters(node) -> ControllerParameters:

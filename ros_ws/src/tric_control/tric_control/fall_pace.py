@@ -36,6 +36,14 @@ class FallPace:
         if not 0 < self.floor <= 1:
             raise ValueError(f"the fall pace's floor must be in (0, 1], not {self.floor}")
 
+    @classmethod
+    def for_objective(cls, knee: float, objective) -> "FallPace | None":
+        """The pace with knee that a controller asks its falls with on objective: none where knee
+        is 0 (the paper's constant delta) or the objective asks no fall (a DPL model's)."""
+        if knee == 0 or not getattr(objective, "delta", 0) > 0:
+            return None
+        return cls(knee=knee)
+
     def start(self) -> "PaceState":
         """The state of one episode, f falling as asked so far."""
         return PaceState(self)

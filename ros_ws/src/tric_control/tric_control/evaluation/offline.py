@@ -88,8 +88,7 @@ class OfflineEvaluator:
                 for source in model_file.definition.landmark_sources
                 if source.startswith("object/")
             )
-            if knee != 0 and getattr(self.objective, "delta", 0) > 0:
-                self.controller_options["fall_pace"] = FallPace(knee=knee)
+            self.controller_options["fall_pace"] = FallPace.for_objective(knee, self.objective)
         self.world = PhysicsWorld(self.robot, control_rate_hz=1.0 / period)
 
     @property
