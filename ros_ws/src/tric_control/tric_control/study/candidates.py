@@ -153,15 +153,13 @@ def training_key(config, data_digest: str, rounds: int = 0, max_steps: int = 0) 
     """Everything that makes a candidate's model: its TrainingConfig (with its seed), its data's
     digest, PyTorch's threads and the training code's digest (and with rounds of hard negatives,
     their rounds, their rollouts' budget and the code that rolls them out)."""
-    code = ["tric_learning.training.value"] + (
-        ["tric_control.study.hard_negatives"] if rounds else []
-    )
+    rolling = ("tric_control.study.hard_negatives",) if rounds else ()
     return {
         **config.to_dict(),
         **({"hard_negative_rounds": rounds, "rollout_steps": max_steps} if rounds else {}),
         "data_digest": data_digest,
         "torch_threads": CANDIDATE_THREADS,
-        "training_code": code_digest(*code),
+        "training_code": code_digest("tric_learning.training.value", *rolling),
     }
 
 
