@@ -107,6 +107,9 @@ def test_the_model_file_lists_every_candidate(planted, corners, tmp_path):
         assert all(
             {"success", "grasp_cost", "lift_passed", "outcome"} <= set(r) for r in row["rollouts"]
         )
+    # where the chosen model's own rollouts came to rest: the stall escape's reference
+    ends = [r.value_end for r in planted[0].rollouts]
+    assert loaded.info["done_value"] == pytest.approx(float(np.median(ends)))
 
 
 def test_the_best_n_make_the_mean_of_their_f_each_over_its_fall(
@@ -134,6 +137,7 @@ def test_the_best_n_make_the_mean_of_their_f_each_over_its_fall(
         ensemble.value(ys) - ensemble.value(ys[0]), expected - expected[0], atol=1e-9
     )
     assert choice.model.info["delta"] == pytest.approx(1.0 / 500)
+    assert "done_value" not in choice.model.info  # no rollouts of the ensemble's own
     saved = choice.model.save(tmp_path / "ensemble.safetensors")
     [record] = evaluate_offline([corners.demos[0].situation], str(saved), 100, progress=False)
     assert record.outcome == "step_budget" and record.steps == 100

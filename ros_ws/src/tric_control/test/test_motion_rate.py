@@ -3,6 +3,8 @@ solutions, joint and velocity limits under an adversarial objective, collision r
 obstacle, convergence with TRIC's value objective, refused inputs, and a limit of one's own stacked
 with the default ones (each limit class has its own test file). Units: rad, m, s."""
 
+import math
+
 import coal
 import numpy as np
 import pinocchio as pin
@@ -407,6 +409,14 @@ def test_make_objective_runs_tric_models_and_refuses_the_others(robot):
         make_objective(ModelFile("tric", definition, arrays, {"rho": 50.0}), robot)
     with pytest.raises(ValueError, match="delta must be finite and positive"):
         make_objective(ModelFile("tric", definition, arrays, {"delta": -0.002, "rho": 50.0}), robot)
+    assert objective.done_value is None  # chosen by no selection
+    info = {"delta": 0.002, "rho": 50.0, "done_value": -41.5}
+    assert make_objective(ModelFile("tric", definition, arrays, info), robot).done_value == -41.5
+    for bad in ("low", math.inf):
+        with pytest.raises(ValueError, match="done_value must be a finite number"):
+            make_objective(
+                ModelFile("tric", definition, arrays, {**info, "done_value": bad}), robot
+            )
 
 
 # --- a limit of one's own ------------------------------------------------------------------------

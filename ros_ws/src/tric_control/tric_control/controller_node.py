@@ -38,6 +38,11 @@ Parameters:
   the fall f makes once f falls less than this share of what it asks
   (tric_control.fall_pace.FallPace, docs/decisions/fall-pace.md); 0: the paper's constant delta.
   Models that ask no fall (DPL) run without.
+- stall_escapes (default 0, >= 0): a rest with f far above where the model's own rollouts from its
+  demonstrations' starts came to rest (its done_value) is a stall; the controller walks the arm
+  to a random nearby configuration and descends again, at most this many times an episode
+  (tric_control.stall_escape, docs/decisions/stall-escape.md); 0: a stall is a rest, as in the
+  paper.
 - use_sim_time: as usual. Realtime mode's timer and staleness test run on the node clock, which must
   be the clock the joint states are stamped with (with the simulator: use_sim_time true).
 
@@ -259,6 +264,7 @@ class ControllerNode(Node):
             lambda what: self.get_logger().warning(what, throttle_duration_sec=1.0),
             task_grip(self.task, self.robot.profile),
             int(goal.min_steps),
+            self.parameters.escape(),
         )
         episode = Episode(
             goal_handle, goal.episode_id or scene.situation.name, model, scene, runner

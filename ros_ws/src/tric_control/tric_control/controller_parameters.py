@@ -5,8 +5,9 @@ from dataclasses import dataclass
 
 from tric_control.episode_runner import DEFAULT_MAX_STEPS
 from tric_control.fall_pace import FallPace
+from tric_control.stall_escape import StallEscape
 from tric_learning.features import TASKS
-from tric_sim.ros.parameters import AT_LEAST_ONE, POSITIVE, Range, declare
+from tric_sim.ros.parameters import AT_LEAST_ONE, NOT_NEGATIVE, POSITIVE, Range, declare
 
 MODES = ("lockstep", "realtime")
 #: The parameters that make the paper's controller (Sec. 5.2.3): a constant delta, no pace.
@@ -16,8 +17,9 @@ PAPER_DELTA = {"fall_pace_knee": 0.0}
 @dataclass(frozen=True)
 class ControllerParameters:
     """The node's checked parameters: task, model_path, mode, control_rate_hz (Hz), max_steps
-    (ticks), state_timeout_s (wall s) and fall_pace_knee (the knee of the asked fall's pace, in
-    [0, 1]; 0: the paper's constant delta)."""
+    (ticks), state_timeout_s (wall s), fall_pace_knee (the knee of the asked fall's pace, in
+    [0, 1]; 0: the paper's constant delta) and stall_escapes (the walks out of stalls an episode
+    may take, >= 0; 0: none, the paper's controller)."""
 
     task: str
     model_path: str
@@ -26,10 +28,15 @@ class ControllerParameters:
     max_steps: int
     state_timeout_s: float
     fall_pace_knee: float
+    stall_escapes: int
 
     def fall_pace(self, objective) -> FallPace | None:
         """The pace the controller asks its falls with on objective (FallPace.for_objective)."""
         return FallPace.for_objective(self.fall_pace_knee, objective)
+
+    def escape(self) -> StallEscape:
+        """How an episode's controller leaves stalls (tric_control.stall_escape)."""
+        return StallEscape(self.stall_escapes)
 
 
 def declare_parameters(node) -> ControllerParameters:
@@ -65,5 +72,12 @@ def declare_parameters(node) -> ControllerParameters:
             "the asked fall follows the fall f makes below this share of it (0: the paper's "
             "constant delta)",
             Range(0.0, 1.0),
+        ),
+        stall_escapes=declare(
+            node,
+            "stall_escapes",
+            0,
+            "random walks out of a rest far above where the model's rollouts rested (0: none)",
+            NOT_NEGATIVE,
         ),
     )

@@ -10,6 +10,9 @@ realtime, tric_control.controller_node) and the offline evaluation on PhysicsWor
   controller respects both already; a violation is clipped, counted and reported);
 - a stale state (older than STALE_PERIODS control periods) or missing object poses: a hold, the last
   measured positions approached within the velocity bound; the controller is not stepped;
+- a rest that is a stall (tric_control.stall_escape: f far above where the model's own rollouts
+  came to rest), with walks left to the episode's StallEscape: a random walk of the arm through
+  the same controller, then the descent again;
 - once the controller comes to rest (its model's rest rule), the task's grip, if it has one
   (tric_sim.world.scene.task_grip: a grasp closes the fingers by the teacher's squeeze past where
   they rest), is ramped in over its duration without stepping the controller, and the episode
@@ -29,6 +32,7 @@ from typing import cast
 import numpy as np
 
 from tric_control.motion_rate import MotionRateController, Tick
+from tric_control.stall_escape import WALK_TICKS, StallEscape, WalkObjective, stalled
 from tric_sim.world.robot_model import RobotModel
 
 #: A state older than this many control periods is stale: the runner holds instead of stepping.
@@ -51,7 +55,8 @@ class EpisodeStats:
     """Running statistics of an episode. Values of the controller's objective (f for TRIC), the
     smallest collision distance the controller saw (m), the smallest distance of a measured joint to
     its limit (rad), each tick's computing time (ms), safety clips, the tick at which the
-    controller last came to rest (None: it has not) and how often it left rest, moved."""
+    controller last came to rest (None: it has not), how often it left rest, moved, and how many
+    random walks it took out of stalls."""
 
     steps: int = 0
     holds: int = 0
@@ -63,6 +68,7 @@ class EpisodeStats:
     violations: int = 0
     rest_step: int | None = None
     rests_left: int = 0
+    walks: int = 0
 
     @property
     def mean_tick_ms(self) -> float:
@@ -104,6 +110,8 @@ class EpisodeRunner:
             world after the controller may have come to rest asks for it); until then the runner
             holds the robot at rest (gripped), and when something moves the arm more than
             LEAVE_REST_RAD from where it rested, the controller steps again from there.
+        escape: how the controller leaves stalls (tric_control.stall_escape.StallEscape); None:
+            it does not (a stall is a rest, as the paper's controller has it).
     """
 
     def __init__(
@@ -116,6 +124,7 @@ class EpisodeRunner:
         on_violation=None,
         grip=None,
         min_steps: int = 0,
+        escape: StallEscape | None = None,
     ):
         if max_steps < 1:
             raise ValueError(f"the step budget must be at least 1 tick, got {max_steps}")
@@ -143,6 +152,10 @@ class EpisodeRunner:
         # once at rest: the command the grip closes from, and the measured joints there
         self._rest_command: np.ndarray | None = None
         self._rest_q: np.ndarray | None = None
+        self.escape = escape or StallEscape()
+        # the walk out of a stall under way (None: descending) and its ticks so far
+        self._walk: WalkObjective | None = None
+        self._walk_ticks = 0
 
     @property
     def started(self) -> bool:
@@ -209,7 +222,13 @@ class EpisodeRunner:
         stats.min_joint_margin = min(stats.min_joint_margin, margin)
         stats.tick_ms.append(tick_ms)
         outcome = None
-        if tick.converged:
+        if self._walk is not None:
+            self._walk_ticks += 1
+            if self._walk.reached(q) or self._walk_ticks >= WALK_TICKS:
+                self._end_walk(q)
+        elif tick.converged and self._escapes(tick.value):
+            self._begin_walk(q)
+        elif tick.converged:
             stats.rest_step = stats.steps
             if self.grip is None and stats.steps >= self.min_steps:
                 outcome = ("converged", f"converged after {stats.steps} steps")
@@ -220,6 +239,26 @@ class EpisodeRunner:
         return Step(
             command=command, tick=tick, step_norm=step_norm, tick_ms=tick_ms, outcome=outcome
         )
+
+    def _escapes(self, value: float) -> bool:
+        """Whether a rest with f at value is a stall to walk out of (walks left)."""
+        return self.stats.walks < self.escape.escapes and stalled(self.controller.objective, value)
+
+    def _begin_walk(self, q: np.ndarray) -> None:
+        """The controller follows a walk from q to the escape's next goal, without a pace."""
+        robot, controller = self.robot, self.controller
+        goal = self.escape.goal(q, robot.arm_indices, robot.lower, robot.upper, self.stats.walks)
+        self.stats.walks += 1
+        self._walk = WalkObjective(controller.objective, goal, self.max_step)
+        self._walk_ticks = 0
+        controller.objective = self._walk
+        controller.reset(cast(np.ndarray, self.previous), paced=False)
+
+    def _end_walk(self, q: np.ndarray) -> None:
+        """The walk is over at q: the controller descends f again from there."""
+        self.controller.objective = cast(WalkObjective, self._walk).inner
+        self._walk = None
+        self.controller.reset(q)
 
     def _at_rest(self) -> Step:
         """One tick at rest, the controller not stepped: the grip's joints' commands a share more

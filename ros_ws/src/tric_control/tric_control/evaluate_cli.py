@@ -1,7 +1,8 @@
 """tric-eval: run a model (or the teacher) on situations through the real nodes, and judge it.
 
     tric-eval (--model MODEL | --teacher) (DATASET | --situations-file FILE) [--json OUT
-              [--overwrite]] [--max-steps N] [--fall-pace-knee K | --protocol paper]
+              [--overwrite]] [--max-steps N]
+              [[--fall-pace-knee K] [--stall-escapes N] | --protocol paper]
               [--snapshots DIR]
               [--domain-id N] [--jobs N] [--robot ROBOT]
               [--executor processes|ray] [--address HOST:PORT] [--offline] [--record DIR]
@@ -126,6 +127,14 @@ def run(argv) -> int:
         help="the controller's fall_pace_knee parameter in [0, 1] (default: the node's, 0.25; 0: "
         "the paper's constant delta; docs/decisions/fall-pace.md)",
     )
+    parser.add_argument(
+        "--stall-escapes",
+        type=int,
+        metavar="N",
+        help="the controller's stall_escapes parameter, >= 0: random walks out of a rest far above "
+        "where the model's rollouts rested (default: the node's, 0; "
+        "docs/decisions/stall-escape.md)",
+    )
     parser.add_argument("--snapshots", help="write a PNG of each final state into this folder")
     parser.add_argument(
         "--domain-id",
@@ -169,12 +178,16 @@ def run(argv) -> int:
         parser.error(f"--max-steps must be in [0, {MAX_STEPS}] (0: the controller's default)")
     if args.fall_pace_knee is not None and not 0 <= args.fall_pace_knee <= 1:
         parser.error("--fall-pace-knee must be in [0, 1] (0: the paper's constant delta)")
+    if args.stall_escapes is not None and args.stall_escapes < 0:
+        parser.error("--stall-escapes must be >= 0 (0: none)")
     controller = {} if args.fall_pace_knee is None else {"fall_pace_knee": args.fall_pace_knee}
+    if args.stall_escapes is not None:
+        controller["stall_escapes"] = args.stall_escapes
     if args.protocol == "paper":
         if args.max_steps or controller:
             parser.error(
-                "--protocol paper sets the budget and delta: not with --max-steps or "
-                "--fall-pace-knee"
+                "--protocol paper sets the budget and delta: not with --max-steps, "
+                "--fall-pace-knee or --stall-escapes"
             )
         from tric_control.controller_parameters import PAPER_DELTA
         from tric_control.episode_runner import PAPER_STEPS

@@ -290,11 +290,14 @@ class MotionRateController:
             if _overrides(limit, "active")
         ]
 
-    def reset(self, q: np.ndarray) -> None:
+    def reset(self, q: np.ndarray, paced: bool = True) -> None:
+        """Start again from q (n,): the reference, the rest rule's history and the pace's state;
+        paced False: no pace until the next reset (an objective that asks no fall of f)."""
         self.reference = np.array(q, dtype=float)
         self.values = []
         self.history = []
-        self._pace = None if self.fall_pace is None else self.fall_pace.start()
+        paced = paced and self.fall_pace is not None
+        self._pace = cast(FallPace, self.fall_pace).start() if paced else None
 
     def tick(self, q: np.ndarray, object_poses: dict) -> Tick:
         """One control step from the measured joint positions q (n,) and the objects' poses."""

@@ -24,6 +24,7 @@ from tric_control.evaluation.shipped_files import local_path
 from tric_control.fall_pace import FallPace
 from tric_control.motion_rate import MotionRateController
 from tric_control.objectives import CONTROL_PERIOD, make_objective
+from tric_control.stall_escape import StallEscape
 from tric_learning.features import FeatureDefinition
 from tric_learning.model_file import ModelFile
 from tric_sim import teachers
@@ -50,7 +51,9 @@ class OfflineEvaluator:
             "rho_scale": make_objective's, "grip": False leaves out the task's grip once at
             rest (tric_sim.world.scene.task_grip), and "fall_pace_knee": the knee of the asked
             fall's pace (tric_control.fall_pace.FallPace; default its knee, as the controller
-            node's parameter; 0: the paper's constant delta; none for a model that asks no fall).
+            node's parameter; 0: the paper's constant delta; none for a model that asks no fall),
+            "stall_escapes": the walks out of stalls an episode may take
+            (tric_control.stall_escape.StallEscape; default 0, as the controller node's).
         lift_test: whether a grasp is judged with the lift test (False: its success is the grasp
             cost's alone and lift_passed is None; the final state is the same either way).
         robot: the robot, a profile's name or file (docs/robots.md); a model made for another
@@ -75,6 +78,7 @@ class OfflineEvaluator:
         self.robot = RobotModel(robot)
         gripping = self.controller_options.pop("grip", True)
         knee = self.controller_options.pop("fall_pace_knee", FallPace.knee)
+        self.escape = StallEscape(self.controller_options.pop("stall_escapes", 0))
         self.grip = task_grip(task, self.robot.profile) if gripping else None
         self.objective = None
         self.kind: str = "teacher"
@@ -138,6 +142,7 @@ class OfflineEvaluator:
                 self.objects,
                 grip=self.grip,
                 min_steps=min_steps_for(situation.perturbations, self.period),
+                escape=self.escape,
             )
             ended = None  # (outcome, message) once the runner ends the episode
             try:

@@ -68,12 +68,24 @@ def _tric_objective(model_file: ModelFile, robot: RobotModel, rho_scale: float) 
             raise ValueError(f"the TRIC model's {name} must be finite and positive, got {value!r}")
         numbers[name] = value
     rest = model_file.info.get("rest")  # None: a model made before models carried their rule
+    done: Any = model_file.info.get("done_value")  # None: chosen by no selection
+    if done is not None:
+        try:
+            done = float(done)
+        except (TypeError, ValueError):
+            done = math.nan
+        if not math.isfinite(done):
+            raise ValueError(
+                f"the TRIC model's done_value must be a finite number, got "
+                f"{model_file.info.get('done_value')!r}"
+            )
     return ValueObjective(
         FeatureMap(model_file.definition, robot),
         value_function(model_file),
         numbers["delta"],
         numbers["rho"] * rho_scale,
         rest=None if rest is None else RestRule.from_dict(rest),
+        done_value=done,
     )
 
 

@@ -35,7 +35,9 @@ class ValueObjective:
     tric_learning FeatureMap and ValueFunction. The two agree to rounding (1e-12), not bit for
     bit; COMPILED says whether the kernel is built. rest: the model's rest rule
     (tric_learning.training.rest.RestRule), or None (the controller's own, for models made before
-    models carried one or trained on demonstrations too short to give one).
+    models carried one or trained on demonstrations too short to give one). done_value: f where
+    the model's own rollouts from its demonstrations' starts came to rest (the selection's median;
+    tric_control.stall_escape), or None (a model chosen by no selection).
     """
 
     def __init__(
@@ -47,6 +49,7 @@ class ValueObjective:
         feature_names=None,
         compiled: bool | None = None,
         rest=None,
+        done_value: float | None = None,
     ):
         if not (delta > 0 and rho > 0):
             raise ValueError("delta and rho must be positive")
@@ -57,6 +60,7 @@ class ValueObjective:
             rho,
         )
         self.rest = rest
+        self.done_value = done_value
         scaling = value_function.scaling
         names = feature_names or feature_map.definition.feature_names
         self.kept_names = [names[k] for k in scaling.kept]

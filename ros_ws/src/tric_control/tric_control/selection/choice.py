@@ -2,7 +2,9 @@
 (tric_control.selection.scores), keep the best, or the best N averaged into one f, and write its
 model file with the selection's provenance: every candidate's seed, score, rollouts' errors, the
 hidden metrics' verdicts on its rollouts (a reference, never the default score's input) and its
-share of the time. ROS-free."""
+share of the time; and for a single model kept, its done_value: the median f at the end of its
+rollouts, where the model comes to rest having done what its demonstrations did (the stall
+escape's reference, tric_control.stall_escape). ROS-free."""
 
 from dataclasses import dataclass
 
@@ -92,7 +94,17 @@ def choose(
         "hyperparameters": config.to_dict(),
         "selection": provenance,
     }
+    done = done_value(best[0].rollouts) if len(best) == 1 else None
+    if done is not None:
+        chosen.info["done_value"] = done
     return Choice(chosen, [candidate.seed for candidate in best], provenance)
+
+
+def done_value(rollouts: list) -> float | None:
+    """The median f at the end of rollouts ([Rollout]) that ran (their f finite), or None if none
+    did."""
+    ends = [r.value_end for r in rollouts if not r.failed and np.isfinite(r.value_end)]
+    return float(np.median(ends)) if ends else None
 
 
 def _provenance(rows, best, selection: SelectionConfig, config: TrainingConfig) -> dict:

@@ -54,7 +54,7 @@ def controller_options(changes: dict, task: str, robot: RobotModel) -> dict:
         options["domain_damper"] = changes["domain_damper"]
     if "fall_pace" in changes:
         options["fall_pace_knee"] = changes["fall_pace"]
-    for option in ("rho_scale", "grip"):
+    for option in ("rho_scale", "grip", "stall_escapes"):
         if option in changes:
             options[option] = changes[option]
     contacts = contact_rules(changes, "open_box" if task == "box" else "grasp")

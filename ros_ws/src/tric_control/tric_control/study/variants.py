@@ -56,7 +56,8 @@ MODEL_MEASURES = (
 #: the model's rho (tric_control.objectives.make_objective); whether the task's grip closes the
 #: hand once at rest (tric_sim.world.scene.task_grip); and the fall pace's knee
 #: (tric_control.fall_pace.FallPace, its other settings the defaults; absent: the default knee, as
-#: the controller node's; 0: no pace, the paper's constant delta).
+#: the controller node's; 0: no pace, the paper's constant delta); and the walks out of stalls an
+#: episode may take (tric_control.stall_escape.StallEscape; absent: 0, as the node's).
 CONTROLLER_OPTIONS = {
     "hand_lead": float,
     "grasp_steps": int,
@@ -69,6 +70,7 @@ CONTROLLER_OPTIONS = {
     "rho_scale": float,
     "grip": bool,
     "fall_pace": float,
+    "stall_escapes": int,
 }
 #: Training procedures beyond TrainingConfig: rounds of hard negatives
 #: (tric_control.study.hard_negatives).
@@ -157,6 +159,8 @@ def parse_variant(text: str):
         raise ValueError(f"variant '{name}': hard_negative_rounds must be >= 0")
     if not 0 <= changes.get("fall_pace", 1.0) <= 1:
         raise ValueError(f"variant '{name}': fall_pace (its knee; 0: none) must be in [0, 1]")
+    if changes.get("stall_escapes", 0) < 0:
+        raise ValueError(f"variant '{name}': stall_escapes must be >= 0")
     if not 0.001 <= changes.get("rho_scale", 1.0) <= 1000:
         raise ValueError(f"variant '{name}': rho_scale must be in [0.001, 1000]")
     return name, changes
