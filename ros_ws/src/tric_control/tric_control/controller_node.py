@@ -38,7 +38,7 @@ Parameters:
   the fall f makes once f falls less than this share of what it asks
   (tric_control.fall_pace.FallPace, docs/decisions/fall-pace.md); 0: the paper's constant delta.
   Models that ask no fall (DPL) run without.
-- stall_escapes (default 0, >= 0): a rest with f far above where the model's own rollouts from its
+- stall_escapes (default 3, >= 0): a rest with f far above where the model's own rollouts from its
   demonstrations' starts came to rest (its done_value) is a stall; the controller walks the arm
   to a random nearby configuration and descends again, at most this many times an episode
   (tric_control.stall_escape, docs/decisions/stall-escape.md); 0: a stall is a rest, as in the

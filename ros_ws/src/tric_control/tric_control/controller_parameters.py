@@ -5,13 +5,14 @@ from dataclasses import dataclass
 
 from tric_control.episode_runner import DEFAULT_MAX_STEPS
 from tric_control.fall_pace import FallPace
-from tric_control.stall_escape import StallEscape
+from tric_control.stall_escape import DEFAULT_ESCAPES, StallEscape
 from tric_learning.features import TASKS
 from tric_sim.ros.parameters import AT_LEAST_ONE, NOT_NEGATIVE, POSITIVE, Range, declare
 
 MODES = ("lockstep", "realtime")
-#: The parameters that make the paper's controller (Sec. 5.2.3): a constant delta, no pace.
-PAPER_DELTA = {"fall_pace_knee": 0.0}
+#: The parameters that make the paper's controller (Sec. 5.2.3 and 5.4): a constant delta, no pace,
+#: and a rest at any minimum of f (no stall escape).
+PAPER_CONTROLLER = {"fall_pace_knee": 0.0, "stall_escapes": 0}
 
 
 @dataclass(frozen=True)
@@ -76,7 +77,7 @@ def declare_parameters(node) -> ControllerParameters:
         stall_escapes=declare(
             node,
             "stall_escapes",
-            0,
+            DEFAULT_ESCAPES,
             "random walks out of a rest far above where the model's rollouts rested (0: none)",
             NOT_NEGATIVE,
         ),

@@ -117,8 +117,8 @@ def run(argv) -> int:
         choices=("ours", "paper"),
         default="ours",
         help="paper: every episode 500 ticks at most, with the paper's constant delta (Sec. "
-        "5.2.3: delta makes 500 ticks from a demonstration's start to its end; no fall pace); "
-        "ours: the controller's budgets and pace (default %(default)s)",
+        "5.2.3: delta makes 500 ticks from a demonstration's start to its end; no fall pace, no "
+        "stall escape); ours: the controller's budgets, pace and escape (default %(default)s)",
     )
     parser.add_argument(
         "--fall-pace-knee",
@@ -132,7 +132,7 @@ def run(argv) -> int:
         type=int,
         metavar="N",
         help="the controller's stall_escapes parameter, >= 0: random walks out of a rest far above "
-        "where the model's rollouts rested (default: the node's, 0; "
+        "where the model's rollouts rested (default: the node's, 3; 0: none, the paper's; "
         "docs/decisions/stall-escape.md)",
     )
     parser.add_argument("--snapshots", help="write a PNG of each final state into this folder")
@@ -189,10 +189,10 @@ def run(argv) -> int:
                 "--protocol paper sets the budget and delta: not with --max-steps, "
                 "--fall-pace-knee or --stall-escapes"
             )
-        from tric_control.controller_parameters import PAPER_DELTA
+        from tric_control.controller_parameters import PAPER_CONTROLLER
         from tric_control.episode_runner import PAPER_STEPS
 
-        args.max_steps, controller = PAPER_STEPS, dict(PAPER_DELTA)
+        args.max_steps, controller = PAPER_STEPS, dict(PAPER_CONTROLLER)
     args.controller = controller
     domain_id = private_domain_id() if args.domain_id is None else args.domain_id
     if not 1 <= args.jobs <= 64:

@@ -24,6 +24,8 @@ from tric_learning.training.value import TICKS_PER_DEMO
 #: demonstrations' mean fall (TICKS_PER_DEMO delta). Chosen from the box candidates' rollouts
 #: from their training starts (docs/decisions/stall-escape.md).
 STALL_SHARE = 0.3
+#: The walks an episode may take by default (the controller node's stall_escapes).
+DEFAULT_ESCAPES = 3
 #: The walk's reach per arm joint, rad (a draw from [-ESCAPE_RAD, ESCAPE_RAD] for each).
 ESCAPE_RAD = 0.3
 #: A walk ends when every joint is within WALK_REACHED_RAD of its goal, or after WALK_TICKS.

@@ -24,7 +24,7 @@ from tric_control.evaluation.shipped_files import local_path
 from tric_control.fall_pace import FallPace
 from tric_control.motion_rate import MotionRateController
 from tric_control.objectives import CONTROL_PERIOD, make_objective
-from tric_control.stall_escape import StallEscape
+from tric_control.stall_escape import DEFAULT_ESCAPES, StallEscape
 from tric_learning.features import FeatureDefinition
 from tric_learning.model_file import ModelFile
 from tric_sim import teachers
@@ -53,7 +53,8 @@ class OfflineEvaluator:
             fall's pace (tric_control.fall_pace.FallPace; default its knee, as the controller
             node's parameter; 0: the paper's constant delta; none for a model that asks no fall),
             "stall_escapes": the walks out of stalls an episode may take
-            (tric_control.stall_escape.StallEscape; default 0, as the controller node's).
+            (tric_control.stall_escape.StallEscape; default DEFAULT_ESCAPES, as the controller
+            node's; 0: none).
         lift_test: whether a grasp is judged with the lift test (False: its success is the grasp
             cost's alone and lift_passed is None; the final state is the same either way).
         robot: the robot, a profile's name or file (docs/robots.md); a model made for another
@@ -78,7 +79,8 @@ class OfflineEvaluator:
         self.robot = RobotModel(robot)
         gripping = self.controller_options.pop("grip", True)
         knee = self.controller_options.pop("fall_pace_knee", FallPace.knee)
-        self.escape = StallEscape(self.controller_options.pop("stall_escapes", 0))
+        escapes = self.controller_options.pop("stall_escapes", DEFAULT_ESCAPES)
+        self.escape = StallEscape(escapes)
         self.grip = task_grip(task, self.robot.profile) if gripping else None
         self.objective = None
         self.kind: str = "teacher"

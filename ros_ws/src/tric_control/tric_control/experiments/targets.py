@@ -1,6 +1,6 @@
 """The design's targets (docs/design.md section 5), each to hold for every group."""
 
-from tric_control.controller_parameters import PAPER_DELTA
+from tric_control.controller_parameters import PAPER_CONTROLLER
 from tric_control.episode_runner import PAPER_STEPS
 
 #: Table 1: the most TRIC's mean grasp cost may exceed our teacher's.
@@ -28,4 +28,4 @@ FEATURES_AIM = 60
 #: most, the paper's constant delta) beside ours, in Tables 1 and 3, and how it is run
 #: (Runner.over_seeds' arguments).
 PAPER_PROTOCOL = "TRIC K = 30, paper's protocol"
-PAPER_RUN: dict = dict(max_steps=PAPER_STEPS, controller=PAPER_DELTA)
+PAPER_RUN: dict = dict(max_steps=PAPER_STEPS, controller=PAPER_CONTROLLER)

@@ -12,7 +12,7 @@ how the model is chosen: candidates (S), members (the best N kept) and score
 default), grasp_steps and box_steps (the episodes' step budgets), the contact options, fall_pace
 (the knee of tric_control.fall_pace.FallPace: the asked fall follows the fall made; 0: the paper's
 constant delta), stall_escapes (the walks out of stalls an episode may take:
-tric_control.stall_escape; 0 by default), and
+tric_control.stall_escape; 3 by default, as the node's; 0: none), and
 hard_negative_rounds (rounds of training again on the controller's own rollouts in the training
 situations: tric_control.study.hard_negatives).
 For each variant, group seed G and task, a model is chosen as a training chooses it: S candidates

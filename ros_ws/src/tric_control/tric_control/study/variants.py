@@ -57,7 +57,7 @@ MODEL_MEASURES = (
 #: hand once at rest (tric_sim.world.scene.task_grip); and the fall pace's knee
 #: (tric_control.fall_pace.FallPace, its other settings the defaults; absent: the default knee, as
 #: the controller node's; 0: no pace, the paper's constant delta); and the walks out of stalls an
-#: episode may take (tric_control.stall_escape.StallEscape; absent: 0, as the node's).
+#: episode may take (tric_control.stall_escape.StallEscape; absent: 3, as the node's; 0: none).
 CONTROLLER_OPTIONS = {
     "hand_lead": float,
     "grasp_steps": int,
