@@ -9,6 +9,7 @@ import coal
 import numpy as np
 import pinocchio as pin
 import pytest
+from hand_made_values import SPHERE, SPHERE_POSES, palm_minimum_value
 
 from tric_control.fall_pace import FallPace
 from tric_control.limits import Limit, damper_bounds
@@ -465,16 +466,8 @@ def test_a_value_with_a_minimum_brings_the_controller_to_rest_there_and_only_the
     the controller descends f to u*, and its rest rule (the joints slower than 0.01 rad/s and f not
     falling over 0.25 s) holds there and at no tick before, while u is still on its way."""
     definition = FeatureDefinition.for_task("grasp", robot)
-    situation = situations.sphere("sphere", (0.55, 0.0, 0.45))
-    poses = {"object": (situation.object_position, situation.object_orientation)}
-    kept = np.array([definition.feature_names.index("d[palm,object]")])
-    value_function = ValueFunction(
-        Scaling(kept, np.array([0.25]), np.array([1.0]), definition.size),
-        np.array([[10.0]]),
-        np.array([-1.0]),
-        np.array([1.0]),
-        np.array([1.0]),
-    )
+    situation, poses = SPHERE, SPHERE_POSES
+    value_function = palm_minimum_value(definition)
     grid = np.linspace(-0.05, 1.0, 50001)
     f = grid - 1.0 / (1.0 + np.exp(-(10.0 * grid + 1.0)))
     u_star = grid[np.argmin(f)]

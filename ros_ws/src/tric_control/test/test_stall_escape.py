@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 import pytest
+from hand_made_values import SPHERE, SPHERE_POSES, palm_minimum_value
 
 from tric_control.episode_runner import EpisodeRunner
 from tric_control.motion_rate import MotionRateController
@@ -22,8 +23,6 @@ from tric_control.stall_escape import (
 from tric_learning.features import FeatureDefinition, FeatureMap
 from tric_learning.training.rest import RestRule
 from tric_learning.training.value import TICKS_PER_DEMO
-from tric_learning.value_function import Scaling, ValueFunction
-from tric_sim.world import situations
 from tric_sim.world.proximity import Proximity
 from tric_sim.world.robot_model import RobotModel
 
@@ -87,25 +86,15 @@ def palm_minimum(robot, done: float | None):
     sphere u (its minimum at u* about 0.11, f(u*) about -0.78), with done_value done, and the
     sphere's poses."""
     definition = FeatureDefinition.for_task("grasp", robot)
-    situation = situations.sphere("sphere", (0.55, 0.0, 0.45))
-    poses = {"object": (situation.object_position, situation.object_orientation)}
-    kept = np.array([definition.feature_names.index("d[palm,object]")])
-    value_function = ValueFunction(
-        Scaling(kept, np.array([0.25]), np.array([1.0]), definition.size),
-        np.array([[10.0]]),
-        np.array([-1.0]),
-        np.array([1.0]),
-        np.array([1.0]),
-    )
     objective = ValueObjective(
         FeatureMap(definition, robot),
-        value_function,
+        palm_minimum_value(definition),
         DELTA,
         rho=100.0,
         rest=RestRule(speed=0.01, fall=0.0),
         done_value=done,
     )
-    return MotionRateController(robot, Proximity(robot, situation), objective), poses
+    return MotionRateController(robot, Proximity(robot, SPHERE), objective), SPHERE_POSES
 
 
 def run(robot, done, escapes, max_steps=4000):
