@@ -184,16 +184,22 @@ def test_a_step_budget_past_the_goal_s_field_is_refused(capsys):
     )
 
 
+#: How tric-eval refuses a controller setting beside the paper's protocol.
+PAPER_SETS = "not with --max-steps, --fall-pace-knee or --stall-escapes"
+
+
 @pytest.mark.parametrize(
     "arguments, message",
     [
         (["--fall-pace-knee", "1.5"], "--fall-pace-knee must be in [0, 1]"),
         (["--fall-pace-knee", "-0.1"], "--fall-pace-knee must be in [0, 1]"),
-        (["--protocol", "paper", "--fall-pace-knee", "0.5"], "not with --max-steps or --fall-pace"),
-        (["--protocol", "paper", "--max-steps", "800"], "not with --max-steps or --fall-pace"),
+        (["--stall-escapes", "-1"], "--stall-escapes must be >= 0"),
+        (["--protocol", "paper", "--fall-pace-knee", "0.5"], PAPER_SETS),
+        (["--protocol", "paper", "--max-steps", "800"], PAPER_SETS),
+        (["--protocol", "paper", "--stall-escapes", "3"], PAPER_SETS),
     ],
 )
-def test_a_fall_pace_out_of_range_or_beside_the_paper_s_protocol_is_refused(
+def test_a_controller_setting_out_of_range_or_beside_the_paper_s_protocol_is_refused(
     arguments, message, capsys
 ):
     with pytest.raises(SystemExit) as ended:

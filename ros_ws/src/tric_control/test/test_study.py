@@ -98,6 +98,14 @@ def test_the_fall_pace_is_a_controller_option_given_by_its_knee():
             study_variants.parse_variant(f"p=fall_pace={bad}")
 
 
+def test_the_stall_escape_is_a_controller_option_given_by_its_walks():
+    name, changes = study_variants.parse_variant("e=stall_escapes=0")
+    assert changes == {"stall_escapes": 0} and study_variants.training_part(changes) == {}
+    assert study_measures.controller_options(changes, "box", RobotModel()) == {"stall_escapes": 0}
+    with pytest.raises(ValueError, match="stall_escapes must be >= 0"):
+        study_variants.parse_variant("e=stall_escapes=-1")
+
+
 def test_controller_settings_are_variant_options_that_do_not_change_the_training():
     name, changes = study_variants.parse_variant("grip=alpha_g=10,hand_lead=0.2,grasp_steps=1500")
     assert changes == {"alpha_g": 10.0, "hand_lead": 0.2, "grasp_steps": 1500}
