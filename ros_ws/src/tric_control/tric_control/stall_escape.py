@@ -83,6 +83,8 @@ class WalkObjective:
     def __init__(self, inner, goal: np.ndarray, max_step: np.ndarray):
         self.inner, self.goal, self.max_step = inner, np.asarray(goal, dtype=float), max_step
         self.delta = inner.delta
+        # the same every tick (the controller only reads it)
+        self._hessian = 2.0 * WALK_WEIGHT * np.eye(len(self.goal))
 
     def reached(self, q: np.ndarray) -> bool:
         """Whether every joint of q (n,) is within WALK_REACHED_RAD of the goal."""
@@ -91,6 +93,6 @@ class WalkObjective:
     def __call__(self, q, object_poses) -> Objective:
         model = self.inner(q, object_poses)
         step = np.clip(self.goal - np.asarray(q, dtype=float), -self.max_step, self.max_step)
-        model.hessian = 2.0 * WALK_WEIGHT * np.eye(len(step))
+        model.hessian = self._hessian
         model.linear = -2.0 * WALK_WEIGHT * step
         return model
