@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from tric_learning.analysis import gradient_measures, ranked_features
+from tric_learning.analysis.attraction import end_measures
 from tric_learning.recording import record_offline
 from tric_learning.training import rest
 from tric_learning.training.rest import RestRule
@@ -121,6 +122,8 @@ def test_split_l_bfgs_b_gives_exact_zeros_and_a_lower_loss_than_it_starts_from(r
         ({"seed": -1}, "seed must be in [0, 2^32)"),
         ({"seed": 2**32}, "seed must be in [0, 2^32)"),
         ({"optimizer": "adam"}, "optimizer must be one of lbfgs, lbfgsb, bfgs"),
+        ({"end_flatness": -1.0}, "end_flatness must be finite and >= 0"),
+        ({"end_flatness": math.nan}, "end_flatness must be finite and >= 0"),
     ],
 )
 def test_training_config_refuses_bad_values(values, message):
@@ -163,6 +166,23 @@ def test_training_is_determined_by_its_seed(robot, grid_dataset):
         np.testing.assert_array_equal(getattr(first.model, name), getattr(again.model, name))
     assert first.losses == again.losses
     assert not np.array_equal(first.model.w3, other.model.w3)
+
+
+def test_end_flatness_flattens_f_where_the_demonstrations_end(robot, grid_dataset):
+    """L_e (end_flatness > 0) brings f's gradient at the demonstrations' last states well below
+    its size along them, which the plain loss leaves steep there; f still falls along every
+    demonstration. Measured by the analysis's own end_measures, not by the loss."""
+    demos = grid_dataset.subset(3)
+    ratios = {}
+    for flatness in (0.0, 10.0):
+        config = TrainingConfig(
+            hidden_units=5, noisy_samples=10, max_iterations=60, end_flatness=flatness
+        )
+        result = train(demos, robot, config)
+        ratios[flatness] = end_measures(result.model, demos, robot, count=5)["end_gradient_ratio"]
+        model = result.model
+        assert all(model.value(d.y[-1]) < model.value(d.y[0]) for d in demos.demos)
+    assert ratios[10.0] < 0.5 * ratios[0.0], ratios
 
 
 def test_a_member_whose_f_does_not_fall_is_left_out_and_named(robot, grid_dataset):

@@ -1,5 +1,6 @@
 """The optimization problem of TRIC's training (tric_learning.training.problem): each loss term on a
-hand-made case, the loss's gradient in the weights (gradcheck), and L_n's per-step weights."""
+hand-made case (L_e, the end's flatness, too), the loss's gradient in the weights (gradcheck), and
+L_n's per-step weights."""
 
 import math
 
@@ -39,7 +40,7 @@ def test_loss_terms_on_a_hand_made_case():
     problem = TrainingProblem(Dataset(None, [demo]), noisy, scaling, TrainingConfig(hidden_units=1))
     # W1 = (1, 0), W2 = 2, W3 = (1, -2)
     theta = torch.tensor([1.0, 0.0, 2.0, 1.0, -2.0])
-    loss_n, loss_g, loss_w = (float(term) for term in problem.terms(theta))
+    loss_n, loss_g, loss_w, loss_e = (float(term) for term in problem.terms(theta))
 
     sigmoid = lambda x: 1.0 / (1.0 + math.exp(-x))  # noqa: E731
     softplus = lambda x: math.log1p(math.exp(x))  # noqa: E731
@@ -58,6 +59,38 @@ def test_loss_terms_on_a_hand_made_case():
     assert loss_n == pytest.approx(expected_n, rel=1e-5)
     assert loss_g == pytest.approx(cos_0 + cos_1, rel=1e-5)
     assert loss_w == pytest.approx(6.0, rel=1e-6)
+    assert loss_e == 0.0  # off by default: not computed
+
+
+def hand_made_problem(config: TrainingConfig) -> TrainingProblem:
+    """The demo and scaling of test_loss_terms_on_a_hand_made_case, with one noisy sample."""
+    q = np.array([[0.0, 0.0], [0.1, 0.0], [0.1, 0.1], [0.1, 0.1]])
+    y = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [1.0, 1.0]])
+    jacobians = np.array([np.eye(2), [[0.0, -1.0], [1.0, 0.0]], np.eye(2), np.eye(2)])
+    demo = Demo("hand", None, q, y, jacobians, [{}] * 4, np.arange(4))
+    noisy = NoisySamples(
+        step=np.array([1]), y=np.array([[0.0, 0.5]]), weight=np.ones(1), kept_per_step=np.ones(4)
+    )
+    scaling = Scaling(kept=np.array([0, 1]), low=np.zeros(2), high=np.array([2.0, 1.0]), size=2)
+    return TrainingProblem(Dataset(None, [demo]), noisy, scaling, config)
+
+
+def test_l_e_is_the_ends_squared_gradient_over_its_mean_square_along_the_way():
+    """The hand-made f with end_flatness 2: grad_q f at the last state (u = (0.5, 1), the identity
+    Jacobian scaled by (1/2, 1)) is (dfdy0_next, -2); along the two moving steps it is (dfdy0, -2)
+    and (-2, -dfdy0_next). L_e is the first's square over the mean of the others', and the loss
+    the optimizer sees adds it times end_flatness."""
+    sigmoid = lambda x: 1.0 / (1.0 + math.exp(-x))  # noqa: E731
+    dfdy0 = (2 * 0.25 + 1) / 2
+    dfdy0_next = (2 * sigmoid(0.5) * (1 - sigmoid(0.5)) + 1) / 2
+    end = dfdy0_next**2 + 4
+    along = ((dfdy0**2 + 4) + (4 + dfdy0_next**2)) / 2
+    theta = torch.tensor([1.0, 0.0, 2.0, 1.0, -2.0])
+    flat = hand_made_problem(TrainingConfig(hidden_units=1, end_flatness=2.0))
+    plain = hand_made_problem(TrainingConfig(hidden_units=1))
+    assert float(flat.terms(theta)[3]) == pytest.approx(end / along, rel=1e-5)
+    added = float(flat._data_loss(theta)[0]) - float(plain._data_loss(theta)[0])
+    assert added == pytest.approx(2.0 * end / along, rel=1e-5)
 
 
 @pytest.mark.parametrize("weighting", ["length", "none"])
@@ -118,10 +151,11 @@ def random_problem(config: TrainingConfig, seed: int = 5) -> TrainingProblem:
 
 @pytest.mark.parametrize("hidden_units", [0, 3])
 def test_loss_gradient_in_the_weights_passes_gradcheck(hidden_units):
-    """d(L_n, L_g, |w|_1)/dw, as autograd computes it for L-BFGS, against finite differences in
-    float64 (torch.autograd.gradcheck), at random weights (none at |w|_1's kink 0). The lbfgsb
+    """d(L_n, L_g, |w|_1, L_e)/dw, as autograd computes it for L-BFGS, against finite differences
+    in float64 (torch.autograd.gradcheck), at random weights (none at |w|_1's kink 0). The lbfgsb
     configuration builds the problem in float64; its loss terms are the ones lbfgs minimizes."""
-    problem = random_problem(TrainingConfig(hidden_units=hidden_units, optimizer="lbfgsb"))
+    config = TrainingConfig(hidden_units=hidden_units, optimizer="lbfgsb", end_flatness=1.0)
+    problem = random_problem(config)
     assert problem.u.dtype == torch.float64
     theta = torch.tensor(
         np.random.default_rng(6).normal(0, 1, problem.theta.numel()),

@@ -76,6 +76,10 @@ class TrainingConfig:
     #: demonstrations end (an addition to the paper, chosen on the validation sets:
     #: docs/decisions/rest-and-grip.md).
     hold_samples: bool = True
+    #: The weight of L_e, f's squared gradient at each demonstration's last state over its mean
+    #: square along the way (training.problem), so that f is flat where the demonstrations end (an
+    #: addition to the paper; 0: off).
+    end_flatness: float = 0.0
     #: Biases b1 in the hidden layer, z = sigmoid(W1 u + b1) (the paper's model has none).
     hidden_bias: bool = False
     #: The optimization in float64, as the paper's BFGS (the default float32 is faster).
@@ -92,6 +96,10 @@ class TrainingConfig:
                 "alpha_n, alpha_g and alpha_w must be finite and >= 0",
             ),
             (self.alpha_n + self.alpha_g > 0, "alpha_n and alpha_g cannot both be 0"),
+            (
+                self.end_flatness >= 0 and np.isfinite(self.end_flatness),
+                "end_flatness must be finite and >= 0",
+            ),
             (1 <= self.max_iterations <= 100000, "max_iterations must be in [1, 100000]"),
             (0 < self.correlation_threshold <= 1, "correlation_threshold must be in (0, 1]"),
             (0 <= self.seed < 2**32, "seed must be in [0, 2^32)"),

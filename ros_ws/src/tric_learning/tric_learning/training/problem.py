@@ -7,6 +7,11 @@ float64 (the paper's optimizer).
 L_g sums over every step of the demonstrations (those shorter than the config's lg_min_step left
 out, none by default; a step of length zero has no direction and adds nothing); the data terms are
 divided by the number S of demonstration steps (see tric_learning.training.value).
+
+With the config's end_flatness > 0 (an addition to the paper, off by default), the loss adds
+end_flatness times L_e: the mean over the demonstrations of |grad_q f| squared at their last state,
+over its mean square on L_g's steps (dimensionless, as L_g, so f's scale does not change it): f
+flat where the demonstrations end, a stationary point the hold's ranking makes a minimum.
 """
 
 import numpy as np
@@ -67,6 +72,17 @@ class TrainingProblem:
             lengths / lengths.mean() if config.lg_weighting == "length" else np.ones(len(lengths))
         )
         self.g_weight = torch.tensor(weights, dtype=dtype)  # (G,)
+        # L_e: each demonstration's last state and its (scaled) Jacobian
+        self.end_rows = torch.tensor(offsets[1:] - 1, dtype=torch.long)
+        self.end_jacobian = torch.tensor(
+            np.stack(
+                [
+                    demo.jacobians[-1][scaling.kept, :] * scaling.factor[:, None]
+                    for demo in dataset.demos
+                ]
+            ),
+            dtype=dtype,
+        )  # (D, s, n)
         rng = np.random.default_rng(config.seed)
         initial = np.concatenate(
             [
@@ -87,29 +103,39 @@ class TrainingProblem:
         return w1, w2, w3, b1
 
     def terms(self, theta):
+        """(L_n, L_g, |w|_1, L_e) as tensors; L_e zero (not computed) with end_flatness 0."""
         w1, w2, w3, b1 = self._split(theta)
 
         def value(u):
             out = u @ w3
             return out + torch.sigmoid(u @ w1.T + b1) @ w2 if self.k else out
 
+        def gradient_q(rows, jacobian):
+            u = self.u[rows]
+            du = w3.expand(len(u), -1)
+            if self.k:
+                z = torch.sigmoid(u @ w1.T + b1)
+                du = du + (z * (1 - z) * w2) @ w1
+            return torch.einsum("gsn,gs->gn", jacobian, du)
+
         f_demo = value(self.u)
         f_noisy = value(self.u_noisy)
         loss_n = torch.sum(
             self.noisy_weight * torch.nn.functional.softplus(f_demo[self.noisy_step] - f_noisy)
         )
-        u = self.u[self.g_rows]
-        du = w3.expand(len(u), -1)
-        if self.k:
-            z = torch.sigmoid(u @ w1.T + b1)
-            du = du + (z * (1 - z) * w2) @ w1
-        gradient_q = torch.einsum("gsn,gs->gn", self.g_jacobian, du)
+        along = gradient_q(self.g_rows, self.g_jacobian)
         loss_g = torch.sum(
             self.g_weight
-            * torch.nn.functional.cosine_similarity(gradient_q, self.g_direction, dim=1, eps=1e-12)
+            * torch.nn.functional.cosine_similarity(along, self.g_direction, dim=1, eps=1e-12)
         )
         loss_w = theta.abs().sum()
-        return loss_n, loss_g, loss_w
+        loss_e = torch.zeros((), dtype=theta.dtype)
+        if self.config.end_flatness > 0:
+            end = gradient_q(self.end_rows, self.end_jacobian)
+            loss_e = torch.mean(torch.sum(end**2, dim=1)) / (
+                torch.mean(torch.sum(along**2, dim=1)) + 1e-12
+            )
+        return loss_n, loss_g, loss_w, loss_e
 
     def solve(self, report):
         """Minimize the loss; ((W1, W2, W3, b1), final loss terms, iterations)."""
@@ -121,43 +147,42 @@ class TrainingProblem:
             else:
                 iterations = self._solve_lbfgs(report)
         with torch.no_grad():
-            loss_n, loss_g, loss_w = self.terms(self.theta)
-        config = self.config
-        losses = {
-            "n": float(loss_n) / self.steps,
-            "g": float(loss_g) / self.steps,
-            "w": float(loss_w),
-        }
-        losses["total"] = (
-            config.alpha_n * losses["n"]
-            + config.alpha_g * losses["g"]
-            + config.alpha_w * losses["w"]
-        )
+            losses = self._losses(*self.terms(self.theta))
         weights = tuple(
             t.detach().to(torch.float64).numpy().copy() for t in self._split(self.theta)
         )
         return weights, losses, int(iterations)
 
     def _data_loss(self, theta):
-        """(alpha_n L_n + alpha_g L_g) / S and the terms (L_n, L_g, |w|_1) as tensors."""
-        loss_n, loss_g, loss_w = self.terms(theta)
-        return (self.config.alpha_n * loss_n + self.config.alpha_g * loss_g) / self.steps, (
-            loss_n,
-            loss_g,
-            loss_w,
-        )
-
-    def _report(self, report, iteration, loss_n, loss_g, loss_w):
+        """(alpha_n L_n + alpha_g L_g) / S + end_flatness L_e and the terms (L_n, L_g, |w|_1,
+        L_e) as tensors."""
+        loss_n, loss_g, loss_w, loss_e = terms = self.terms(theta)
         config = self.config
-        latest = dict(n=float(loss_n) / self.steps, g=float(loss_g) / self.steps, w=float(loss_w))
-        latest["total"] = (
-            config.alpha_n * latest["n"]
-            + config.alpha_g * latest["g"]
-            + config.alpha_w * latest["w"]
+        data = (config.alpha_n * loss_n + config.alpha_g * loss_g) / self.steps
+        if config.end_flatness > 0:
+            data = data + config.end_flatness * loss_e
+        return data, terms
+
+    def _losses(self, loss_n, loss_g, loss_w, loss_e) -> dict:
+        """The terms as the model file records them: L_n and L_g per step, |w|_1, L_e (only with
+        end_flatness > 0) and the total."""
+        config = self.config
+        losses = dict(n=float(loss_n) / self.steps, g=float(loss_g) / self.steps, w=float(loss_w))
+        losses["total"] = (
+            config.alpha_n * losses["n"]
+            + config.alpha_g * losses["g"]
+            + config.alpha_w * losses["w"]
         )
+        if config.end_flatness > 0:
+            losses["e"] = float(loss_e)
+            losses["total"] += config.end_flatness * losses["e"]
+        return losses
+
+    def _report(self, report, iteration, *terms):
+        latest = self._losses(*terms)
         report(
             "optimizing",
-            min(iteration / config.max_iterations, 1.0),
+            min(iteration / self.config.max_iterations, 1.0),
             dict(latest, iteration=iteration),
         )
 
