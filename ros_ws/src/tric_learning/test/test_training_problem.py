@@ -62,9 +62,10 @@ def test_loss_terms_on_a_hand_made_case():
     assert loss_e == 0.0  # off by default: not computed
 
 
-def hand_made_problem(config: TrainingConfig) -> TrainingProblem:
-    """The demo and scaling of test_loss_terms_on_a_hand_made_case, with one noisy sample."""
-    q = np.array([[0.0, 0.0], [0.1, 0.0], [0.1, 0.1], [0.1, 0.1]])
+def hand_made_problem(config: TrainingConfig, second_step: float = 0.1) -> TrainingProblem:
+    """The demo and scaling of test_loss_terms_on_a_hand_made_case, with one noisy sample; the
+    second step second_step rad along q_1."""
+    q = np.array([[0.0, 0.0], [0.1, 0.0], [0.1, second_step], [0.1, second_step]])
     y = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [1.0, 1.0]])
     jacobians = np.array([np.eye(2), [[0.0, -1.0], [1.0, 0.0]], np.eye(2), np.eye(2)])
     demo = Demo("hand", None, q, y, jacobians, [{}] * 4, np.arange(4))
@@ -99,16 +100,8 @@ def test_l_g_weighs_each_step_by_its_length_over_the_mean(weighting):
     The directions, hence the cosines, are those of the case above; weighted by length (the
     default, docs/decisions/paper-fidelity.md) the cosines count 0.1 / 0.2 and 0.3 / 0.2 times,
     unweighted (Eq. 11) once each."""
-    q = np.array([[0.0, 0.0], [0.1, 0.0], [0.1, 0.3], [0.1, 0.3]])
-    y = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [1.0, 1.0]])
-    jacobians = np.array([np.eye(2), [[0.0, -1.0], [1.0, 0.0]], np.eye(2), np.eye(2)])
-    demo = Demo("unequal", None, q, y, jacobians, [{}] * 4, np.arange(4))
-    noisy = NoisySamples(
-        step=np.array([1]), y=np.array([[0.0, 0.5]]), weight=np.ones(1), kept_per_step=np.ones(4)
-    )
-    scaling = Scaling(kept=np.array([0, 1]), low=np.zeros(2), high=np.array([2.0, 1.0]), size=2)
     config = TrainingConfig(hidden_units=1, lg_weighting=weighting)
-    problem = TrainingProblem(Dataset(None, [demo]), noisy, scaling, config)
+    problem = hand_made_problem(config, second_step=0.3)
     loss_g = float(problem.terms(torch.tensor([1.0, 0.0, 2.0, 1.0, -2.0]))[1])
     sigmoid = lambda x: 1.0 / (1.0 + math.exp(-x))  # noqa: E731
     dfdy0 = (2 * 0.25 + 1) / 2
