@@ -5,8 +5,14 @@ ROS-free; plain numbers from study.json's rows.
 
 The validation result of a candidate: its mean grasp cost on the task's validation set (lower is
 better), or minus its boxes opened. A group is a cell (variant, task, group seed) with its
-candidates measured."""
+candidates measured.
 
+A few groups give a noisy answer: each group's choice is one candidate. The pooled estimate reads
+every candidate of a variant and task at once: the expected result of each score's choice among S
+candidates drawn from all of them (S the groups' size), with its spread over bootstrap resamples of
+the candidates; it compares training variants with far less of the choice's noise."""
+
+import itertools
 import math
 
 import numpy as np
@@ -26,7 +32,9 @@ def selection_report(rows: list) -> dict:
     """{(variant, task): {"groups": count, "spearman": {score: rho}, "best_of": {S: {score: [the
     chosen candidate's validation result per group]}, "blind": {S: [per group]}, "hindsight":
     {S: [per group]}, "picks_best": {S: {score: groups where the score picked the hindsight
-    best}}}} over the rows that hold their candidates (every_candidate)."""
+    best}}, "pooled": {"size": S, "blind", "hindsight", "by_score": {score: (pooled_choice,
+    bootstrap_spread)}}}} over the rows that hold their candidates (every_candidate); S the
+    smallest group's size."""
     groups: dict = {}
     for row in rows:
         if "candidates" in row:
@@ -59,6 +67,8 @@ def selection_report(rows: list) -> dict:
                 chosen = [_best(group, name)[1] for group in firsts]
                 best_of[size][name] = chosen
                 picks[size][name] = sum(c == h for c, h in zip(chosen, hindsight[size]))
+        pooled = [candidate for group in candidates for candidate in group]
+        size = max(sizes)
         report[(variant, task)] = {
             "groups": len(cells),
             "candidates": len(results),
@@ -67,8 +77,51 @@ def selection_report(rows: list) -> dict:
             "blind": blind,
             "hindsight": hindsight,
             "picks_best": picks,
+            "pooled": {
+                "size": size,
+                "blind": float(np.mean(results)),
+                "hindsight": pooled_choice(pooled, size, None),
+                "by_score": {
+                    name: (pooled_choice(pooled, size, name), bootstrap_spread(pooled, size, name))
+                    for name in SCORES
+                },
+            },
         }
     return report
+
+
+#: Draws of S candidates for the pooled estimate (every subset when there are at most as many).
+POOLED_DRAWS = 4000
+#: Bootstrap resamples of the candidates for the pooled estimate's spread, and draws in each.
+BOOTSTRAP_RESAMPLES, BOOTSTRAP_DRAWS = 200, 200
+
+
+def pooled_choice(candidates: list, size: int, name, draws: int = POOLED_DRAWS, seed: int = 0):
+    """The expected validation result of the candidate the score name ranks first (None: the best
+    in hindsight) among size candidates drawn without replacement from candidates ([(scores,
+    validation result)]): the mean over every subset when there are at most draws of them, else
+    over draws subsets drawn at random (seed)."""
+    results = np.array([result for _, result in candidates], dtype=float)
+    ranks = results if name is None else np.array([_rank(s[name]) for s, _ in candidates])
+    if math.comb(len(candidates), size) <= draws:
+        subsets = np.array(list(itertools.combinations(range(len(candidates)), size)))
+    else:
+        randoms = np.random.default_rng(seed).random((draws, len(candidates)))
+        subsets = np.argsort(randoms, axis=1)[:, :size]
+    picks = subsets[np.arange(len(subsets)), np.argmin(ranks[subsets], axis=1)]
+    return float(results[picks].mean())
+
+
+def bootstrap_spread(candidates: list, size: int, name, seed: int = 0) -> float:
+    """The standard deviation of pooled_choice over BOOTSTRAP_RESAMPLES resamples of candidates
+    (drawn with replacement, BOOTSTRAP_DRAWS subsets each): how far another set of candidates of
+    the same training would move the estimate."""
+    rng = np.random.default_rng(seed)
+    estimates = []
+    for resample in range(BOOTSTRAP_RESAMPLES):
+        drawn = [candidates[k] for k in rng.integers(len(candidates), size=len(candidates))]
+        estimates.append(pooled_choice(drawn, size, name, BOOTSTRAP_DRAWS, seed + 1 + resample))
+    return float(np.std(estimates))
 
 
 def _best(group: list, name: str) -> tuple:
@@ -106,6 +159,15 @@ def report_lines(report: dict) -> list:
                     f"    {name:10s} {_cells(chosen, sign)}, the best in {best} of "
                     f"{numbers['groups']}"
                 )
+        pooled = numbers["pooled"]
+        lines.append(
+            f"  pooled: the expected result of the choice among {pooled['size']} of all "
+            f"{numbers['candidates']} candidates (+- its bootstrap sd): blind "
+            f"{sign * pooled['blind']:.3g}, "
+            f"hindsight {sign * pooled['hindsight']:.3g}"
+        )
+        for name, (mean, spread) in pooled["by_score"].items():
+            lines.append(f"    {name:10s} {sign * mean:.3g} +- {spread:.2g}")
     return lines
 
 
