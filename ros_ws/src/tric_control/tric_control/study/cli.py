@@ -34,7 +34,9 @@ one robot's study: another robot's study.json there is refused.
 
 With --every-candidate each candidate is measured on the sets too, and the selection's study is
 printed (tric_control.study.selection_report): how each score ranks the candidates against their
-validation results, and the best of the first S of each group by each score.
+validation results, the best of the first S of each group by each score, and the pooled
+estimate: the expected result of each score's choice among S of all the variant's candidates
+of a task, with its bootstrap sd (a comparison of variants with less of the choice's noise).
 Test sets are never used here: choices are made on training and validation sets; test sets are only
 reported (tric-experiments). Candidates are kept in DIR/candidates, the chosen models in
 DIR/models, and every finished cell (variant x task x group) is merged into DIR/study.json as it
