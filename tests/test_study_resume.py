@@ -185,3 +185,9 @@ def test_cells_that_choose_alike_share_their_candidates_and_every_one_is_measure
     printed = capsys.readouterr().out
     assert "best / obstacle: 2 candidates in 1 groups" in printed
     assert "Spearman against the validation result" in printed and "best of 2: blind" in printed
+    assert "pooled: the expected result of the choice among 2 of all 2 candidates" in printed
+    # the same two candidates, so the same choice: the variants differ by nothing
+    assert (
+        "obstacle: best minus pair, pooled, the default score's choice: +0 +- 0 (2 candidates"
+        in (printed)
+    )

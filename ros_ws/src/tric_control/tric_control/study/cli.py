@@ -36,7 +36,8 @@ With --every-candidate each candidate is measured on the sets too, and the selec
 printed (tric_control.study.selection_report): how each score ranks the candidates against their
 validation results, the best of the first S of each group by each score, and the pooled
 estimate: the expected result of each score's choice among S of all the variant's candidates
-of a task, with its bootstrap sd (a comparison of variants with less of the choice's noise).
+of a task, with its bootstrap sd, and the difference of every two variants of a task that share
+candidate seeds, paired by seed (comparisons of variants with less of the choice's noise).
 Test sets are never used here: choices are made on training and validation sets; test sets are only
 reported (tric-experiments). Candidates are kept in DIR/candidates, the chosen models in
 DIR/models, and every finished cell (variant x task x group) is merged into DIR/study.json as it
@@ -219,9 +220,17 @@ def run(argv) -> int:
         print(f"\n{len(failed)} of {len(rows)} cells failed (the others are kept):")
         print("\n".join(f"  {name}: {error}" for name, error in failed.items()))
     if args.every_candidate:
-        from tric_control.study.selection_report import report_lines, selection_report
+        from tric_control.study.selection_report import (
+            difference_lines,
+            report_lines,
+            selection_report,
+            variant_differences,
+        )
 
         print("\n" + "\n".join(report_lines(selection_report(measured))))
+        differences = difference_lines(variant_differences(measured))
+        if differences:
+            print("\n" + "\n".join(differences))
     print(f"\nwrote {study.path}")
     return 1 if failed else 0
 

@@ -18,7 +18,7 @@ import math
 import numpy as np
 from scipy.stats import spearmanr
 
-from tric_control.selection.settings import SCORES
+from tric_control.selection.settings import DEFAULT_SCORE, SCORES
 from tric_control.study.variants import TASKS
 
 
@@ -116,12 +116,63 @@ def bootstrap_spread(candidates: list, size: int, name, seed: int = 0) -> float:
     """The standard deviation of pooled_choice over BOOTSTRAP_RESAMPLES resamples of candidates
     (drawn with replacement, BOOTSTRAP_DRAWS subsets each): how far another set of candidates of
     the same training would move the estimate."""
+    return float(np.std(_bootstrap([candidates], size, name, seed)[:, 0]))
+
+
+def paired_difference(first: dict, second: dict, size: int, name, seed: int = 0) -> tuple:
+    """(pooled_choice of first minus that of second, its bootstrap sd, the candidates paired) over
+    the candidate seeds both hold (first, second: {seed: (scores, validation result)}): the same
+    subsets of seeds drawn for both, and the same resamples, so that what the two trainings share
+    (a seed's draw of noisy samples) cancels."""
+    common = sorted(set(first) & set(second))
+    pair = [[first[k] for k in common], [second[k] for k in common]]
+    difference = pooled_choice(pair[0], size, name, seed=seed) - pooled_choice(
+        pair[1], size, name, seed=seed
+    )
+    estimates = _bootstrap(pair, size, name, seed)
+    return difference, float(np.std(estimates[:, 0] - estimates[:, 1])), len(common)
+
+
+def variant_differences(rows: list, name: str = DEFAULT_SCORE) -> dict:
+    """{(task, first variant, second variant): paired_difference} for every two variants of a
+    task whose rows hold their candidates (every_candidate) and share candidate seeds, by the
+    score name (the selection's default); S the smallest group's size."""
+    pools: dict = {}
+    sizes: dict = {}
+    for row in rows:
+        if "candidates" in row:
+            pool = pools.setdefault(row["task"], {}).setdefault(row["variant"], {})
+            for candidate in row["candidates"]:
+                result = validation_result(candidate["sets"], row["task"])
+                pool[candidate["seed"]] = (candidate["scores"], result)
+            size = len(row["candidates"])
+            sizes[row["task"]] = min(sizes.get(row["task"], size), size)
+    differences = {}
+    for task, variants in pools.items():
+        for first, second in itertools.combinations(variants, 2):
+            if set(variants[first]) & set(variants[second]):
+                differences[(task, first, second)] = paired_difference(
+                    variants[first], variants[second], sizes[task], name
+                )
+    return differences
+
+
+def _bootstrap(pools: list, size: int, name, seed: int) -> np.ndarray:
+    """(BOOTSTRAP_RESAMPLES, len(pools)) pooled_choice of each pool (equally long lists) over the
+    same resamples with replacement, BOOTSTRAP_DRAWS subsets each."""
     rng = np.random.default_rng(seed)
     estimates = []
     for resample in range(BOOTSTRAP_RESAMPLES):
-        drawn = [candidates[k] for k in rng.integers(len(candidates), size=len(candidates))]
-        estimates.append(pooled_choice(drawn, size, name, BOOTSTRAP_DRAWS, seed + 1 + resample))
-    return float(np.std(estimates))
+        drawn = rng.integers(len(pools[0]), size=len(pools[0]))
+        estimates.append(
+            [
+                pooled_choice(
+                    [pool[k] for k in drawn], size, name, BOOTSTRAP_DRAWS, seed + 1 + resample
+                )
+                for pool in pools
+            ]
+        )
+    return np.array(estimates)
 
 
 def _best(group: list, name: str) -> tuple:
@@ -168,6 +219,18 @@ def report_lines(report: dict) -> list:
         )
         for name, (mean, spread) in pooled["by_score"].items():
             lines.append(f"    {name:10s} {sign * mean:.3g} +- {spread:.2g}")
+    return lines
+
+
+def difference_lines(differences: dict) -> list:
+    """variant_differences as text lines (boxes: opened, not minus it)."""
+    lines = []
+    for (task, first, second), (difference, spread, paired) in differences.items():
+        sign = -1 if task == "box" else 1
+        lines.append(
+            f"{task}: {first} minus {second}, pooled, the default score's choice: "
+            f"{sign * difference:+.3g} +- {spread:.2g} ({paired} candidates paired by seed)"
+        )
     return lines
 
 
