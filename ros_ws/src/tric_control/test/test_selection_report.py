@@ -102,6 +102,7 @@ def test_variants_are_compared_where_they_share_candidate_seeds():
         row(0, [0.2, 0.5], "b"),  # a's costs plus 0.1, ranked alike
         row(100, [0.3, 0.4], "b"),
         row(500, [0.1, 0.1], "c"),  # no seed in common with a or b
+        row(101, [0.1, 0.1], "d"),  # one seed in common with a and b, fewer than a group's 2
     ]
     differences = variant_differences(rows)
     assert sorted(differences) == [("cylinder", "a", "b")]

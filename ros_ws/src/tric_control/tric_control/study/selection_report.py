@@ -135,24 +135,25 @@ def paired_difference(first: dict, second: dict, size: int, name, seed: int = 0)
 
 def variant_differences(rows: list, name: str = DEFAULT_SCORE) -> dict:
     """{(task, first variant, second variant): paired_difference} for every two variants of a
-    task whose rows hold their candidates (every_candidate) and share candidate seeds, by the
-    score name (the selection's default); S the smallest group's size."""
+    task whose rows hold their candidates (every_candidate) and share at least S candidate
+    seeds, by the score name (the selection's default); S the smallest group's size of the two."""
     pools: dict = {}
     sizes: dict = {}
     for row in rows:
         if "candidates" in row:
+            key = (row["task"], row["variant"])
             pool = pools.setdefault(row["task"], {}).setdefault(row["variant"], {})
             for candidate in row["candidates"]:
                 result = validation_result(candidate["sets"], row["task"])
                 pool[candidate["seed"]] = (candidate["scores"], result)
-            size = len(row["candidates"])
-            sizes[row["task"]] = min(sizes.get(row["task"], size), size)
+            sizes[key] = min(sizes.get(key, len(row["candidates"])), len(row["candidates"]))
     differences = {}
     for task, variants in pools.items():
         for first, second in itertools.combinations(variants, 2):
-            if set(variants[first]) & set(variants[second]):
+            size = min(sizes[(task, first)], sizes[(task, second)])
+            if len(set(variants[first]) & set(variants[second])) >= size:
                 differences[(task, first, second)] = paired_difference(
-                    variants[first], variants[second], sizes[task], name
+                    variants[first], variants[second], size, name
                 )
     return differences
 
