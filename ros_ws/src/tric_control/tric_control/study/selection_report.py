@@ -35,16 +35,9 @@ def selection_report(rows: list) -> dict:
     best}}, "pooled": {"size": S, "blind", "hindsight", "by_score": {score: (pooled_choice,
     bootstrap_spread)}}}} over the rows that hold their candidates (every_candidate); S the
     smallest group's size."""
-    groups: dict = {}
-    for row in rows:
-        if "candidates" in row:
-            groups.setdefault((row["variant"], row["task"]), []).append(row)
     report = {}
-    for (variant, task), cells in groups.items():
-        candidates = [
-            [(c["scores"], validation_result(c["sets"], task)) for c in row["candidates"]]
-            for row in cells
-        ]
+    for (variant, task), cells in _cells_by_variant(rows).items():
+        candidates = [[_scored(c, task) for c in row["candidates"]] for row in cells]
         results = [v for group in candidates for _, v in group]
         spearman = {}
         for name in SCORES:
@@ -139,14 +132,11 @@ def variant_differences(rows: list, name: str = DEFAULT_SCORE) -> dict:
     seeds, by the score name (the selection's default); S the smallest group's size of the two."""
     pools: dict = {}
     sizes: dict = {}
-    for row in rows:
-        if "candidates" in row:
-            key = (row["task"], row["variant"])
-            pool = pools.setdefault(row["task"], {}).setdefault(row["variant"], {})
-            for candidate in row["candidates"]:
-                result = validation_result(candidate["sets"], row["task"])
-                pool[candidate["seed"]] = (candidate["scores"], result)
-            sizes[key] = min(sizes.get(key, len(row["candidates"])), len(row["candidates"]))
+    for (variant, task), cells in _cells_by_variant(rows).items():
+        pools.setdefault(task, {})[variant] = {
+            c["seed"]: _scored(c, task) for row in cells for c in row["candidates"]
+        }
+        sizes[(task, variant)] = min(len(row["candidates"]) for row in cells)
     differences = {}
     for task, variants in pools.items():
         for first, second in itertools.combinations(variants, 2):
@@ -156,6 +146,25 @@ def variant_differences(rows: list, name: str = DEFAULT_SCORE) -> dict:
                     variants[first], variants[second], size, name
                 )
     return differences
+
+
+def _cells_by_variant(rows: list) -> dict:
+    """{(variant, task): [its rows that hold their candidates (every_candidate)]}."""
+    cells: dict = {}
+    for row in rows:
+        if "candidates" in row:
+            cells.setdefault((row["variant"], row["task"]), []).append(row)
+    return cells
+
+
+def _scored(candidate: dict, task: str) -> tuple:
+    """A candidate row's (scores, validation result)."""
+    return candidate["scores"], validation_result(candidate["sets"], task)
+
+
+def _sign(task: str) -> int:
+    """-1 for a box (results are minus the boxes opened; lines print the boxes), else 1."""
+    return -1 if task == "box" else 1
 
 
 def _bootstrap(pools: list, size: int, name, seed: int) -> np.ndarray:
@@ -191,7 +200,7 @@ def report_lines(report: dict) -> list:
     lines = []
     for (variant, task), numbers in report.items():
         unit = "boxes opened" if task == "box" else "mean cost"
-        sign = -1 if task == "box" else 1
+        sign = _sign(task)
         lines.append(
             f"{variant} / {task}: {numbers['candidates']} candidates in {numbers['groups']} "
             f"groups; the validation {unit} of the candidate each score chooses"
@@ -227,7 +236,7 @@ def difference_lines(differences: dict) -> list:
     """variant_differences as text lines (boxes: opened, not minus it)."""
     lines = []
     for (task, first, second), (difference, spread, paired) in differences.items():
-        sign = -1 if task == "box" else 1
+        sign = _sign(task)
         lines.append(
             f"{task}: {first} minus {second}, pooled, the default score's choice: "
             f"{sign * difference:+.3g} +- {spread:.2g} ({paired} candidates paired by seed)"
