@@ -142,20 +142,26 @@ def _figure(rows: dict):
     labels = [_bin_label(*b) for b in BINS]
     for axis, (name, row) in zip(axes, rows.items()):
         for label, seeds in row["agents"].items():
+            # a bin without situations has no share (NaN: not drawn); every group sees the same
+            # situations, so a bin's column is NaN for all of them or for none
             shares = np.array(
                 [[ok / n if n else np.nan for ok, n in cell["by_bin"]] for cell in seeds.values()]
             )
-            line = axis.plot(labels, np.nanmean(shares, axis=0), marker="o", label=label)[0]
+            line = axis.plot(labels, shares.mean(axis=0), marker="o", label=label)[0]
             if len(seeds) > 1:
                 axis.fill_between(
                     labels,
-                    np.nanmin(shares, axis=0),
-                    np.nanmax(shares, axis=0),
+                    shares.min(axis=0),
+                    shares.max(axis=0),
                     color=line.get_color(),
                     alpha=0.2,
                 )
         axis.set_title(name)
         axis.set_xlabel("distance from the training range\n(share of its width)")
     axes[0].set_ylabel("success rate (band: range over seeds)")
-    axes[-1].legend(fontsize=7)
+    # one legend for every agent of every set (DPL in finger space runs on the boxes only)
+    legend = {}
+    for axis in axes:
+        legend.update(zip(*reversed(axis.get_legend_handles_labels())))
+    axes[-1].legend(legend.values(), legend.keys(), fontsize=7)
     return figure
