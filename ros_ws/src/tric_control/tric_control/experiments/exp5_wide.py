@@ -160,7 +160,7 @@ def _figure(rows: dict):
         axis.set_xlabel("distance from the training range\n(share of its width)")
     axes[0].set_ylabel("success rate (band: range over seeds)")
     # one legend for every agent of every set (DPL in finger space runs on the boxes only)
-    legend = {}
+    legend: dict = {}
     for axis in axes:
         legend.update(zip(*reversed(axis.get_legend_handles_labels())))
     axes[-1].legend(legend.values(), legend.keys(), fontsize=7)
