@@ -215,7 +215,9 @@ def test_the_results_page_puts_another_robot_s_results_beside(tmp_path, capsys):
 
 def test_the_jolt_trace_tells_rest_the_jolt_and_rest_again():
     """exp5's trace text on a hand-made trace: at rest and gripped at 2 s, jolted at 3 s (f rises
-    from 0.8 to 1.5 and falls back), at rest again at 4.5 s; and on one that never rests again."""
+    from 0.8 to 1.5 and falls back), at rest again at 4.5 s; the same with f dipping below 0.8 in
+    the tick before it rises (a jolt throws the hand over a few ticks): f is back below 0.8 only
+    after its peak; and on one that never rests again."""
     from tric_control.experiments.exp5 import trace_text
 
     t = np.round(np.arange(0.0, 6.0, 0.01), 2)
@@ -238,6 +240,10 @@ def test_the_jolt_trace_tells_rest_the_jolt_and_rest_again():
     assert "jolted at 3.00 s, f rises from 0.8 to 1.5" in text
     assert "back below 0.8 1.40 s after the jolt" in text
     assert "it comes to rest and grips again at 4.50 s" in text
+    dipping = f.copy()
+    dipping[301] = 0.7  # t = 3.01 s, descending: below the 0.8 before the jolt, before the rise
+    text = trace_text({**trace, "f": dipping.tolist()})
+    assert "f rises from 0.8 to 1.5" in text and "back below 0.8 1.40 s after the jolt" in text
     never = {**trace, "phase": phase[:301] + ["descending"] * 299, "rested_at_s": None}
     assert "did not come to rest before the jolt" in trace_text(never)
     assert "does not come to rest again before its budget" in trace_text(never)

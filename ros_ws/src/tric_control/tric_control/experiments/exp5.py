@@ -195,8 +195,9 @@ def _successes(cells: dict) -> str:
 
 def trace_text(trace: dict) -> str:
     """What the trace of TRACE's jolt shows: when TRIC first came to rest and gripped, f's rise at
-    the jolt, how soon f is back below its value before it, and whether the controller left rest,
-    descended, and came to rest and gripped again."""
+    the jolt, how soon after it f is back below its value before the jolt (counted from f's peak:
+    a jolt takes a few ticks to throw the hand, and f may first dip), and whether the controller
+    left rest, descended, and came to rest and gripped again."""
     t, f = (np.asarray(trace[key], dtype=float) for key in ("t", "f"))
     phases, at = trace["phase"], trace["push_at_s"]
     before = f[t <= at][np.isfinite(f[t <= at])]
@@ -213,9 +214,10 @@ def trace_text(trace: dict) -> str:
     again = [r for r in rests if r > at]
     after = (t > at) & np.isfinite(f)
     if before.size and after.any():
-        back = t[after & (f < before[-1])]
+        peak = np.flatnonzero(after)[np.argmax(f[after])]
+        back = t[after & (t > t[peak]) & (f < before[-1])]
         text += (
-            f"jolted at {at:.2f} s, f rises from {before[-1]:.1f} to {np.max(f[after]):.1f} as the "
+            f"jolted at {at:.2f} s, f rises from {before[-1]:.1f} to {f[peak]:.1f} as the "
             "controller leaves rest, and is back below "
             + (f"{before[-1]:.1f} {back[0] - at:.2f} s after the jolt" if back.size else "never")
             + "; "
