@@ -173,8 +173,8 @@ def test_end_flatness_flattens_f_where_the_demonstrations_end(robot, grid_datase
     """L_e (end_flatness > 0) brings f's gradient at the demonstrations' last states well below
     its size along them, which the loss without it leaves steep there; f still falls along every
     demonstration. Measured by the analysis's own end_measures, not by the loss. L_e was studied
-    with the hold (docs/decisions/rest-and-grip.md), the default then: with it, less than half;
-    without it (the default since), lower still."""
+    with the hold (docs/decisions/rest-and-grip.md), the default then: with it, to less than half;
+    without it (the default since), it still lowers the ratio."""
     demos = grid_dataset.subset(3)
     ratios = {}
     for hold in (True, False):
