@@ -162,6 +162,7 @@ def _figure(rows: dict):
     # one legend for every agent of every set (DPL in finger space runs on the boxes only)
     legend: dict = {}
     for axis in axes:
-        legend.update(zip(*reversed(axis.get_legend_handles_labels())))
+        handles, labels = axis.get_legend_handles_labels()
+        legend.update(zip(labels, handles))
     axes[-1].legend(legend.values(), legend.keys(), fontsize=7)
     return figure
