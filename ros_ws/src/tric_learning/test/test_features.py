@@ -56,6 +56,30 @@ def test_values_on_a_hand_made_configuration(robot):
     assert math.isclose(y["d[palm,object]"], 0.3) and math.isclose(y["d[object,palm]"], 0.3)
 
 
+def test_a_grasp_centre_is_a_landmark_where_the_profile_names_one(robot):
+    """The Panda's profile names a grasp centre between its pads, the paper's robot none (its 8
+    landmarks). An object held there is 0 m from it; moved 1 cm across the pads (the palm's y), its
+    distance to the grasp centre grows by 1 cm, to the palm or a fingertip by millimetres only."""
+    assert "grasp_centre" not in FeatureDefinition.for_task("grasp", robot).landmark_names
+    panda = RobotModel("panda")
+    definition = FeatureDefinition.for_task("grasp", panda)
+    assert definition.landmark_names[-1] == "grasp_centre" and definition.size == 7 * 6 * 4
+    assert "grasp_centre" not in FeatureDefinition.for_task("open_box", panda).landmark_names
+    features = FeatureMap(definition, panda)
+    panda.forward(panda.home)
+    centre = panda.frame_placement(panda.profile.grasp_centre)
+    across = centre.rotation[:, 1]
+    at = {"object": (tuple(centre.translation), (0.0, 0.0, 0.0, 1.0))}
+    moved = {"object": (tuple(centre.translation + 0.01 * across), (0.0, 0.0, 0.0, 1.0))}
+    y0 = dict(zip(definition.feature_names, features(panda.home, at)))
+    y1 = dict(zip(definition.feature_names, features(panda.home, moved)))
+    assert y0["d[object,grasp_centre]"] < 1e-9
+    assert math.isclose(y1["d[object,grasp_centre]"], 0.01, rel_tol=1e-6)
+    assert math.isclose(y1["p[grasp_centre->object].y"], 0.01, rel_tol=1e-6)
+    for other in ("palm", "fingertip_1", "fingertip_2"):
+        assert 0 <= y1[f"d[object,{other}]"] - y0[f"d[object,{other}]"] < 0.003
+
+
 @pytest.mark.parametrize(
     "task, poses",
     [

@@ -34,7 +34,8 @@ TASKS = ("grasp", "open_box")
 
 def task_landmarks(task: str, robot: RobotModel) -> tuple:
     """The landmarks of a task, (name, source) pairs, the robot's frames taken from its profile:
-    grasp: the object, each fingertip, the middle of each finger's lower segment, the palm centre;
+    grasp: the object, each fingertip, the middle of each finger's lower segment, the palm centre,
+    and the grasp centre where the profile names one (a parallel gripper's: between its pads);
     open_box: the box, the lid's lip, the fingertips that lift the lid, the robot's base. A
     fingertip is named by its finger's number (thumb first)."""
     if task not in TASKS:
@@ -50,6 +51,7 @@ def task_landmarks(task: str, robot: RobotModel) -> tuple:
                 for k, mid in enumerate(profile.finger_middles, 1)
             ),
             ("palm", f"robot/{profile.palm}"),
+            *((("grasp_centre", f"robot/{profile.grasp_centre}"),) if profile.grasp_centre else ()),
         )
     return (
         ("box", "object/object"),

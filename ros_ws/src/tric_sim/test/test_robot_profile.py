@@ -71,7 +71,8 @@ def test_every_profile_s_landmarks_agree_in_pinocchio_and_pybullet(name):
     robot = RobotModel(name)
     worst = landmark_disagreement(robot, samples=10)
     profile = robot.profile
-    assert {profile.base, profile.palm, *profile.fingertips, *profile.finger_middles} <= set(worst)
+    named = {profile.base, profile.palm, *profile.fingertips, *profile.finger_middles}
+    assert named | ({profile.grasp_centre} - {""}) <= set(worst)
     assert max(max(gaps) for gaps in worst.values()) < AGREEMENT
     assert collision_pair_problems(robot) == []
     masses = mass_disagreement(robot)
@@ -157,6 +158,11 @@ def _home_angle(data, _name):
         (lambda d, n: d.pop(n), "grip", r"missing entries \['grip'\]"),
         (lambda d, n: d.update({n: 1}), "gripper", r"unknown entries \['gripper'\]"),
         (lambda d, n: d.update(hand_root=n), "wrist_link", "hand_root: frame 'wrist_link'"),
+        (
+            lambda d, n: d.update(grasp_centre=n),
+            "grasp_point",
+            "grasp_centre: frame 'grasp_point' is not a link",
+        ),
         (_closing, "2", "finger 1: closing must give \\+1 or -1 for each of its joints"),
         (lambda d, n: d["grasp_teacher"].pop(n), "shoulder", "'grasp_teacher' must give"),
         (

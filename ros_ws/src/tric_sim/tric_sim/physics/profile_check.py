@@ -20,10 +20,12 @@ AGREEMENT = 1e-6
 
 
 def landmark_frames(robot: RobotModel) -> tuple:
-    """The frames the method reads on the robot: its base, palm, and each finger's tip, middle,
-    base and links (the lid fingertips are fingertips), sorted."""
+    """The frames the method reads on the robot: its base, palm, grasp centre (if named), and each
+    finger's tip, middle, base and links (the lid fingertips are fingertips), sorted."""
     profile = robot.profile
-    frames = {profile.base, profile.palm, *profile.lid_fingertips}
+    frames = {profile.base, profile.palm, *profile.lid_fingertips} | (
+        {profile.grasp_centre} if profile.grasp_centre else set()
+    )
     for finger in profile.fingers:
         frames |= {finger.tip, finger.middle, finger.base, *finger.links}
     return tuple(sorted(frames))

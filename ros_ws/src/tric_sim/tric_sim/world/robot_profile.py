@@ -42,8 +42,10 @@ _KEYS = {
     "clearance": dict,
     "grasp_teacher": dict,
 }
-#: The optional entry `workspace` (the robot's data sets: see Workspace).
-_OPTIONAL_KEYS = ("derive", "workspace")
+#: The optional entries: `workspace` (the robot's data sets: see Workspace) and `grasp_centre`
+#: (a frame where the hand holds what it grasps, between a parallel gripper's pads: a landmark of
+#: the grasp features when given).
+_OPTIONAL_KEYS = ("derive", "workspace", "grasp_centre")
 _FINGER_KEYS = ("joints", "links", "tip", "middle", "base")
 #: A finger's entry may also give `closing`: per joint, +1 if the finger closes as the joint's value
 #: rises (the default), -1 if it closes as it falls (a gripper finger that slides inwards).
@@ -75,7 +77,8 @@ class RobotProfile:
     table with the base, never checked against the scene; clearance: teacher -> ((frame, offset
     along the frame's z in m, radius in m), ...); grasp_teacher: GraspTeacherSettings; workspace:
     Workspace (the paper's unless the profile gives one); digest: SHA-256 of the profile file and
-    its URDF.
+    its URDF; grasp_centre: the frame where the hand holds what it grasps, "" when the profile names
+    none.
     """
 
     name: str
@@ -100,6 +103,7 @@ class RobotProfile:
     grasp_teacher: GraspTeacherSettings
     workspace: Workspace
     digest: str
+    grasp_centre: str = ""
 
     @property
     def identity(self) -> str:
@@ -222,6 +226,8 @@ def _parse(path: pathlib.Path, data: Any, text: str) -> RobotProfile:
         raise ValueError("'fingers' lists no finger")
     for key in ("base", "palm"):
         _check_frame(key, data[key], links)
+    if "grasp_centre" in data:
+        _check_frame("grasp_centre", data["grasp_centre"], links)
     lid_fingertips = tuple(data["lid_fingertips"])
     for frame in lid_fingertips:
         _check_frame("lid_fingertips", frame, links)
@@ -272,6 +278,7 @@ def _parse(path: pathlib.Path, data: Any, text: str) -> RobotProfile:
         grasp_teacher=grasp_teacher(data["grasp_teacher"]),
         workspace=workspace(data.get("workspace", {})),
         digest=digest,
+        grasp_centre=data.get("grasp_centre", ""),
     )
 
 
