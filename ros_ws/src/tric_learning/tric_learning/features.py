@@ -51,7 +51,7 @@ def task_landmarks(task: str, robot: RobotModel) -> tuple:
                 for k, mid in enumerate(profile.finger_middles, 1)
             ),
             ("palm", f"robot/{profile.palm}"),
-            *((("grasp_centre", f"robot/{profile.grasp_centre}"),) if profile.grasp_centre else ()),
+            *(("grasp_centre", f"robot/{centre}") for centre in profile.grasp_centres),
         )
     return (
         ("box", "object/object"),

@@ -23,9 +23,7 @@ def landmark_frames(robot: RobotModel) -> tuple:
     """The frames the method reads on the robot: its base, palm, grasp centre (if named), and each
     finger's tip, middle, base and links (the lid fingertips are fingertips), sorted."""
     profile = robot.profile
-    frames = {profile.base, profile.palm, *profile.lid_fingertips} | (
-        {profile.grasp_centre} if profile.grasp_centre else set()
-    )
+    frames = {profile.base, profile.palm, *profile.grasp_centres, *profile.lid_fingertips}
     for finger in profile.fingers:
         frames |= {finger.tip, finger.middle, finger.base, *finger.links}
     return tuple(sorted(frames))

@@ -132,6 +132,11 @@ class RobotProfile:
         return self.name if shipped.resolve() == self.path.resolve() else str(self.path)
 
     @property
+    def grasp_centres(self) -> tuple:
+        """The grasp centre's frame as a tuple: one frame when the profile names it, else none."""
+        return (self.grasp_centre,) if self.grasp_centre else ()
+
+    @property
     def fingertips(self) -> tuple:
         return tuple(finger.tip for finger in self.fingers)
 
