@@ -176,6 +176,11 @@ def _home_angle(data, _name):
             "'grasp_teacher.closing_speed' must be a number > 0",
         ),
         (
+            lambda d, n: d["grasp_teacher"].update({n: 1.5}),
+            "cylinder_min_outward",
+            r"'grasp_teacher.cylinder_min_outward' must be in \[-1, 1\], not 1.5",
+        ),
+        (
             lambda d, n: d.update(workspace={n: [[0.4, 0.2, 0.1], [0.6, -0.2, 0.3]]}),
             "sphere_grid",
             "'workspace.sphere_grid': each low must be below its high",

@@ -42,9 +42,10 @@ def cylinder_grasp_point(
 ):
     """(point on the axis, approach direction across the axis) for a cylinder: the direction points
     away from the robot and not upwards, the point lies within the middle of the cylinder, and the
-    pair puts the wrist closest to its comfortable distance from the shoulder. A cylinder whose
-    axis points at the robot has no direction across it that points away: then the direction may
-    point across (down onto the cylinder, or sideways)."""
+    pair puts the wrist closest to its comfortable distance from the shoulder. Away means a
+    horizontal component away from the robot of reach.cylinder_min_outward at least; a cylinder
+    whose axis points at the robot has no such direction across it: then the direction may point
+    across (down onto the cylinder, or sideways)."""
     e1 = np.cross(axis, [0.0, 0.0, 1.0])
     if np.linalg.norm(e1) < 1e-6:
         e1 = np.cross(axis, [1.0, 0.0, 0.0])
@@ -52,7 +53,7 @@ def cylinder_grasp_point(
     e2 = np.cross(axis, e1)
     outward = np.array([centre[0], centre[1], 0.0]) / np.linalg.norm(centre[:2])
     best, best_cost = None, math.inf
-    for least_outward in (0.2, -0.2):
+    for least_outward in (reach.cylinder_min_outward, min(reach.cylinder_min_outward, -0.2)):
         for offset in np.linspace(-0.3, 0.3, 7) * height:
             point = centre + offset * axis
             for angle in np.radians(np.arange(0.0, 360.0, 5.0)):

@@ -16,7 +16,9 @@ class GraspTeacherSettings:
     centre's distance to the surface at the grasp, and from the grasp pose back to the pre-grasp
     pose, m; closing_speed: the fingers' joints close this fast, joint units (rad or m) per s;
     closing_margin: a finger this close to its joint's closed limit counts as closed, joint
-    units."""
+    units; cylinder_min_outward (optional, default 0.2): the least component of a cylinder's
+    approach direction along the horizontal pointing away from the robot (1 straight away, 0
+    across; a cylinder with no such direction is approached with -0.2 at least)."""
 
     shoulder: tuple
     palm_to_wrist: float
@@ -25,6 +27,7 @@ class GraspTeacherSettings:
     pregrasp_distance: dict
     closing_speed: float
     closing_margin: float
+    cylinder_min_outward: float = 0.2
 
 
 @dataclass(frozen=True)
@@ -69,8 +72,9 @@ def grasp_teacher(entry: Any) -> GraspTeacherSettings:
     if not isinstance(entry, dict):
         raise ValueError("'grasp_teacher' must be a mapping")
     fields = [field for field in GraspTeacherSettings.__dataclass_fields__]
-    if sorted(entry) != sorted(fields):
-        raise ValueError(f"'grasp_teacher' must give {fields}")
+    optional = {"cylinder_min_outward"}
+    if not set(fields) - optional <= set(entry) <= set(fields):
+        raise ValueError(f"'grasp_teacher' must give {fields} ({', '.join(optional)} optional)")
     per_kind = {}
     for key in ("grasp_gap", "pregrasp_distance"):
         kinds = entry[key]
@@ -87,8 +91,22 @@ def grasp_teacher(entry: Any) -> GraspTeacherSettings:
             "grasp_teacher.closing_speed", entry["closing_speed"], positive=True
         )[0],
         closing_margin=_numbers("grasp_teacher.closing_margin", entry["closing_margin"])[0],
-        **per_kind,
+        grasp_gap=per_kind["grasp_gap"],
+        pregrasp_distance=per_kind["pregrasp_distance"],
+        cylinder_min_outward=_min_outward(entry),
     )
+
+
+def _min_outward(entry: dict) -> float:
+    """The grasp_teacher entry's cylinder_min_outward, in [-1, 1], or the default where it gives
+    none; ValueError otherwise."""
+    if "cylinder_min_outward" not in entry:
+        return GraspTeacherSettings.cylinder_min_outward
+    key = "grasp_teacher.cylinder_min_outward"
+    value = _numbers(key, entry["cylinder_min_outward"])[0]
+    if not -1.0 <= value <= 1.0:
+        raise ValueError(f"'{key}' must be in [-1, 1], not {value}")
+    return value
 
 
 def workspace(entry: Any) -> Workspace:
