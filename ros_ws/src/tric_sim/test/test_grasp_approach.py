@@ -1,15 +1,16 @@
 """Where the grasp teacher approaches an object from (tric_sim.teachers.grasp_approach): spheres
-from the robot's side and above, for every shipped robot in its own workspace, and a cylinder
-pointing at the robot still gets a grasp point."""
+from the robot's side and above, for every shipped robot in its own workspace; a cylinder pointing
+at the robot still gets a grasp point; and the Panda's cylinder_min_outward keeps its cylinder
+approaches on one side of the cylinder."""
 
 import math
 from dataclasses import replace
 
 import numpy as np
 import pytest
-from pinocchio import Quaternion
 
 from tric_sim.teachers.grasp_approach import approach_direction, cylinder_grasp_point
+from tric_sim.world import scene
 from tric_sim.world import situations as S
 from tric_sim.world.robot_profile import load_profile
 
@@ -36,7 +37,7 @@ def _approach_in_cylinder_frame(profile, angle: float) -> np.ndarray:
     """The teacher's approach direction for the workspace's cylinder turned by angle (rad),
     in the cylinder's own frame."""
     situation = S.cylinder("c", angle, workspace=profile.workspace)
-    rotation = Quaternion(*np.roll(situation.object_orientation, 1)).toRotationMatrix()
+    rotation = scene.se3(situation.object_position, situation.object_orientation).rotation
     centre = np.asarray(situation.object_position)
     height = situation.object_dimensions[0]
     _, n = cylinder_grasp_point(centre, rotation[:, 2], height, profile.grasp_teacher)
